@@ -1,0 +1,356 @@
+"""Typed, validated, immutable parameters of the double screw gear rotary table.
+
+Every physical quantity of ``shared/spec/model.md`` lives in :class:`TableParams`
+under its ROS parameter name (``shared/spec/interface.md``), in SI units. The
+defaults are the paper's worked example (model.md section 6). Simulation settings
+that are not physics (step, publish rate, pacing, recording) live in
+:class:`SimSettings`. Both refuse an invalid value with a :class:`ParameterError`
+that names the parameter, its value and the rule it breaks.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
+from typing import Any, Mapping
+
+import yaml
+
+MODES = ('anti_backlash', 'conventional')
+MESH_PHASES = ('angle', 'time')
+
+#: Pinion speed of the paper's example, 24 r/min, in rad/s.
+PAPER_PINION_SPEED = 24.0 * 2.0 * math.pi / 60.0
+#: Drive torque of the paper's example, N·m.
+PAPER_DRIVE_TORQUE = 400.0
+
+
+class ParameterError(ValueError):
+    """A parameter value that breaks a rule; says which, what and why."""
+
+    def __init__(self, name: str, value: Any, rule: str) -> None:
+        self.name = name
+        self.value = value
+        self.rule = rule
+        super().__init__(f'parameter {name!r} = {value!r} refused: {rule}')
+
+
+def _finite(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ParameterError(name, value, 'must be a number')
+    if not math.isfinite(value):
+        raise ParameterError(name, value, 'must be finite')
+    return float(value)
+
+
+def _positive(name: str, value: Any) -> float:
+    v = _finite(name, value)
+    if v <= 0.0:
+        raise ParameterError(name, value, 'must be > 0')
+    return v
+
+
+def _non_negative(name: str, value: Any) -> float:
+    v = _finite(name, value)
+    if v < 0.0:
+        raise ParameterError(name, value, 'must be >= 0')
+    return v
+
+
+def _teeth(name: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value != int(value):
+        raise ParameterError(name, value, 'must be a whole number of teeth')
+    if value < 1:
+        raise ParameterError(name, value, 'must be >= 1')
+    return int(value)
+
+
+@dataclass(frozen=True)
+class TableParams:
+    """Physical parameters of the table, SI units, defaults = the paper's example.
+
+    Radii are the tip radii m(z+2)/2 that reproduce the paper's m_e (model.md §6);
+    k_m = ω0²·m_e = 1e7 N/m; c gives ζ = 0.05; ε_1 = fa·l = 1.5384 mm.
+    """
+
+    inertia_pinion_1: float = 3.255e-2          # I1, kg·m²
+    inertia_table: float = 46.101               # I2, kg·m²
+    inertia_pinion_3: float = 3.255e-2          # I3, kg·m²
+    radius_pinion_1: float = 0.078              # r1, m
+    radius_table: float = 0.582                 # r2, m
+    radius_pinion_3: float = 0.078              # r3, m
+    teeth_pinion_1: int = 24                    # z1
+    teeth_table: int = 192                      # z2
+    teeth_pinion_3: int = 24                    # z3
+    mesh_stiffness_mean: float = 1.0e7          # k_m, N/m
+    mesh_stiffness_amplitude: float = 1.0e6     # k_a, N/m (k_a' = 0.1)
+    mesh_stiffness_phase: float = 0.0           # ϕ_k, rad
+    preload_stiffness: float = 0.0              # k_p, N/m
+    mesh_damping: float = 717.4777661364236     # c, N·s/m (ζ = 0.05)
+    ste_amplitudes: tuple[float, ...] = (1.5384e-3,)  # ε_n, m
+    ste_phases: tuple[float, ...] = (0.0,)      # ϕ_n, rad
+    backlash: float = 75e-6                     # b, half gap, m
+    preload_torque: float = 200.0               # T_p, N·m
+    thermal_coefficient: float = 0.0            # α, 1/K
+    temperature_rise: float = 0.0               # ΔT, K
+    torque_fluctuation_amplitude: float = 0.0   # T_v, N·m
+    torque_fluctuation_frequency: float = 0.0   # ω_v, rad/s
+    table_damping: float = 0.0                  # c_t, N·m·s/rad
+    mesh_frequency: float = 24 * PAPER_PINION_SPEED  # ω_e, rad/s (`time` phase)
+    max_torque: float = 1000.0                  # input limit, N·m
+    mode: str = 'anti_backlash'                 # 'anti_backlash' | 'conventional'
+    mesh_phase: str = 'angle'                   # 'angle' | 'time'
+
+    def __post_init__(self) -> None:
+        for name in ('inertia_pinion_1', 'inertia_table', 'inertia_pinion_3',
+                     'radius_pinion_1', 'radius_table', 'radius_pinion_3',
+                     'mesh_stiffness_mean', 'max_torque'):
+            object.__setattr__(self, name, _positive(name, getattr(self, name)))
+        for name in ('teeth_pinion_1', 'teeth_table', 'teeth_pinion_3'):
+            object.__setattr__(self, name, _teeth(name, getattr(self, name)))
+        for name in ('mesh_stiffness_amplitude', 'preload_stiffness', 'mesh_damping',
+                     'backlash', 'preload_torque', 'torque_fluctuation_amplitude',
+                     'torque_fluctuation_frequency', 'table_damping', 'mesh_frequency'):
+            object.__setattr__(self, name, _non_negative(name, getattr(self, name)))
+        for name in ('mesh_stiffness_phase', 'thermal_coefficient', 'temperature_rise'):
+            object.__setattr__(self, name, _finite(name, getattr(self, name)))
+        for name in ('ste_amplitudes', 'ste_phases'):
+            value = getattr(self, name)
+            if isinstance(value, (str, bytes)) or not hasattr(value, '__iter__'):
+                raise ParameterError(name, value, 'must be a list of numbers')
+            object.__setattr__(self, name, tuple(_finite(name, v) for v in value))
+        if len(self.ste_amplitudes) != len(self.ste_phases):
+            raise ParameterError(
+                'ste_phases', list(self.ste_phases),
+                f'needs one phase per STE harmonic ({len(self.ste_amplitudes)} amplitudes)')
+        if self.mode not in MODES:
+            raise ParameterError('mode', self.mode, f'must be one of {", ".join(MODES)}')
+        if self.mesh_phase not in MESH_PHASES:
+            raise ParameterError('mesh_phase', self.mesh_phase,
+                                 f'must be one of {", ".join(MESH_PHASES)}')
+        derating = 1.0 - self.thermal_coefficient * self.temperature_rise
+        if derating <= 0.0:
+            raise ParameterError(
+                'temperature_rise', self.temperature_rise,
+                f'thermal derating 1 - α·ΔT = {derating:g} must stay > 0 '
+                f'(α = {self.thermal_coefficient:g} 1/K)')
+        k_eff = effective_stiffness(self)
+        if self.mesh_stiffness_amplitude >= k_eff:
+            raise ParameterError(
+                'mesh_stiffness_amplitude', self.mesh_stiffness_amplitude,
+                f'must be < k_eff = k_m(1 - α·ΔT) + k_p = {k_eff:g} N/m, '
+                'or the mesh stiffness K = k_eff + k_a·cos(φ) could go negative')
+
+    def replace(self, **changes: Any) -> 'TableParams':
+        """A validated copy with some parameters changed."""
+        return replace(self, **changes)
+
+    def as_dict(self) -> dict[str, Any]:
+        """Parameter name → value, lists for the STE harmonics (ROS-friendly)."""
+        d = asdict(self)
+        d['ste_amplitudes'] = list(self.ste_amplitudes)
+        d['ste_phases'] = list(self.ste_phases)
+        return d
+
+
+@dataclass(frozen=True)
+class SimSettings:
+    """How the node runs the model: step, pacing, outputs, recording."""
+
+    dt: float = 50e-6                   # integration step, s
+    publish_rate: float = 1000.0        # Hz
+    real_time_factor: float = 1.0       # 1 = wall clock, 0 = as fast as possible
+    record: str = ''                    # rosbag2 directory to write; '' = off
+    publish_clock: bool = True
+    joint_names: tuple[str, ...] = ('pinion_1', 'table', 'pinion_3')
+
+    def __post_init__(self) -> None:
+        _positive('dt', self.dt)
+        _positive('publish_rate', self.publish_rate)
+        _non_negative('real_time_factor', self.real_time_factor)
+        ratio = 1.0 / (self.publish_rate * self.dt)
+        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * ratio:
+            raise ParameterError(
+                'publish_rate', self.publish_rate,
+                f'the publish period 1/{self.publish_rate:g} s must be a whole number '
+                f'(>= 1) of integration steps dt = {self.dt:g} s')
+        if not isinstance(self.record, str):
+            raise ParameterError('record', self.record, 'must be a path string ('' = off)')
+        if not isinstance(self.publish_clock, bool):
+            raise ParameterError('publish_clock', self.publish_clock, 'must be true or false')
+        names = tuple(self.joint_names)
+        if len(names) != 3 or len(set(names)) != 3 or not all(
+                isinstance(n, str) and n for n in names):
+            raise ParameterError('joint_names', list(names),
+                                 'must be three distinct, non-empty names '
+                                 '(pinion 1, table, pinion 3)')
+        object.__setattr__(self, 'joint_names', names)
+
+    @property
+    def steps_per_publish(self) -> int:
+        """Integration steps per publish period."""
+        return int(round(1.0 / (self.publish_rate * self.dt)))
+
+    def as_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d['joint_names'] = list(self.joint_names)
+        return d
+
+
+# ---------------------------------------------------------------- derived quantities
+
+def effective_stiffness(p: TableParams) -> float:
+    """k_eff = k_m·(1 − α·ΔT) + k_p, N/m (thermal derating plus preload stiffness)."""
+    return (p.mesh_stiffness_mean * (1.0 - p.thermal_coefficient * p.temperature_rise)
+            + p.preload_stiffness)
+
+
+def equivalent_mass(p: TableParams) -> float:
+    """m_e = I1·I2 / (I1·r2² + I2·r1²), kg (pinion 1 – table pair)."""
+    i1, i2 = p.inertia_pinion_1, p.inertia_table
+    r1, r2 = p.radius_pinion_1, p.radius_table
+    return i1 * i2 / (i1 * r2 ** 2 + i2 * r1 ** 2)
+
+
+def natural_frequency(p: TableParams) -> float:
+    """ω0 = √(k_m / m_e), rad/s (the paper's normalizing frequency, mean stiffness k_m)."""
+    return math.sqrt(p.mesh_stiffness_mean / equivalent_mass(p))
+
+
+def damping_ratio(p: TableParams) -> float:
+    """ζ = c / (2·m_e·ω0)."""
+    return p.mesh_damping / (2.0 * equivalent_mass(p) * natural_frequency(p))
+
+
+def damping_for_ratio(p: TableParams, zeta: float) -> float:
+    """Mesh damping c, N·s/m, that gives damping ratio ζ."""
+    return 2.0 * zeta * equivalent_mass(p) * natural_frequency(p)
+
+
+def stiffness_fluctuation(p: TableParams) -> float:
+    """k_a' = k_a / k_m (the paper's definition, mean stiffness k_m)."""
+    return p.mesh_stiffness_amplitude / p.mesh_stiffness_mean
+
+
+def mean_mesh_force(p: TableParams, drive_torque: float = PAPER_DRIVE_TORQUE) -> float:
+    """F_m = T1 / r1, N."""
+    return drive_torque / p.radius_pinion_1
+
+
+def mesh_frequency_at(p: TableParams, pinion_speed: float = PAPER_PINION_SPEED) -> float:
+    """ω_e = z1·ω1, rad/s, for pinion speed ω1 in rad/s."""
+    return p.teeth_pinion_1 * pinion_speed
+
+
+def performance_index(zeta: float, ka_rel: float, k_m: float) -> float:
+    """The paper's P = (ζ / k_a')·√k_m (k_m in N/m); infinite for k_a' = 0."""
+    return math.inf if ka_rel == 0.0 else zeta / ka_rel * math.sqrt(k_m)
+
+
+# ---------------------------------------------------------------- RK4 stability
+
+def rk4_amplification(z: complex) -> complex:
+    """RK4's amplification factor R(z) = 1 + z + z²/2 + z³/6 + z⁴/24 for z = λ·dt."""
+    return 1.0 + z * (1.0 + z / 2.0 * (1.0 + z / 3.0 * (1.0 + z / 4.0)))
+
+
+def max_stable_dt(p: TableParams) -> float:
+    """Largest dt, s, for which RK4 is stable on the linearized 3-DOF model.
+
+    Uses the stiffest mesh state K = k_eff + k_a with both meshes in contact and
+    every eigenvalue λ of the 6×6 first-order system; dt is bisected on
+    max |R(λ·dt)| ≤ 1.
+    """
+    import numpy as np
+
+    k = effective_stiffness(p) + p.mesh_stiffness_amplitude
+    r = np.array([p.radius_pinion_1, p.radius_table, p.radius_pinion_3])
+    inertia = np.array([p.inertia_pinion_1, p.inertia_table, p.inertia_pinion_3])
+    # Generalized mesh directions: δ1 = r1θ1 − r2θ2, δ3 = r3θ3 − r2θ2.
+    g = np.array([[r[0], -r[1], 0.0], [0.0, -r[1], r[2]]])
+    if p.mode == 'conventional':
+        g = g[:1]
+    stiffness = k * g.T @ g
+    damping = p.mesh_damping * g.T @ g + np.diag([0.0, p.table_damping, 0.0])
+    m_inv = np.diag(1.0 / inertia)
+    a = np.block([[np.zeros((3, 3)), np.eye(3)], [-m_inv @ stiffness, -m_inv @ damping]])
+    lam = np.linalg.eigvals(a)
+    lam = lam[np.abs(lam) > 1e-6 * np.max(np.abs(lam))]  # drop the rigid-body mode
+
+    def stable(dt: float) -> bool:
+        return bool(np.all(np.abs(rk4_amplification(lam * dt)) <= 1.0 + 1e-12))
+
+    lo, hi = 0.0, 10.0 / float(np.max(np.abs(lam)))
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if stable(mid) else (lo, mid)
+    return lo
+
+
+def check_step(p: TableParams, dt: float) -> None:
+    """Refuse a step dt, s, that RK4 cannot integrate stably at this stiffness."""
+    limit = max_stable_dt(p)
+    if dt > limit:
+        raise ParameterError(
+            'dt', dt, f'RK4 is unstable above dt = {limit:.4g} s at this stiffness '
+            f'(k_eff + k_a = {effective_stiffness(p) + p.mesh_stiffness_amplitude:g} N/m); '
+            'use a smaller step')
+
+
+# ---------------------------------------------------------------- YAML
+
+_TABLE_FIELDS = {f.name for f in fields(TableParams)}
+_SIM_FIELDS = {f.name for f in fields(SimSettings)}
+
+
+def split_parameters(values: Mapping[str, Any]) -> tuple[TableParams, SimSettings]:
+    """Build validated (TableParams, SimSettings) from a flat name → value mapping.
+
+    Unknown names are refused (a typo in a parameter file must not pass silently).
+    """
+    unknown = set(values) - _TABLE_FIELDS - _SIM_FIELDS
+    if unknown:
+        name = sorted(unknown)[0]
+        raise ParameterError(name, values[name], 'is not a parameter of table_sim')
+    params = TableParams(**{k: v for k, v in values.items() if k in _TABLE_FIELDS})
+    settings = SimSettings(**{k: v for k, v in values.items() if k in _SIM_FIELDS})
+    check_step(params, settings.dt)
+    return params, settings
+
+
+def ros_parameters(document: Mapping[str, Any]) -> dict[str, Any]:
+    """The flat ``ros__parameters`` mapping of a ROS 2 parameter file.
+
+    Accepts ``node_name: {ros__parameters: ...}``, ``/**: {ros__parameters: ...}``
+    or a bare mapping of parameter names.
+    """
+    merged: dict[str, Any] = {}
+    found = False
+    for value in document.values():
+        if isinstance(value, Mapping) and 'ros__parameters' in value:
+            merged.update(value['ros__parameters'] or {})
+            found = True
+    return merged if found else dict(document)
+
+
+def load_yaml(path: str | Path) -> tuple[TableParams, SimSettings]:
+    """Load a ``config/*.yaml`` parameter file (ROS 2 params-file format)."""
+    with open(path, encoding='utf-8') as stream:
+        document = yaml.safe_load(stream) or {}
+    return split_parameters(ros_parameters(document))
+
+
+def default_values() -> dict[str, Any]:
+    """Every node parameter with its default (physics and settings), ROS-friendly."""
+    return {**TableParams().as_dict(), **SimSettings().as_dict()}
+
+
+__all__ = [
+    'MODES', 'MESH_PHASES', 'PAPER_PINION_SPEED', 'PAPER_DRIVE_TORQUE', 'ParameterError',
+    'TableParams', 'SimSettings', 'effective_stiffness', 'equivalent_mass',
+    'natural_frequency', 'damping_ratio', 'damping_for_ratio', 'stiffness_fluctuation',
+    'mean_mesh_force', 'mesh_frequency_at', 'performance_index', 'rk4_amplification',
+    'max_stable_dt', 'check_step', 'split_parameters', 'ros_parameters', 'load_yaml',
+    'default_values',
+]

@@ -1,0 +1,142 @@
+"""The simulated table as one object: state, step counter, current input, outputs.
+
+:class:`Plant` is what the node (and in-process replays and tests) drive: set the
+input, ``advance(n)``, read :meth:`Plant.outputs`. It holds no ROS. Simulation time
+is ``step·dt`` exactly. If a step ever produces a non-finite state (a parameter
+change made RK4 unstable) the plant restores the last finite state, stops, and
+reports why through :attr:`Plant.fault`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .integrator import advance
+from .model import (R1, R3, Z1, Z3, PackedModel, active_path, drive_torques, equilibrium_state,
+                    mesh_state, pack)
+from .params import TableParams, check_step
+
+
+@dataclass(frozen=True)
+class DriveInput:
+    """The input in force: drive torque T ≥ 0 (N·m), direction ±1, table load (N·m)."""
+
+    torque: float = 0.0
+    direction: int = 1
+    load: float = 0.0
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """Everything the node publishes about one instant, SI units."""
+
+    time: float                              # simulation time, s
+    step: int                                # integration steps since start
+    position: tuple[float, float, float]     # θ1, θ2, θ3, rad
+    velocity: tuple[float, float, float]     # ω1, ω2, ω3, rad/s
+    effort: tuple[float, float, float]       # torque applied to pinion 1, table, pinion 3, N·m
+    delta: tuple[float, float]               # δ1, δ3, m
+    delta_rate: tuple[float, float]          # δ̇1, δ̇3, m/s
+    mesh_force: tuple[float, float]          # F1, F3, N
+    active_path: int                         # 1 or 3
+
+    @property
+    def transmission_error(self) -> float:
+        """Total transmission error δ of the active path, m."""
+        return self.delta[0] if self.active_path == 1 else self.delta[1]
+
+    def in_contact(self, backlash: float) -> tuple[bool, bool]:
+        """Whether mesh 1 and mesh 3 are in tooth contact (|δ| > b)."""
+        return abs(self.delta[0]) > backlash, abs(self.delta[1]) > backlash
+
+
+class Plant:
+    """State, time and input of one simulated table; advances with compiled RK4."""
+
+    def __init__(self, params: TableParams, dt: float,
+                 initial_state: np.ndarray | None = None) -> None:
+        check_step(params, dt)
+        self._params = params
+        self._model: PackedModel = pack(params)
+        self.dt = float(dt)
+        self.step = 0
+        self.input = DriveInput()
+        self.state = (equilibrium_state(params) if initial_state is None
+                      else np.array(initial_state, dtype=np.float64))
+        self._last_finite = self.state.copy()
+        self.fault: str | None = None
+
+    @property
+    def params(self) -> TableParams:
+        return self._params
+
+    @property
+    def time(self) -> float:
+        """Simulation time, s."""
+        return self.step * self.dt
+
+    def set_params(self, params: TableParams) -> None:
+        """Use new (validated) physical parameters from the next step on.
+
+        The mode is fixed for a run; a dt that is unstable at the new stiffness is
+        refused (ParameterError) and the old parameters stay.
+        """
+        if params.mode != self._params.mode:
+            raise ValueError('mode cannot change while the table runs')
+        check_step(params, self.dt)
+        self._params = params
+        self._model = pack(params)
+
+    def set_input(self, drive: DriveInput) -> None:
+        """Apply a validated input from the next step on."""
+        self.input = drive
+
+    def reset(self) -> None:
+        """Back to the preload equilibrium at rest, keeping the simulation time."""
+        self.state[:] = equilibrium_state(self._params)
+        self.fault = None
+
+    def advance(self, n: int) -> bool:
+        """Integrate n steps; False (state kept at the last finite one) on a fault."""
+        if self.fault is not None:
+            return False
+        self._last_finite[:] = self.state
+        m = self._model
+        advance(self.state, self.step, n, self.dt, m.p, m.ste_amp, m.ste_phase,
+                self.input.torque, float(self.input.direction), self.input.load)
+        if not np.all(np.isfinite(self.state)):
+            self.state[:] = self._last_finite
+            self.fault = (f'state became non-finite between t = {self.time:.6f} s and '
+                          f'{(self.step + n) * self.dt:.6f} s; integration stopped at the '
+                          'last finite state (a parameter change made RK4 unstable?)')
+            return False
+        self.step += n
+        return True
+
+    def outputs(self) -> Outputs:
+        """Joint and mesh quantities of the current state."""
+        m = self._model
+        th1, th2, th3, w1, w2, w3 = (float(v) for v in self.state)
+        t = self.time
+        d1, dd1, f1 = mesh_state(th1, w1, m.p[R1], m.p[Z1], th2, w2, t, m.p, m.ste_amp,
+                                 m.ste_phase)
+        d3, dd3, f3 = mesh_state(th3, w3, m.p[R3], m.p[Z3], th2, w2, t, m.p, m.ste_amp,
+                                 m.ste_phase)
+        conventional = self._params.mode == 'conventional'
+        if conventional:
+            f3 = 0.0
+        t1, t3 = drive_torques(t, self.input.torque, float(self.input.direction), m.p)
+        p = self._params
+        table_effort = (p.radius_table * (f1 + f3) - self.input.load
+                        - p.table_damping * w2)
+        return Outputs(
+            time=t, step=self.step, position=(th1, th2, th3), velocity=(w1, w2, w3),
+            effort=(float(t1), float(table_effort), float(t3)),
+            delta=(float(d1), float(d3)), delta_rate=(float(dd1), float(dd3)),
+            mesh_force=(float(f1), float(f3)),
+            active_path=active_path(p.mode, self.input.direction))
+
+
+__all__ = ['DriveInput', 'Outputs', 'Plant']

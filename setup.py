@@ -1,0 +1,34 @@
+"""ament_python package set-up: works with colcon on a ROS 2 install and with pip in a venv."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = 'screwgear_ros'
+EXECUTABLES = ['table_sim', 'demo_controller', 'check_run', 'replay_run', 'paper_report']
+
+setup(
+    name=PACKAGE,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
+        (f'share/{PACKAGE}', ['package.xml']),
+        (f'share/{PACKAGE}/config', glob('config/*.yaml')),
+        # For `ros2 run` after a pip install: ament looks in $prefix/lib/<package>/.
+        # A colcon install puts the console scripts themselves there (setup.cfg).
+        (f'lib/{PACKAGE}', [f'launchers/{exe}' for exe in EXECUTABLES]),
+    ],
+    install_requires=['setuptools', 'numpy', 'scipy', 'numba', 'PyYAML', 'mcap',
+                      'mcap-ros2-support', 'rosbags', 'tqdm', 'matplotlib'],
+    zip_safe=True,
+    maintainer='screwgear_ros developers',
+    maintainer_email='screwgear-ros@example.org',
+    description='Real-time double screw gear anti-backlash rotary table plant for ROS 2',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            f'{exe} = {PACKAGE}.cli.{exe}:main' for exe in EXECUTABLES
+        ],
+    },
+)
