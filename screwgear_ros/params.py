@@ -91,14 +91,14 @@ class TableParams:
     ste_amplitudes: tuple[float, ...] = (1.5384e-3,)  # ε_n, m
     ste_phases: tuple[float, ...] = (0.0,)      # ϕ_n, rad
     backlash: float = 75e-6                     # b, half gap, m
-    preload_torque: float = 200.0               # T_p, N·m
+    preload_torque: float = 350.0               # T_p, N·m (see README: holds a 400 N·m reversal)
     thermal_coefficient: float = 0.0            # α, 1/K
     temperature_rise: float = 0.0               # ΔT, K
     torque_fluctuation_amplitude: float = 0.0   # T_v, N·m
     torque_fluctuation_frequency: float = 0.0   # ω_v, rad/s
     table_damping: float = 0.0                  # c_t, N·m·s/rad
     mesh_frequency: float = 24 * PAPER_PINION_SPEED  # ω_e, rad/s (`time` phase)
-    max_torque: float = 1000.0                  # input limit, N·m
+    max_torque: float = 400.0                   # input limit, N·m (the paper's drive torque)
     mode: str = 'anti_backlash'                 # 'anti_backlash' | 'conventional'
     mesh_phase: str = 'angle'                   # 'angle' | 'time'
 
