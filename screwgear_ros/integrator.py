@@ -15,7 +15,7 @@ from numba import njit
 from .model import rhs
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def advance(state: np.ndarray, step0: int, n: int, dt: float, p: np.ndarray,
             ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float, direction: float,
             load: float) -> None:
@@ -48,7 +48,7 @@ def advance(state: np.ndarray, step0: int, n: int, dt: float, p: np.ndarray,
     state[0], state[1], state[2], state[3], state[4], state[5] = y0, y1, y2, y3, y4, y5
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def trajectory(state: np.ndarray, step0: int, dt: float, stride: int, out: np.ndarray,
                p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
                direction: float, load: float) -> None:

@@ -57,7 +57,7 @@ def pack(params: TableParams) -> PackedModel:
                        np.array(params.ste_phases, dtype=np.float64))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def mesh_phase(theta_pinion: float, omega_pinion: float, teeth: float, t: float,
                p: np.ndarray) -> tuple[float, float]:
     """Mesh phase φ (rad) and its rate φ̇ (rad/s): z·θ (`angle`) or ω_e·t (`time`)."""
@@ -66,7 +66,7 @@ def mesh_phase(theta_pinion: float, omega_pinion: float, teeth: float, t: float,
     return teeth * theta_pinion, teeth * omega_pinion
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def static_transmission_error(phi: float, ste_amp: np.ndarray,
                               ste_phase: np.ndarray) -> tuple[float, float]:
     """ε(φ) = Σ ε_n·sin(n·φ + ϕ_n), m, and its derivative dε/dφ, m/rad."""
@@ -79,13 +79,13 @@ def static_transmission_error(phi: float, ste_amp: np.ndarray,
     return eps, deps
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def mesh_stiffness(phi: float, p: np.ndarray) -> float:
     """K(φ) = k_eff + k_a·cos(φ + ϕ_k), N/m."""
     return p[K_EFF] + p[K_A] * math.cos(phi + p[PHI_K])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def mesh_force(delta: float, delta_dot: float, stiffness: float, damping: float,
                backlash: float) -> float:
     """Mesh force F along the line of action, N, for total transmission error δ (m).
@@ -105,7 +105,7 @@ def mesh_force(delta: float, delta_dot: float, stiffness: float, damping: float,
     return 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def mesh_state(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,
                theta2: float, omega2: float, t: float, p: np.ndarray, ste_amp: np.ndarray,
                ste_phase: np.ndarray) -> tuple[float, float, float]:
@@ -121,7 +121,7 @@ def mesh_state(theta_pinion: float, omega_pinion: float, radius_pinion: float, t
     return delta, delta_dot, force
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def drive_torques(t: float, torque: float, direction: float,
                   p: np.ndarray) -> tuple[float, float]:
     """Torques (T1, T3) on pinions 1 and 3, N·m, for the commanded drive.
@@ -130,7 +130,7 @@ def drive_torques(t: float, torque: float, direction: float,
     T1 = T_p (+ drive if d = +1), T3 = −T_p (− drive if d = −1). `conventional`:
     T1 = d·drive, T3 = 0.
     """
-    drive = torque + p[TV] * math.sin(p[WV] * t)
+    drive = torque if p[TV] == 0.0 else torque + p[TV] * math.sin(p[WV] * t)
     if p[MODE] == CONVENTIONAL:
         return direction * drive, 0.0
     if direction > 0.0:
@@ -138,7 +138,7 @@ def drive_torques(t: float, torque: float, direction: float,
     return p[TP], -p[TP] - drive
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rhs(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
         p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
         direction: float, load: float) -> tuple[float, float, float, float, float, float]:

@@ -99,7 +99,7 @@ def from_table(p: TableParams, drive_torque: float, length_scale: float = 1e-6,
         initial_displacement=initial_displacement, initial_velocity=initial_velocity)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rhs(tau: float, x: float, v: float, c: np.ndarray, fa: np.ndarray,
         phases: np.ndarray) -> tuple[float, float]:
     """(x', x'') of the normalized equation at dimensionless time τ."""
@@ -112,7 +112,7 @@ def rhs(tau: float, x: float, v: float, c: np.ndarray, fa: np.ndarray,
     return v, forcing - 2.0 * c[ZETA] * v - stiffness * x
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def integrate(x0: float, v0: float, tau0: float, dtau: float, stride: int, out: np.ndarray,
               c: np.ndarray, fa: np.ndarray, phases: np.ndarray) -> None:
     """Fixed-step RK4; out[j] = (x, x') after (j + 1)·stride steps of dtau from τ0."""
