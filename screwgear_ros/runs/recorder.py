@@ -1,0 +1,261 @@
+"""Record a run as a rosbag2 directory with MCAP storage, off the real-time path.
+
+:class:`RunRecorder` takes messages from the node's pacing thread through a bounded
+queue and writes them on its own writer thread (serialization included), so a slow
+disk never stalls the integrator: when the queue is full a message is dropped and
+counted, never waited for.
+
+The bag is what ``ros2 bag record -s mcap`` on ROS 2 Jazzy writes: a directory with
+``metadata.yaml`` and one ``<name>_0.mcap`` (profile ``ros2``, ``ros2msg`` schemas
+with the Jazzy definitions, CDR messages, QoS profiles on every channel). Log time
+(and publish time) of every message is the simulation time of the step it
+describes, in ns.
+
+What survives a crash: ``metadata.yaml`` is written when the bag opens (topics, no
+counts) and rewritten when it closes, so even a killed run is a rosbag2 directory.
+The MCAP file is flushed to the operating system whenever a chunk is complete
+(``chunk_size`` bytes of messages) and at least every ``flush_period`` seconds of
+wall time; after ``kill -9`` every flushed chunk reads back, and at most the last
+unflushed chunk plus the messages still queued are lost. :meth:`RunRecorder.close`
+(Ctrl-C, SIGTERM, normal exit, or interpreter exit as a last resort) drains the
+queue and writes the summary, the index and the final ``metadata.yaml``.
+"""
+
+from __future__ import annotations
+
+import atexit
+import os
+import queue
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import yaml
+from mcap.writer import CompressionType, Writer
+
+from .. import __version__
+from .bagformat import (MCAP_PROFILE, MESSAGE_ENCODING, SCHEMA_ENCODING, message_definition,
+                        metadata_document, metadata_yaml, qos_profile, qos_yaml)
+
+#: Default bound of the queue between the node and the writer thread, messages.
+QUEUE_SIZE = 200_000
+#: Default MCAP chunk size, bytes of uncompressed messages: the most a kill -9 loses.
+CHUNK_SIZE = 256 * 1024
+#: Default longest wall time between flushes to the operating system, s.
+FLUSH_PERIOD = 1.0
+
+_STOP = object()
+
+
+@dataclass(frozen=True)
+class TopicSpec:
+    """A topic of the bag: fully resolved name, ROS type, and whether it is latched."""
+
+    name: str            # e.g. '/axis_c/joint_states'
+    msgtype: str         # e.g. 'sensor_msgs/msg/JointState'
+    transient_local: bool = False
+
+
+class RunRecorder:
+    """Writes one run to a new rosbag2/MCAP directory on a background thread.
+
+    ``serialize(msg) -> bytes`` turns a message into CDR (the node passes
+    ``rclpy.serialization.serialize_message``); it runs on the writer thread, so a
+    message handed to :meth:`write` belongs to the recorder from then on and must
+    not be modified afterwards.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], topics: Sequence[TopicSpec],
+                 serialize: Callable[[Any], bytes], *, queue_size: int = QUEUE_SIZE,
+                 chunk_size: int = CHUNK_SIZE, flush_period: float = FLUSH_PERIOD,
+                 compression: bool = True) -> None:
+        self.path = Path(path)
+        if self.path.exists() and (not self.path.is_dir() or any(self.path.iterdir())):
+            raise FileExistsError(f'{self.path} exists and is not an empty directory; '
+                                  'a recording never overwrites')
+        names = [t.name for t in topics]
+        if len(set(names)) != len(names):
+            raise ValueError(f'duplicate topic names in {names}')
+        self._serialize = serialize
+        self._queue_size = int(queue_size)
+        self._flush_period = float(flush_period)
+        self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        self._drop_lock = threading.Lock()
+        self._dropped = 0
+        self._written = 0
+        self._error: str | None = None
+        self._closed = False
+        self._close_lock = threading.Lock()
+        self._abandon = False
+
+        self._topics = [{'name': t.name, 'type': t.msgtype,
+                         'qos': [qos_profile(t.transient_local)]} for t in topics]
+        self._counts = [0] * len(topics)
+        self._start_ns: int | None = None
+        self._end_ns = 0
+        self.path.mkdir(parents=True, exist_ok=True)
+        self._mcap_name = f'{self.path.name}_0.mcap'
+        self._custom = {'screwgear_ros.package_version': __version__}
+        self._write_metadata_yaml()
+
+        self._file = open(self.path / self._mcap_name, 'xb')
+        self._mcap = Writer(self._file, chunk_size=int(chunk_size),
+                            compression=CompressionType.ZSTD if compression
+                            else CompressionType.NONE)
+        self._mcap.start(profile=MCAP_PROFILE, library=f'screwgear_ros-{__version__}')
+        self._mcap.add_metadata('rosbag2', {'serialized_metadata': self._serialized_metadata()})
+        schemas: dict[str, int] = {}
+        self._channels: dict[str, tuple[int, int]] = {}   # topic → (index, channel id)
+        for index, (spec, topic) in enumerate(zip(topics, self._topics)):
+            if spec.msgtype not in schemas:
+                text, _ = message_definition(spec.msgtype)
+                schemas[spec.msgtype] = self._mcap.register_schema(
+                    spec.msgtype, SCHEMA_ENCODING, text.encode())
+            channel = self._mcap.register_channel(
+                spec.name, MESSAGE_ENCODING, schemas[spec.msgtype],
+                {'offered_qos_profiles': qos_yaml(topic['qos']),
+                 'topic_type_hash': message_definition(spec.msgtype)[1]})
+            self._channels[spec.name] = (index, channel)
+        self._sequence = [0] * len(topics)
+        self._thread = threading.Thread(target=self._run, name='run_recorder', daemon=True)
+        self._thread.start()
+        atexit.register(self.close)
+
+    # ------------------------------------------------------------------ node side
+
+    @property
+    def dropped(self) -> int:
+        """Messages not recorded: queue full, written after close, or failed to write."""
+        return self._dropped
+
+    @property
+    def written(self) -> int:
+        """Messages written to the MCAP file so far."""
+        return self._written
+
+    @property
+    def error(self) -> str | None:
+        """The first write error of the writer thread (e.g. disk full), if any."""
+        return self._error
+
+    def write(self, topic: str, sim_time_ns: int, msg: Any) -> None:
+        """Queue ``msg`` on ``topic`` at log time ``sim_time_ns``; never blocks.
+
+        Thread-safe. A full queue or a closed recorder drops the message and counts
+        it in :attr:`dropped`. An unknown topic is a programming error (ValueError).
+        """
+        channel = self._channels.get(topic)
+        if channel is None:
+            raise ValueError(f'topic {topic!r} was not declared to the recorder '
+                             f'(declared: {", ".join(self._channels)})')
+        if self._closed or self._queue.qsize() >= self._queue_size:
+            self._count_drop(1)
+            return
+        self._queue.put((channel, int(sim_time_ns), msg))
+
+    def close(self, timeout: float = 5.0) -> None:
+        """Drain the queue and finalize the bag (summary, index, metadata.yaml).
+
+        Idempotent. If draining takes longer than ``timeout`` seconds the rest of
+        the queue is dropped (counted) so that the bag is still finalized.
+        """
+        with self._close_lock:
+            if self._closed:
+                return
+            self._closed = True
+        atexit.unregister(self.close)
+        self._queue.put(_STOP)
+        self._thread.join(timeout)
+        if self._thread.is_alive():
+            self._abandon = True
+            self._thread.join()
+
+    # ------------------------------------------------------------------ writer thread
+
+    def _count_drop(self, n: int) -> None:
+        with self._drop_lock:
+            self._dropped += n
+
+    def _run(self) -> None:
+        next_flush = 0.0          # the first message is flushed at once
+        dirty = False
+        while True:
+            try:
+                item = self._queue.get(timeout=self._flush_period)
+            except queue.Empty:
+                item = None
+            if item is _STOP:
+                break
+            if item is not None:
+                if self._abandon or self._error is not None:
+                    self._count_drop(1)
+                    continue
+                self._write_one(*item)
+                dirty = True
+            now = time.monotonic()
+            if dirty and now >= next_flush and self._error is None:
+                try:
+                    self._mcap.flush()
+                except Exception as exc:  # noqa: BLE001 - reported through .error
+                    self._fail(exc)
+                dirty = False
+                next_flush = now + self._flush_period
+        self._finish()
+
+    def _write_one(self, channel: tuple[int, int], log_time: int, msg: Any) -> None:
+        index, channel_id = channel
+        try:
+            data = self._serialize(msg)
+            self._mcap.add_message(channel_id, log_time=log_time, data=data,
+                                   publish_time=log_time, sequence=self._sequence[index])
+        except Exception as exc:  # noqa: BLE001 - one bad message must not end the run
+            self._count_drop(1)
+            self._fail(exc)
+            return
+        self._sequence[index] += 1
+        self._counts[index] += 1
+        self._written += 1
+        if self._start_ns is None or log_time < self._start_ns:
+            self._start_ns = log_time
+        self._end_ns = max(self._end_ns, log_time)
+
+    def _fail(self, exc: BaseException) -> None:
+        if self._error is None:
+            self._error = f'{type(exc).__name__}: {exc}'
+
+    def _finish(self) -> None:
+        """Count what is left, write summary and index, close, rewrite metadata.yaml."""
+        while True:
+            try:
+                item = self._queue.get_nowait()
+            except queue.Empty:
+                break
+            if item is not _STOP:
+                self._count_drop(1)
+        try:
+            self._mcap.add_metadata('rosbag2',
+                                    {'serialized_metadata': self._serialized_metadata()})
+            self._mcap.finish()
+        except Exception as exc:  # noqa: BLE001
+            self._fail(exc)
+        finally:
+            self._file.close()
+        self._write_metadata_yaml()
+
+    def _document(self) -> dict[str, Any]:
+        start = self._start_ns if self._start_ns is not None else 0
+        return metadata_document(self._mcap_name, self._topics, self._counts, start,
+                                 self._end_ns, self._custom)
+
+    def _serialized_metadata(self) -> str:
+        return yaml.safe_dump(self._document(), default_flow_style=False, sort_keys=False)
+
+    def _write_metadata_yaml(self) -> None:
+        tmp = self.path / 'metadata.yaml.tmp'
+        tmp.write_text(metadata_yaml(self._document()), encoding='utf-8')
+        tmp.replace(self.path / 'metadata.yaml')
+
+
+__all__ = ['TopicSpec', 'RunRecorder', 'QUEUE_SIZE', 'CHUNK_SIZE', 'FLUSH_PERIOD']
