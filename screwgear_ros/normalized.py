@@ -80,19 +80,22 @@ def from_table(p: TableParams, drive_torque: float, length_scale: float = 1e-6,
                initial_velocity: float = 0.0) -> NormalizedParams:
     """The normalized coefficients of a 3-DOF parameter set (`time` mesh phase).
 
-    drive_torque T1 in N·m gives F_m = T1/r1; length_scale l in m.
+    drive_torque T1 in N·m gives F_m = T1/r1; length_scale l in m. The torque
+    fluctuation T_v acts on pinion 1 only (the table load stays T1·r2/r1), so it
+    enters δ̈ as r1·T_v/I1: f_v = m_e·r1·T_v / (I1·k_m·l), not T_v/(r1·k_m·l).
     """
     k_m = p.mesh_stiffness_mean
     w0 = natural_frequency(p)
+    m_e = equivalent_mass(p)
     return NormalizedParams(
-        damping_ratio=p.mesh_damping / (2.0 * equivalent_mass(p) * w0),
+        damping_ratio=p.mesh_damping / (2.0 * m_e * w0),
         stiffness_fluctuation=p.mesh_stiffness_amplitude / k_m,
         frequency_ratio=p.mesh_frequency / w0,
         mean_load=mean_mesh_force(p, drive_torque) / (k_m * length_scale),
         excitation_amplitudes=tuple(a / length_scale for a in p.ste_amplitudes),
         excitation_phases=p.ste_phases,
-        load_fluctuation_amplitude=p.torque_fluctuation_amplitude / (
-            p.radius_pinion_1 * k_m * length_scale),
+        load_fluctuation_amplitude=m_e * p.radius_pinion_1 * p.torque_fluctuation_amplitude / (
+            p.inertia_pinion_1 * k_m * length_scale),
         load_fluctuation_frequency=p.torque_fluctuation_frequency / w0,
         stiffness_ratio=effective_stiffness(p) / k_m,
         stiffness_phase=p.mesh_stiffness_phase,
