@@ -59,7 +59,8 @@ def _non_negative(name: str, value: Any) -> float:
 
 
 def _teeth(name: str, value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or value != int(value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
+            value) or value != int(value):
         raise ParameterError(name, value, 'must be a whole number of teeth')
     if value < 1:
         raise ParameterError(name, value, 'must be >= 1')
