@@ -130,6 +130,13 @@ class TableParams:
         if self.mesh_phase not in MESH_PHASES:
             raise ParameterError('mesh_phase', self.mesh_phase,
                                  f'must be one of {", ".join(MESH_PHASES)}')
+        if (self.mode == 'anti_backlash' and self.preload_torque > 0.0
+                and self.radius_pinion_3 != self.radius_pinion_1):
+            raise ParameterError(
+                'radius_pinion_3', self.radius_pinion_3,
+                f'must equal radius_pinion_1 = {self.radius_pinion_1:g} m in anti_backlash mode '
+                'with a preload: T1 = +T_p and T3 = -T_p balance at the table only when r1 = r3 '
+                f'(else the preload alone turns the table with r2·T_p·(1/r1 - 1/r3))')
         derating = 1.0 - self.thermal_coefficient * self.temperature_rise
         if derating <= 0.0:
             raise ParameterError(
