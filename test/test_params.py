@@ -1,0 +1,269 @@
+"""Parameters: validation messages, YAML files, derived quantities, the RK4 step limit.
+
+Independent references: the numbers of shared/spec/model.md §6 (decoded from the
+paper), the generalized eigenproblem of the undamped 3-DOF model solved by SciPy and
+RK4's imaginary-axis limit 2√2, and the integrator itself run just below and above
+the step limit.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from screwgear_ros import params as P
+from screwgear_ros.model import equilibrium_state, pack
+from screwgear_ros.integrator import advance
+from screwgear_ros.params import ParameterError, SimSettings, TableParams
+
+CONFIG = Path(__file__).resolve().parents[1] / 'config'
+
+
+def refused(exc: pytest.ExceptionInfo, name: str, value: object, rule_word: str) -> None:
+    """The ParameterError names the parameter, shows the value and states the rule."""
+    err = exc.value
+    assert err.name == name
+    text = str(err)
+    assert repr(name) in text
+    assert repr(value) in text or str(value) in text
+    assert rule_word in err.rule, err.rule
+
+
+# ---------------------------------------------------------------- validation
+
+@pytest.mark.parametrize('name, value, rule_word', [
+    ('inertia_pinion_1', -1e-3, '> 0'),
+    ('inertia_table', 0.0, '> 0'),
+    ('radius_pinion_1', 0.0, '> 0'),
+    ('radius_table', -0.5, '> 0'),
+    ('mesh_stiffness_mean', float('nan'), 'finite'),
+    ('mesh_damping', float('inf'), 'finite'),
+    ('mesh_damping', -1.0, '>= 0'),
+    ('backlash', -1e-6, '>= 0'),
+    ('preload_torque', float('-inf'), 'finite'),
+    ('teeth_pinion_1', 24.5, 'whole number'),
+    ('teeth_table', float('nan'), 'whole number'),
+    ('teeth_pinion_3', float('inf'), 'whole number'),
+    ('teeth_pinion_3', 0, '>= 1'),
+    ('teeth_pinion_1', '24', 'whole number'),
+    ('max_torque', 0.0, '> 0'),
+    ('inertia_table', '46.1', 'number'),
+    ('inertia_table', True, 'number'),
+])
+def test_invalid_value_refused_naming_parameter_value_and_rule(name, value, rule_word):
+    with pytest.raises(ParameterError) as exc:
+        TableParams(**{name: value})
+    refused(exc, name, value, rule_word)
+
+
+def test_unknown_mode_and_mesh_phase_refused():
+    with pytest.raises(ParameterError) as exc:
+        TableParams(mode='zero_backlash')
+    refused(exc, 'mode', 'zero_backlash', 'anti_backlash')
+    assert 'conventional' in exc.value.rule
+    with pytest.raises(ParameterError) as exc:
+        TableParams(mesh_phase='angular')
+    refused(exc, 'mesh_phase', 'angular', 'angle')
+    assert 'time' in exc.value.rule
+
+
+def test_mismatched_ste_lists_refused():
+    with pytest.raises(ParameterError) as exc:
+        TableParams(ste_amplitudes=(1e-3, 2e-4), ste_phases=(0.0,))
+    assert exc.value.name == 'ste_phases'
+    assert '2 amplitudes' in exc.value.rule
+    with pytest.raises(ParameterError) as exc:
+        TableParams(ste_amplitudes='0.001')
+    assert exc.value.name == 'ste_amplitudes'
+    with pytest.raises(ParameterError) as exc:            # the offending element is named
+        TableParams(ste_amplitudes=(1e-3, float('nan')), ste_phases=(0.0, 0.0))
+    assert exc.value.name == 'ste_amplitudes' and 'nan' in str(exc.value)
+    assert 'finite' in exc.value.rule
+
+
+def test_stiffness_amplitude_must_stay_below_effective_stiffness():
+    """K = k_eff + k_a·cos φ ≥ k_eff − k_a must stay positive; k_eff includes k_p and α·ΔT."""
+    with pytest.raises(ParameterError) as exc:
+        TableParams(mesh_stiffness_amplitude=1.0e7)           # k_a = k_m, K reaches 0
+    refused(exc, 'mesh_stiffness_amplitude', 1.0e7, 'could go negative')
+    assert '1e+07' in exc.value.rule                          # states k_eff
+    # thermal derating lowers k_eff below k_a: refused ...
+    with pytest.raises(ParameterError) as exc:
+        TableParams(mesh_stiffness_amplitude=6e6, thermal_coefficient=1e-2, temperature_rise=50.0)
+    assert exc.value.name == 'mesh_stiffness_amplitude' and '5e+06' in exc.value.rule
+    # ... and a preload stiffness k_p raises it again: accepted.
+    TableParams(mesh_stiffness_amplitude=6e6, thermal_coefficient=1e-2, temperature_rise=50.0,
+                preload_stiffness=2e6)
+    with pytest.raises(ParameterError) as exc:
+        TableParams(thermal_coefficient=1e-2, temperature_rise=100.0)
+    assert exc.value.name == 'temperature_rise'
+
+
+def test_preload_needs_equal_pinions_in_anti_backlash_mode():
+    """T1 = +T_p, T3 = −T_p balance at the table only for r1 = r3."""
+    with pytest.raises(ParameterError) as exc:
+        TableParams(radius_pinion_3=0.06)
+    refused(exc, 'radius_pinion_3', 0.06, 'r1 = r3')
+    TableParams(radius_pinion_3=0.06, mode='conventional')
+    TableParams(radius_pinion_3=0.06, preload_torque=0.0)
+
+
+def test_params_are_immutable_and_replace_validates():
+    p = TableParams()
+    with pytest.raises(AttributeError):
+        p.inertia_table = 1.0  # type: ignore[misc]
+    with pytest.raises(ParameterError):
+        p.replace(inertia_table=-1.0)
+    assert p.replace(inertia_table=2.0).inertia_table == 2.0
+
+
+@pytest.mark.parametrize('name, value, rule_word', [
+    ('dt', 0.0, '> 0'),
+    ('dt', float('nan'), 'finite'),
+    ('publish_rate', -1.0, '> 0'),
+    ('real_time_factor', -0.5, '>= 0'),
+    ('publish_rate', 3000.0, 'whole number'),    # 1/3000 s is not a multiple of 50 µs
+    ('record', 3, 'path'),
+    ('publish_clock', 1, 'true or false'),
+    ('joint_names', ('a', 'a', 'b'), 'distinct'),
+])
+def test_invalid_settings_refused(name, value, rule_word):
+    with pytest.raises(ParameterError) as exc:
+        SimSettings(**{name: value})
+    assert exc.value.name == name
+    assert rule_word in exc.value.rule
+
+
+# ---------------------------------------------------------------- RK4 step limit
+
+def undamped_omega_max(p: TableParams) -> float:
+    """Highest natural frequency, rad/s, of the undamped 3-DOF model at K = k_eff + k_a.
+
+    Assembled here from the mesh geometry (δ_i = r_i·θ_i − r2·θ2) and solved as the
+    generalized symmetric eigenproblem K·v = ω²·M·v.
+    """
+    k = P.effective_stiffness(p) + p.mesh_stiffness_amplitude
+    mass = np.diag([p.inertia_pinion_1, p.inertia_table, p.inertia_pinion_3])
+    stiffness = np.zeros((3, 3))
+    meshes = [(0, p.radius_pinion_1)]
+    if p.mode == 'anti_backlash':
+        meshes.append((2, p.radius_pinion_3))
+    for body, radius in meshes:
+        g = np.zeros(3)
+        g[body], g[1] = radius, -p.radius_table
+        stiffness += k * np.outer(g, g)
+    return math.sqrt(scipy.linalg.eigh(stiffness, mass, eigvals_only=True).max())
+
+
+@pytest.mark.parametrize('mode', ['anti_backlash', 'conventional'])
+def test_max_stable_dt_is_rk4_imaginary_axis_limit_when_undamped(mode):
+    """Undamped modes have λ = ±iω: RK4 is stable for ω·dt ≤ 2√2 (|R(iy)|² = 1 − y⁶/72 + y⁸/576)."""
+    p = TableParams(mode=mode, mesh_damping=0.0)
+    expected = 2.0 * math.sqrt(2.0) / undamped_omega_max(p)
+    assert P.max_stable_dt(p) == pytest.approx(expected, rel=1e-9)
+    # For scale: the paper's stiffness allows ~1.9 ms, 38× the default 50 µs step.
+    assert 1.8e-3 < expected < 2.0e-3
+
+
+def test_max_stable_dt_with_damping_matches_the_integrator():
+    """Just below the limit RK4 stays bounded, just above a perturbation grows without bound.
+
+    Linear regime (k_a = 0, no STE, b = 0) so the linearization max_stable_dt uses is exact.
+    """
+    p = TableParams(mesh_stiffness_amplitude=0.0, ste_amplitudes=(), ste_phases=(),
+                    backlash=0.0, table_damping=8867.0)
+    limit = P.max_stable_dt(p)
+    # damping moves the limit a little past 2√2/ω (the stability region bulges there)
+    assert 2.8 < limit * undamped_omega_max(p) < 3.0
+    m = pack(p)
+    growth = {}
+    for factor in (0.98, 1.02):
+        y = equilibrium_state(p)
+        y[3] += 1e-3                                   # kick pinion 1
+        advance(y, 0, 2000, factor * limit, m.p, m.ste_amp, m.ste_phase, 0.0, 1.0, 0.0)
+        growth[factor] = np.max(np.abs(y[3:]))
+    assert growth[0.98] < 1e-3
+    assert not np.isfinite(growth[1.02]) or growth[1.02] > 1e30
+
+
+def test_check_step_and_split_parameters_refuse_unstable_dt():
+    p = TableParams()
+    limit = P.max_stable_dt(p)
+    P.check_step(p, 50e-6)
+    with pytest.raises(ParameterError) as exc:
+        P.check_step(p, 1.01 * limit)
+    assert exc.value.name == 'dt' and 'RK4 is unstable above' in exc.value.rule
+    # A stiffer mesh makes a formerly fine step unstable; the message gives the stiffness.
+    values = {**P.default_values(), 'mesh_stiffness_mean': 1e10, 'dt': 1e-4,
+              'publish_rate': 1000.0}
+    with pytest.raises(ParameterError) as exc:
+        P.split_parameters(values)
+    assert exc.value.name == 'dt' and exc.value.value == 1e-4
+    assert '1.0001e+10 N/m' in exc.value.rule          # k_eff + k_a
+
+
+# ---------------------------------------------------------------- YAML
+
+def test_config_files_load_to_the_defaults():
+    params, settings = P.load_yaml(CONFIG / 'paper.yaml')
+    assert params == TableParams()
+    assert settings == SimSettings()
+    from screwgear_ros import normalized
+    assert normalized.load_yaml(CONFIG / 'paper_normalized.yaml') == normalized.NormalizedParams()
+
+
+def test_unknown_parameter_in_yaml_refused(tmp_path):
+    text = (CONFIG / 'paper.yaml').read_text(encoding='utf-8')
+    bad = tmp_path / 'typo.yaml'
+    bad.write_text(text.replace('backlash: 7.5e-05', 'backlesh: 7.5e-05'), encoding='utf-8')
+    with pytest.raises(ParameterError) as exc:
+        P.load_yaml(bad)
+    refused(exc, 'backlesh', 7.5e-05, 'not a parameter')
+
+
+def test_yaml_forms_accepted(tmp_path):
+    """Node-name key, /** key and a bare mapping all work; values override defaults."""
+    for body in ('table_sim:\n  ros__parameters:\n    backlash: 1.0e-5\n',
+                 '/**:\n  ros__parameters:\n    backlash: 1.0e-5\n',
+                 'backlash: 1.0e-5\n'):
+        f = tmp_path / 'p.yaml'
+        f.write_text(body, encoding='utf-8')
+        params, _ = P.load_yaml(f)
+        assert params == TableParams(backlash=1e-5)
+
+
+def test_default_values_round_trip():
+    assert P.split_parameters(P.default_values()) == (TableParams(), SimSettings())
+
+
+# ---------------------------------------------------------------- derived quantities
+
+def test_derived_quantities_reproduce_the_papers_example():
+    """model.md §6: m_e = 5.1477 kg (paper 5.150), F_m = 5128 N, ω_e = 60.319 rad/s, Ω = 0.04329."""
+    p = TableParams()
+    assert P.equivalent_mass(p) == pytest.approx(5.1477, abs=5e-5)
+    assert P.mean_mesh_force(p) == pytest.approx(5128.2, abs=0.05)
+    assert P.mesh_frequency_at(p) == pytest.approx(60.319, abs=5e-4)
+    assert p.mesh_frequency == pytest.approx(60.319, abs=5e-4)
+    w0 = P.natural_frequency(p)
+    assert w0 == pytest.approx(math.sqrt(1e7 / 5.1477), rel=1e-4)
+    # §6 quotes Ω = 0.04329 from the paper's rounded m_e = 5.150 kg; with m_e = 5.1477 it
+    # is 0.043277: agreement to the paper's precision.
+    assert p.mesh_frequency / w0 == pytest.approx(0.04329, abs=2e-5)
+    assert P.damping_ratio(p) == pytest.approx(0.05, rel=1e-12)
+    assert P.damping_for_ratio(p, 0.1) == pytest.approx(2 * p.mesh_damping, rel=1e-12)
+    assert P.stiffness_fluctuation(p) == pytest.approx(0.1)
+    assert P.mean_mesh_force(p) / (p.mesh_stiffness_mean * 1e-6) == pytest.approx(512.8, abs=0.05)
+    assert p.ste_amplitudes[0] / 1e-6 == pytest.approx(1538.4)
+    # P = (ζ/k_a')·√k_m: 3162 for ζ = 0.1, k_a' = 0.1 only with k_m = 1e7 (model.md §6)
+    assert P.performance_index(0.1, 0.1, 1e7) == pytest.approx(3162.3, abs=0.05)
+    assert P.performance_index(0.1, 0.0, 1e7) == math.inf
+
+
+def test_effective_stiffness_derating_and_preload_stiffness():
+    p = TableParams(thermal_coefficient=2e-3, temperature_rise=25.0, preload_stiffness=3e5)
+    assert P.effective_stiffness(p) == pytest.approx(1e7 * (1 - 0.05) + 3e5, rel=1e-15)
