@@ -1,0 +1,121 @@
+"""Floquet analysis of the normalized equation (model.md §7).
+
+The homogeneous equation x'' + 2ζ·x' + [κ + k_a'·cos(Ωτ + ϕ_k)]·x = 0 is linear
+with period T = 2π/Ω. Its monodromy matrix M maps (x, x') at τ = 0 to τ = T; its
+eigenvalues μ (the Floquet multipliers) decide stability exactly: every solution
+decays when max |μ| < 1. M is found by integrating the fundamental matrix (the
+solutions from (1, 0) and (0, 1)) over one period with the batch RK4 of
+:mod:`screwgear_ros.batch` (the same right-hand side, forcing set to zero),
+vectorized over any grid of (ζ, k_a', Ω, κ, ϕ_k). Liouville's formula gives
+det M = exp(−2ζT) exactly, a check on the integration.
+
+The same M gives the periodic steady state of the forced equation when the
+forcing has period T: y_p(0) = (I − M)⁻¹·y_f(T), with y_f the response from rest.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .batch import Coefficients, concatenate, integrate
+
+#: Default largest step in τ: 0.05 of the unit natural period 2π (~126 steps per
+#: natural period; RK4 error over a period ~1e-7).
+MAX_STEP = 0.05
+
+
+def steps_per_period(omega: np.ndarray | float, max_step: float = MAX_STEP) -> int:
+    """Steps per mesh period 2π/Ω so that no step exceeds ``max_step`` (at least 64)."""
+    period = 2.0 * math.pi / float(np.min(omega))
+    return max(64, int(math.ceil(period / max_step)))
+
+
+def _homogeneous(zeta: np.ndarray, ka: np.ndarray, omega: np.ndarray, kappa: np.ndarray,
+                 phase: np.ndarray, x0: float, v0: float) -> Coefficients:
+    n = zeta.size
+    zero = np.zeros(n)
+    return Coefficients(
+        damping_ratio=zeta, stiffness_fluctuation=ka, frequency_ratio=omega, mean_load=zero,
+        load_fluctuation_amplitude=zero, load_fluctuation_frequency=zero,
+        stiffness_ratio=kappa, stiffness_phase=phase, initial_displacement=np.full(n, x0),
+        initial_velocity=np.full(n, v0), excitation_amplitudes=np.zeros((n, 1)),
+        excitation_phases=np.zeros((n, 1)))
+
+
+def monodromy(zeta: np.ndarray | float, ka: np.ndarray | float, omega: np.ndarray | float,
+              kappa: np.ndarray | float = 1.0, phase: np.ndarray | float = 0.0,
+              steps: int | None = None, max_step: float = MAX_STEP,
+              progress: str | None = None) -> np.ndarray:
+    """Monodromy matrices M, shape (..., 2, 2), over the broadcast shape of the inputs.
+
+    ζ = damping ratio, k_a' = stiffness fluctuation, Ω > 0 = frequency ratio (period
+    2π/Ω), κ = mean stiffness ratio, ϕ_k = stiffness phase (rad). ``steps`` RK4 steps
+    per period for every set (default: :func:`steps_per_period` for the smallest Ω).
+    Column j of M is the state after one period from the unit state e_j.
+    """
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64)
+                                   for a in (zeta, ka, omega, kappa, phase)))
+    shape = arrays[0].shape
+    flat = [a.reshape(-1) for a in arrays]
+    if np.any(flat[2] <= 0.0):
+        raise ValueError('the frequency ratio Ω must be > 0 (period 2π/Ω)')
+    n_steps = steps if steps is not None else steps_per_period(flat[2], max_step)
+    dtau = 2.0 * math.pi / flat[2] / n_steps
+    c = _homogeneous(*flat, x0=1.0, v0=0.0)
+    both = concatenate([c, c])
+    n = flat[0].size
+    x0 = np.concatenate([np.ones(n), np.zeros(n)])
+    v0 = np.concatenate([np.zeros(n), np.ones(n)])
+    _, xs, vs = integrate(both, n_steps, np.concatenate([dtau, dtau]), stride=n_steps,
+                          keep_from=n_steps, x0=x0, v0=v0, progress=progress)
+    m = np.empty((n, 2, 2))
+    m[:, 0, 0], m[:, 1, 0] = xs[-1, :n], vs[-1, :n]
+    m[:, 0, 1], m[:, 1, 1] = xs[-1, n:], vs[-1, n:]
+    return m.reshape(shape + (2, 2))
+
+
+def multipliers(m: np.ndarray) -> np.ndarray:
+    """Floquet multipliers μ (complex, shape (..., 2)) of monodromy matrices M (..., 2, 2)."""
+    return np.linalg.eigvals(m)
+
+
+def spectral_radius(m: np.ndarray) -> np.ndarray:
+    """max |μ| of each monodromy matrix: < 1 stable, > 1 unstable."""
+    return np.max(np.abs(multipliers(m)), axis=-1)
+
+
+def growth_rate(m: np.ndarray, omega: np.ndarray | float) -> np.ndarray:
+    """Largest Floquet exponent ln(max |μ|)/T per unit τ (T = 2π/Ω); −ζ when k_a' = 0."""
+    return np.log(spectral_radius(m)) * np.asarray(omega) / (2.0 * math.pi)
+
+
+def periodic_state(c: Coefficients, steps: int | None = None,
+                   max_step: float = MAX_STEP) -> tuple[np.ndarray, np.ndarray]:
+    """(x, x') at τ = 0 of the T-periodic steady response of each forced set, T = 2π/Ω.
+
+    Needs forcing of period T: f_v = 0 or Ω_v a whole multiple of Ω. Solves
+    y_p(0) = M·y_p(0) + y_f(T), y_f = the response from rest over one period.
+    """
+    omega = c.frequency_ratio
+    if np.any(omega <= 0.0):
+        raise ValueError('the frequency ratio Ω must be > 0 for a periodic steady state')
+    ratio = c.load_fluctuation_frequency / omega
+    periodic = (c.load_fluctuation_amplitude == 0.0) | (
+        np.abs(ratio - np.round(ratio)) < 1e-9)
+    if not np.all(periodic):
+        raise ValueError('the load fluctuation frequency Ω_v must be a multiple of Ω')
+    n_steps = steps if steps is not None else steps_per_period(omega, max_step)
+    m = monodromy(c.damping_ratio, c.stiffness_fluctuation, omega, c.stiffness_ratio,
+                  c.stiffness_phase, steps=n_steps)
+    zero = np.zeros(len(c))
+    _, xs, vs = integrate(c, n_steps, 2.0 * math.pi / omega / n_steps, stride=n_steps,
+                          keep_from=n_steps, x0=zero, v0=zero)
+    rhs = np.stack([xs[-1], vs[-1]], axis=-1)[..., None]
+    y0 = np.linalg.solve(np.eye(2) - m, rhs)[..., 0]
+    return y0[:, 0], y0[:, 1]
+
+
+__all__ = ['MAX_STEP', 'steps_per_period', 'monodromy', 'multipliers', 'spectral_radius',
+           'growth_rate', 'periodic_state']
