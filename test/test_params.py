@@ -161,7 +161,10 @@ def undamped_omega_max(p: TableParams) -> float:
 
 @pytest.mark.parametrize('mode', ['anti_backlash', 'conventional'])
 def test_max_stable_dt_is_rk4_imaginary_axis_limit_when_undamped(mode):
-    """Undamped modes have λ = ±iω: RK4 is stable for ω·dt ≤ 2√2 (|R(iy)|² = 1 − y⁶/72 + y⁸/576)."""
+    """Undamped modes have λ = ±iω: RK4 is stable for ω·dt ≤ 2√2.
+
+    |R(iy)|² = 1 − y⁶/72 + y⁸/576 for R(z) = 1 + z + z²/2 + z³/6 + z⁴/24: = 1 at y = 2√2.
+    """
     p = TableParams(mode=mode, mesh_damping=0.0)
     expected = 2.0 * math.sqrt(2.0) / undamped_omega_max(p)
     assert P.max_stable_dt(p) == pytest.approx(expected, rel=1e-9)
@@ -243,7 +246,7 @@ def test_default_values_round_trip():
 # ---------------------------------------------------------------- derived quantities
 
 def test_derived_quantities_reproduce_the_papers_example():
-    """model.md §6: m_e = 5.1477 kg (paper 5.150), F_m = 5128 N, ω_e = 60.319 rad/s, Ω = 0.04329."""
+    """model.md §6: m_e = 5.1477 kg (paper 5.150), F_m = 5128 N, ω_e = 60.319 rad/s, Ω ≈ 0.0433."""
     p = TableParams()
     assert P.equivalent_mass(p) == pytest.approx(5.1477, abs=5e-5)
     assert P.mean_mesh_force(p) == pytest.approx(5128.2, abs=0.05)

@@ -114,7 +114,8 @@ def test_rk4_at_default_step_against_reference_on_the_papers_case():
     assert err[4] < BOUND_SPEED_TABLE
     assert np.all(err_delta < BOUND_DELTA)
     # Richardson: the 100 µs run gives the 50 µs error as (y_100 − y_50)/15 without the
-    # reference; it must agree with the reference's verdict (measured: within 1 %; asserted within 25 %).
+    # reference; it must agree with the reference's verdict (measured: within 1 %;
+    # asserted: within 25 %).
     _, rk4_coarse = _plant_run(p, 2 * dt, torque, reversal // 2, end // 2, stride // 2)
     estimate = np.max(np.abs(rk4_coarse - rk4) / 15.0, axis=0)
     print('Richardson estimate of the same errors:', estimate)
