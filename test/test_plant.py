@@ -1,0 +1,124 @@
+"""Plant: time keeping, reset, the non-finite fault path, outputs, determinism."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from screwgear_ros.model import equilibrium_state
+from screwgear_ros.params import ParameterError, TableParams, max_stable_dt
+from screwgear_ros.plant import DriveInput, Plant
+
+DT = 50e-6
+
+
+def test_time_is_step_times_dt_and_reset_keeps_it():
+    plant = Plant(TableParams(table_damping=8867.0), DT)
+    rest = plant.state.copy()
+    plant.set_input(DriveInput(300.0, 1, 0.0))
+    for _ in range(7):
+        assert plant.advance(1000)
+    assert plant.step == 7000 and plant.time == 7000 * DT
+    assert plant.state[1] > 0.01                        # the table has turned
+    plant.reset()
+    assert plant.step == 7000 and plant.time == 7000 * DT
+    assert np.array_equal(plant.state, rest)
+    assert plant.input == DriveInput(300.0, 1, 0.0)     # reset is about the state only
+    out = plant.outputs()
+    assert out.time == 7000 * DT and out.step == 7000
+
+
+def test_unstable_step_refused_at_construction_and_on_parameter_change():
+    p = TableParams()
+    with pytest.raises(ParameterError) as exc:
+        Plant(p, 1.1 * max_stable_dt(p))
+    assert exc.value.name == 'dt'
+    plant = Plant(p, 1e-3)                              # fine at k_m = 1e7 (limit ~1.95 ms)
+    with pytest.raises(ParameterError):
+        plant.set_params(p.replace(mesh_stiffness_mean=1e8))   # limit drops to ~0.6 ms
+    assert plant.params == p
+    with pytest.raises(ValueError):
+        plant.set_params(p.replace(mode='conventional'))
+    plant.set_params(p.replace(backlash=1e-5))
+    assert plant.params.backlash == 1e-5
+
+
+def test_non_finite_state_stops_at_the_last_finite_state():
+    """RK4 past its stability limit blows up: the plant keeps the last finite state and says so.
+
+    Plant() and set_params refuse such a step, so the step is raised behind the plant's
+    back to exercise the guard the node relies on.
+    """
+    p = TableParams()
+    plant = Plant(p, DT)
+    plant.set_input(DriveInput(200.0, 1, 0.0))
+    assert plant.advance(400)
+    good_state, good_step = plant.state.copy(), plant.step
+    plant.dt = 1.5 * max_stable_dt(p)
+    assert not plant.advance(5000)
+    assert plant.fault is not None and 'non-finite' in plant.fault
+    assert np.array_equal(plant.state, good_state)
+    assert plant.step == good_step
+    out = plant.outputs()
+    assert all(math.isfinite(v) for v in (*out.position, *out.velocity, *out.effort,
+                                          *out.delta, *out.delta_rate, *out.mesh_force))
+    assert not plant.advance(1)                         # stays stopped
+    assert np.array_equal(plant.state, good_state)
+    plant.dt = DT
+    plant.reset()                                       # reset clears the fault
+    assert plant.fault is None and plant.advance(10)
+
+
+@pytest.mark.parametrize('mode', ['anti_backlash', 'conventional'])
+def test_outputs_are_consistent_with_the_model(mode):
+    p = TableParams(mode=mode, table_damping=50.0, ste_phases=(0.3,))
+    plant = Plant(p, DT)
+    plant.set_input(DriveInput(150.0, -1, 12.0))
+    plant.advance(299)
+    speed_before = plant.state[4]
+    plant.advance(1)
+    out = plant.outputs()
+    th1, th2, th3 = out.position
+    eps1 = 1.5384e-3 * math.sin(24 * th1 + 0.3)
+    eps3 = 1.5384e-3 * math.sin(24 * th3 + 0.3)
+    assert out.delta[0] == pytest.approx(0.078 * th1 - 0.582 * th2 - eps1, abs=1e-15)
+    assert out.delta[1] == pytest.approx(0.078 * th3 - 0.582 * th2 - eps3, abs=1e-15)
+    if mode == 'anti_backlash':
+        assert out.effort[0] == 350.0 and out.effort[2] == -350.0 - 150.0
+        assert out.active_path == 3 and out.transmission_error == out.delta[1]
+    else:
+        assert out.effort[0] == -150.0 and out.effort[2] == 0.0
+        assert out.mesh_force[1] == 0.0
+        assert out.active_path == 1 and out.transmission_error == out.delta[0]
+    table = 0.582 * sum(out.mesh_force) - 12.0 - 50.0 * out.velocity[1]
+    assert out.effort[1] == pytest.approx(table, rel=1e-12)
+    # the table's effort is its inertia times its acceleration (Newton, §3): check against
+    # a central difference of the integrated speed over ±1 step, whose error is about
+    # (ω·dt)²/6 ≈ 8e-4 of the mesh-mode part (ω ≈ 1.4e3 rad/s)
+    plant.advance(1)
+    accel = (plant.state[4] - speed_before) / (2 * DT)
+    assert out.effort[1] == pytest.approx(p.inertia_table * accel, rel=2e-3)
+    contact = out.in_contact(p.backlash)
+    assert contact == (abs(out.delta[0]) > p.backlash, abs(out.delta[1]) > p.backlash)
+
+
+def test_two_plants_fed_the_same_inputs_agree_bit_for_bit():
+    p = TableParams(table_damping=8867.0)
+    schedule = {0: DriveInput(400.0, 1, 0.0), 2000: DriveInput(400.0, -1, 0.0),
+                3100: DriveInput(50.0, -1, 30.0), 4000: DriveInput(0.0, 1, 0.0)}
+
+    def run(chunk: int) -> list:
+        plant = Plant(p, DT)
+        outs = []
+        while plant.step < 5000:
+            if plant.step in schedule:
+                plant.set_input(schedule[plant.step])
+            plant.advance(chunk)
+            outs.append(plant.outputs())
+        return outs
+
+    a, b = run(20), run(20)
+    assert a == b
+    assert np.array_equal(equilibrium_state(p), Plant(p, DT).state)
