@@ -1,0 +1,139 @@
+"""Pacing a fixed-step simulation against the wall clock, with honest bookkeeping.
+
+:class:`Pacer` sleeps to absolute deadlines ``t0 + k·period / real_time_factor``
+(never ``sleep(period)``, so sleep errors do not accumulate and simulation time
+does not drift from wall time). A tick whose work ends after its deadline is an
+*overrun*; the pacer then runs the next ticks without sleeping until it has
+caught up. If it falls further behind than ``max_lag`` seconds of wall time it
+stops trying to catch up and re-anchors its schedule at the present (a
+*resync*), so a machine that cannot keep up runs slower instead of bursting, and
+says so in its statistics. ``real_time_factor`` 0 never sleeps.
+
+No ROS here: the node's pacing thread uses it, tests drive it with a fake clock.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+
+def sim_time_ns(step: int, dt: float) -> int:
+    """Simulation time of integration step ``step``, integer nanoseconds.
+
+    Exact (``step·dt_ns``) when dt is a whole number of nanoseconds, as every
+    sensible step is; otherwise rounded to the nearest nanosecond.
+    """
+    dt_ns = dt * 1e9
+    whole = round(dt_ns)
+    if abs(dt_ns - whole) <= 1e-6 * max(1.0, dt_ns):
+        return step * whole
+    return round(step * dt_ns)
+
+
+@dataclass
+class PacerStats:
+    """What the pacer saw since it started (wall-clock seconds)."""
+
+    ticks: int = 0
+    overruns: int = 0          # ticks that ended after their deadline
+    resyncs: int = 0           # times the schedule was re-anchored (fell > max_lag behind)
+    lost_time: float = 0.0     # wall time given up by resyncs, s
+    max_lag: float = 0.0       # largest lateness of a tick, s
+    last_lag: float = 0.0      # lateness of the last tick (0 if on time), s
+
+
+class Pacer:
+    """Sleeps to absolute deadlines t0 + k·period/factor; counts overruns.
+
+    ``period`` is the simulation time per tick, s; ``real_time_factor`` the wanted
+    ratio of simulation to wall time (0 = as fast as possible).
+    """
+
+    def __init__(self, period: float, real_time_factor: float, max_lag: float = 0.1,
+                 clock: Callable[[], float] = time.monotonic,
+                 sleep: Callable[[float], None] = time.sleep) -> None:
+        if not period > 0.0 or not math.isfinite(period):
+            raise ValueError(f'period must be > 0 s, got {period!r}')
+        self._clock = clock
+        self._sleep = sleep
+        self.max_lag = max_lag
+        self.stats = PacerStats()
+        self.restart(period, real_time_factor)
+
+    def restart(self, period: float, real_time_factor: float) -> None:
+        """Re-anchor the schedule at now with a new period (s) and factor."""
+        if not real_time_factor >= 0.0 or not math.isfinite(real_time_factor):
+            raise ValueError(f'real_time_factor must be >= 0, got {real_time_factor!r}')
+        self.period = period
+        self.real_time_factor = real_time_factor
+        self._t0 = self._clock()
+        self._k = 0
+
+    @property
+    def wall_period(self) -> float:
+        """Wall time per tick, s (0 when running as fast as possible)."""
+        return self.period / self.real_time_factor if self.real_time_factor > 0.0 else 0.0
+
+    def next_deadline(self) -> float:
+        """Wall-clock time (of ``clock``) at which the next tick is due."""
+        return self._t0 + (self._k + 1) * self.wall_period
+
+    def wait(self, stop: threading.Event | None = None) -> bool:
+        """Sleep until the next tick's deadline; False if ``stop`` was set meanwhile.
+
+        Call once per tick after its work is done; the deadline of tick k is
+        t0 + k·wall_period. Without ``stop`` it sleeps with ``sleep``; with it, on
+        ``stop.wait`` so that a shutdown wakes it at once.
+        """
+        self.stats.ticks += 1
+        if self.real_time_factor == 0.0:
+            self._k += 1
+            return not (stop is not None and stop.is_set())
+        deadline = self.next_deadline()
+        self._k += 1
+        now = self._clock()
+        lag = now - deadline
+        if lag > 0.0:
+            self.stats.overruns += 1
+            self.stats.last_lag = lag
+            self.stats.max_lag = max(self.stats.max_lag, lag)
+            if lag > max(self.max_lag, 2.0 * self.wall_period):
+                self.stats.resyncs += 1
+                self.stats.lost_time += lag
+                self._t0, self._k = now, 0
+            return not (stop is not None and stop.is_set())
+        self.stats.last_lag = 0.0
+        if stop is None:
+            self._sleep(-lag)
+            return True
+        return not stop.wait(-lag)
+
+
+class FactorMeter:
+    """Achieved real-time factor over a window: simulated time / wall time."""
+
+    def __init__(self, clock: Callable[[], float] = time.monotonic) -> None:
+        self._clock = clock
+        self._wall0 = clock()
+        self._sim0 = 0.0
+        self.value = math.nan   # last measured factor (NaN before the first window)
+
+    def update(self, sim_time: float) -> float:
+        """Close the window at simulation time ``sim_time`` (s); return the factor."""
+        now = self._clock()
+        wall = now - self._wall0
+        if wall > 0.0:
+            self.value = (sim_time - self._sim0) / wall
+        self._wall0, self._sim0 = now, sim_time
+        return self.value
+
+    def elapsed(self) -> float:
+        """Wall time since the window opened, s."""
+        return self._clock() - self._wall0
+
+
+__all__ = ['sim_time_ns', 'Pacer', 'PacerStats', 'FactorMeter']

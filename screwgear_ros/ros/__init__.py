@@ -1,0 +1,1 @@
+"""ROS 2 glue of the node shell: parameters and messages (imports rclpy)."""

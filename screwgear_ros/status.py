@@ -1,0 +1,127 @@
+"""What the node reports about itself: the status line and the diagnostic values.
+
+Plain strings and numbers from the plant's :class:`~screwgear_ros.plant.Outputs` and
+the pacing statistics; the node wraps them into a log line and a
+``diagnostic_msgs/DiagnosticStatus``. No ROS here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from .pacing import PacerStats
+from .params import TableParams, natural_frequency
+from .plant import Outputs
+
+#: Diagnostic levels (diagnostic_msgs/DiagnosticStatus).
+OK, WARN, ERROR = 0, 1, 2
+
+#: RK4 resolves the mesh's STE and stiffness variation only with enough steps per
+#: tooth period: at most 2π/20 rad of mesh phase per step (20 steps per tooth).
+MAX_PHASE_PER_STEP = 2.0 * math.pi / 20.0
+
+
+def mesh_phase_per_step(params: TableParams, outputs: Outputs, dt: float) -> float:
+    """Mesh phase advanced per integration step, rad: z·|ω| of the faster pinion
+    times dt (`angle` phase), or ω_e·dt (`time` phase)."""
+    if params.mesh_phase == 'time':
+        return params.mesh_frequency * dt
+    w1, _, w3 = outputs.velocity
+    return max(params.teeth_pinion_1 * abs(w1), params.teeth_pinion_3 * abs(w3)) * dt
+
+
+def mesh_frequency_ratio(params: TableParams, outputs: Outputs) -> float:
+    """Ω = ω_e/ω0 now: near 1 the STE excites the mesh at its natural frequency."""
+    if params.mesh_phase == 'time':
+        w_e = params.mesh_frequency
+    else:
+        w_e = params.teeth_pinion_1 * abs(outputs.velocity[0])
+    return w_e / natural_frequency(params)
+
+
+def contact_states(params: TableParams, outputs: Outputs) -> tuple[str, str]:
+    """Contact of mesh 1 and mesh 3: 'forward flank', 'reverse flank', 'in the gap'
+    (|δ| ≤ b) or, for mesh 3 in `conventional` mode, 'disengaged'."""
+    def one(delta: float) -> str:
+        if delta > params.backlash:
+            return 'forward flank'
+        if delta < -params.backlash:
+            return 'reverse flank'
+        return 'in the gap'
+    mesh_3 = 'disengaged' if params.mode == 'conventional' else one(outputs.delta[1])
+    return one(outputs.delta[0]), mesh_3
+
+
+def status_line(outputs: Outputs, achieved_factor: float) -> str:
+    """One line: simulation time, achieved factor, table angle and speed, path, δ."""
+    return (f't = {outputs.time:9.3f} s | x{achieved_factor:5.2f} real time | '
+            f'table {outputs.position[1]:+.6f} rad {outputs.velocity[1]:+.5f} rad/s | '
+            f'path {outputs.active_path} | TE {outputs.transmission_error * 1e6:+9.3f} um')
+
+
+@dataclass
+class Health:
+    """The node's bookkeeping that goes into diagnostics besides the plant state."""
+
+    requested_factor: float
+    achieved_factor: float
+    pacer: PacerStats
+    rejected: dict[str, int] = field(default_factory=dict)   # input topic → count
+    fault: str | None = None
+    recorder: tuple[int, int] | None = None                  # (written, dropped) or None
+    dt: float = 0.0
+
+
+def diagnostic_values(params: TableParams, outputs: Outputs,
+                      health: Health) -> tuple[int, str, list[tuple[str, str]]]:
+    """(level, one-line message, key/value pairs) for the node's DiagnosticStatus."""
+    phase_step = mesh_phase_per_step(params, outputs, health.dt)
+    mesh_1, mesh_3 = contact_states(params, outputs)
+    rejected_total = sum(health.rejected.values())
+    problems: list[str] = []
+    level = OK
+    if health.fault is not None:
+        level, problems = ERROR, [health.fault]
+    else:
+        if health.requested_factor > 0.0 and (
+                health.achieved_factor < 0.95 * health.requested_factor):
+            level = WARN
+            problems.append(f'cannot keep up: real-time factor {health.achieved_factor:.3f} '
+                            f'< {health.requested_factor:g} requested')
+        if phase_step > MAX_PHASE_PER_STEP:
+            level = WARN
+            problems.append(f'mesh phase advances {phase_step:.3f} rad per step '
+                            f'(> {MAX_PHASE_PER_STEP:.3f}): dt too large for this speed')
+        if health.recorder is not None and health.recorder[1] > 0:
+            level = WARN
+            problems.append(f'recorder dropped {health.recorder[1]} messages')
+    message = '; '.join(problems) if problems else 'running'
+    p = health.pacer
+    values = [
+        ('simulation_time_s', f'{outputs.time:.6f}'),
+        ('step', str(outputs.step)),
+        ('real_time_factor_requested', f'{health.requested_factor:g}'),
+        ('real_time_factor_achieved', f'{health.achieved_factor:.4f}'),
+        ('overruns', str(p.overruns)),
+        ('resyncs', str(p.resyncs)),
+        ('time_given_up_s', f'{p.lost_time:.6f}'),
+        ('max_lag_s', f'{p.max_lag:.6f}'),
+        ('rejected_inputs', str(rejected_total)),
+        *((f'rejected_{topic}', str(n)) for topic, n in sorted(health.rejected.items())),
+        ('active_path', str(outputs.active_path)),
+        ('mesh_1_contact', mesh_1),
+        ('mesh_3_contact', mesh_3),
+        ('mesh_phase_per_step_rad', f'{phase_step:.5f}'),
+        ('mesh_frequency_ratio', f'{mesh_frequency_ratio(params, outputs):.4f}'),
+        ('fault', health.fault or ''),
+    ]
+    if health.recorder is not None:
+        values += [('recorder_written', str(health.recorder[0])),
+                   ('recorder_dropped', str(health.recorder[1]))]
+    return level, message, values
+
+
+__all__ = ['OK', 'WARN', 'ERROR', 'MAX_PHASE_PER_STEP', 'mesh_phase_per_step',
+           'mesh_frequency_ratio', 'contact_states', 'status_line', 'Health',
+           'diagnostic_values']
