@@ -1,0 +1,50 @@
+"""check_run BAG: check a recorded table_sim run against the reference solution.
+
+Exit status: 0 every signal within tolerance, 1 some signal outside it (the report
+says which, by how much, when), 2 the path cannot be checked (not a bag, no
+run_parameters in it, truncated, inconsistent).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from tqdm import tqdm
+
+from ..runs.bagread import BagError, read_run
+from ..runs.check import check_run, format_report
+
+EXIT_OK, EXIT_FAIL, EXIT_UNUSABLE = 0, 1, 2
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog='check_run', description='Re-integrate the inputs recorded in a table_sim bag '
+        'with the DOP853 reference solver and compare the recorded joint states and '
+        'transmission error with it.')
+    parser.add_argument('bag', help='rosbag2 directory (or its .mcap file) written with '
+                        'table_sim record:=PATH')
+    parser.add_argument('--allow-truncated', action='store_true',
+                        help='check the readable part of a bag whose recording was killed')
+    parser.add_argument('--no-progress', action='store_true', help='no progress bar')
+    args = parser.parse_args(argv)
+    try:
+        run = read_run(args.bag, allow_truncated=args.allow_truncated)
+        total = (run.end_step - run.parameters.start_step) * run.dt
+        with tqdm(total=round(total, 6), unit='s sim', desc='reference solution',
+                  disable=True if args.no_progress else None, leave=False,
+                  bar_format='{l_bar}{bar}| {n:.2f}/{total:.2f} s sim [{elapsed}<{remaining}]'
+                  ) as bar:
+            report = check_run(run, progress=bar.update)
+    except BagError as exc:
+        hint = (' (use --allow-truncated to check the readable part)'
+                if exc.kind == 'truncated' else '')
+        print(f'check_run: cannot check {args.bag}: {exc}{hint}', file=sys.stderr)
+        return EXIT_UNUSABLE
+    print(format_report(report))
+    return EXIT_OK if report.ok else EXIT_FAIL
+
+
+if __name__ == '__main__':
+    sys.exit(main())

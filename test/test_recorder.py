@@ -1,0 +1,265 @@
+"""RunRecorder: what it writes is a rosbag2/MCAP bag other readers decode, and it never blocks.
+
+The recorder writes with ``mcap`` (container) and rclpy (CDR); every test reads
+back with something else: ``rosbags`` (its own rosbag2 directory reader, MCAP
+parser and CDR codec) and ``mcap_ros2``'s decoder built from the schemas embedded
+in the file. Type hashes are compared with the interface descriptions a ROS 2 Jazzy
+install ships (share/<pkg>/msg/<Type>.json).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from ament_index_python.packages import get_package_share_directory
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+from rclpy.serialization import serialize_message
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import Stores, get_typestore
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import (Empty, Float64, Float64MultiArray, Header, Int8, MultiArrayDimension,
+                          MultiArrayLayout, String)
+
+from screwgear_ros.runs import RunRecorder, TopicSpec
+from screwgear_ros.runs.bagread import BagError, iter_messages, read_run
+
+TOPICS = [
+    TopicSpec('/axis_c/joint_states', 'sensor_msgs/msg/JointState'),
+    TopicSpec('/axis_c/transmission_error', 'std_msgs/msg/Float64'),
+    TopicSpec('/axis_c/active_path', 'std_msgs/msg/Int8', transient_local=True),
+    TopicSpec('/clock', 'rosgraph_msgs/msg/Clock'),
+    TopicSpec('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray'),
+    TopicSpec('/axis_c/cmd_effort', 'std_msgs/msg/Float64MultiArray'),
+    TopicSpec('/axis_c/table_sim/run_parameters', 'std_msgs/msg/String'),
+    TopicSpec('/axis_c/table_sim/reset', 'std_msgs/msg/Empty'),
+]
+
+
+def sample_messages() -> list[tuple[str, int, object]]:
+    """One or more messages of every type the node records, with awkward values."""
+    t = 1_234_567_890_123
+    stamp = Time(sec=t // 10**9, nanosec=t % 10**9)
+    return [
+        ('/axis_c/table_sim/run_parameters', 0, String(data='dt: 5.0e-05\nmode: anti_backlash\n'
+                                                       'note: "ümlaut µs"\n')),
+        ('/axis_c/active_path', 0, Int8(data=3)),
+        ('/axis_c/joint_states', t, JointState(
+            header=Header(stamp=stamp, frame_id='table'), name=['pinion_1', 'table', 'pinion_3'],
+            position=[1e-300, -2.5, np.pi], velocity=[0.0, -0.0, 1e300],
+            effort=[350.0, -1.25e-7, -750.0])),
+        ('/axis_c/transmission_error', t, Float64(data=-7.5e-05)),
+        ('/clock', t, Clock(clock=stamp)),
+        ('/diagnostics', t, DiagnosticArray(header=Header(stamp=stamp), status=[
+            DiagnosticStatus(level=DiagnosticStatus.WARN, name='table_sim: timing',
+                             message='overruns', hardware_id='sim',
+                             values=[KeyValue(key='real_time_factor', value='0.98'),
+                                     KeyValue(key='overruns', value='3')])])),
+        ('/axis_c/cmd_effort', t, Float64MultiArray(
+            layout=MultiArrayLayout(dim=[MultiArrayDimension(label='x', size=1, stride=1)],
+                                    data_offset=0), data=[-399.5])),
+        ('/axis_c/table_sim/reset', t + 50_000, Empty()),
+    ]
+
+
+def plain(reference: object, value: object) -> object:
+    """``value`` (decoded by any library) as plain Python, shaped by the rclpy ``reference``."""
+    if hasattr(reference, 'get_fields_and_field_types'):
+        return {name: plain(getattr(reference, name), getattr(value, name))
+                for name in reference.get_fields_and_field_types()}
+    if isinstance(reference, (list, tuple, np.ndarray)) or type(reference).__name__ == 'array':
+        return [plain(r, v) for r, v in zip(list(reference), list(value), strict=True)]
+    if isinstance(reference, float):
+        return float(value)
+    if isinstance(reference, bytes):     # rclpy's `byte` fields; other readers give ints
+        return value[0] if isinstance(value, bytes) else int(value)
+    return value
+
+
+def write_samples(path: Path) -> list[tuple[str, int, object]]:
+    messages = sample_messages()
+    recorder = RunRecorder(path, TOPICS, serialize_message)
+    for topic, t, msg in messages:
+        recorder.write(topic, t, msg)
+    recorder.close()
+    assert (recorder.written, recorder.dropped, recorder.error) == (len(messages), 0, None)
+    return messages
+
+
+def test_rosbags_reads_every_message_back(tmp_path: Path) -> None:
+    messages = write_samples(tmp_path / 'bag')
+    store = get_typestore(Stores.ROS2_JAZZY)
+    with Reader(tmp_path / 'bag') as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+        decoded = [(c.topic, t, store.deserialize_cdr(raw, c.msgtype))
+                   for c, t, raw in reader.messages()]
+    assert counts == {s.name: sum(m[0] == s.name for m in messages) for s in TOPICS}
+    assert sorted((t, topic) for topic, t, _ in decoded) == sorted(
+        (t, topic) for topic, t, _ in messages)
+    by_topic = {topic: msg for topic, _, msg in decoded}
+    for topic, _, original in messages:
+        assert plain(original, by_topic[topic]) == plain(original, original), topic
+
+
+def test_mcap_ros2_decodes_every_message_from_the_embedded_schemas(tmp_path: Path) -> None:
+    messages = write_samples(tmp_path / 'bag')
+    mcap_file, = (tmp_path / 'bag').glob('*.mcap')
+    with open(mcap_file, 'rb') as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        header = reader.get_header()
+        decoded = [(channel.topic, message.log_time, schema.encoding, channel, obj)
+                   for schema, channel, message, obj in reader.iter_decoded_messages(
+                       log_time_order=False)]
+        summary = reader.get_summary()
+    assert header.profile == 'ros2'
+    assert len(decoded) == len(messages)
+    # File order is write order, also for equal log times.
+    assert [(d[0], d[1]) for d in decoded] == [(m[0], m[1]) for m in messages]
+    for (topic, _, encoding, channel, obj), (_, _, original) in zip(decoded, messages):
+        assert encoding == 'ros2msg' and channel.message_encoding == 'cdr'
+        assert plain(original, obj) == plain(original, original), topic
+    assert summary is not None and summary.statistics.message_count == len(messages)
+
+
+def test_metadata_qos_and_jazzy_type_hashes(tmp_path: Path) -> None:
+    write_samples(tmp_path / 'bag')
+    info = yaml.safe_load((tmp_path / 'bag' / 'metadata.yaml').read_text())[
+        'rosbag2_bagfile_information']
+    assert info['version'] == 9 and info['storage_identifier'] == 'mcap'
+    assert info['relative_file_paths'] == ['bag_0.mcap']
+    assert info['message_count'] == len(sample_messages())
+    for entry in info['topics_with_message_count']:
+        meta = entry['topic_metadata']
+        pkg, _, name = meta['type'].split('/')
+        shipped = json.loads(Path(get_package_share_directory(pkg), 'msg',
+                                  f'{name}.json').read_text())
+        assert meta['type_description_hash'] == shipped['type_hashes'][0]['hash_string']
+        durability = meta['offered_qos_profiles'][0]['durability']
+        assert durability == ('transient_local' if name == 'Int8' else 'volatile')
+    # rosbag2's MCAP plugin reads QoS and hashes from the channel metadata.
+    mcap_file, = (tmp_path / 'bag').glob('*.mcap')
+    with open(mcap_file, 'rb') as stream:
+        summary = make_reader(stream).get_summary()
+        metadata = list(make_reader(stream).iter_metadata())
+    for channel in summary.channels.values():
+        profiles = yaml.safe_load(channel.metadata['offered_qos_profiles'])
+        assert profiles[0]['reliability'] == 'reliable'
+        assert channel.metadata['topic_type_hash'].startswith('RIHS01_')
+    assert metadata[-1].name == 'rosbag2'
+    assert yaml.safe_load(metadata[-1].metadata['serialized_metadata'])['version'] == 9
+
+
+def test_an_open_recording_is_already_a_rosbag2_directory(tmp_path: Path) -> None:
+    recorder = RunRecorder(tmp_path / 'bag', TOPICS, serialize_message)
+    try:
+        info = yaml.safe_load((tmp_path / 'bag' / 'metadata.yaml').read_text())
+        names = [t['topic_metadata']['name']
+                 for t in info['rosbag2_bagfile_information']['topics_with_message_count']]
+        assert names == [t.name for t in TOPICS]
+    finally:
+        recorder.close()
+
+
+def test_refuses_to_overwrite(tmp_path: Path) -> None:
+    (tmp_path / 'bag').mkdir()
+    (tmp_path / 'bag' / 'x').write_text('keep me')
+    with pytest.raises(FileExistsError):
+        RunRecorder(tmp_path / 'bag', TOPICS, serialize_message)
+    with pytest.raises(ValueError, match='not declared'):
+        recorder = RunRecorder(tmp_path / 'other', TOPICS, serialize_message)
+        try:
+            recorder.write('/nope', 0, Empty())
+        finally:
+            recorder.close()
+
+
+def test_write_never_blocks_on_a_stalled_writer(tmp_path: Path) -> None:
+    """A serializer stuck (a disk that hangs) fills the bounded queue; writes drop and count."""
+    release = threading.Event()
+
+    def stalled(msg: object) -> bytes:
+        release.wait()
+        return serialize_message(msg)
+
+    recorder = RunRecorder(tmp_path / 'bag', TOPICS[1:2], stalled, queue_size=50)
+    total = 500
+    for k in range(total):          # would hang here if write() waited for the writer
+        recorder.write('/axis_c/transmission_error', k, Float64(data=float(k)))
+    assert recorder.dropped >= total - 51
+    release.set()
+    recorder.close()
+    recorder.write('/axis_c/transmission_error', total, Float64(data=0.0))   # after close
+    assert recorder.written + recorder.dropped == total + 1
+    status: dict = {}
+    values = [t for _, _, t, _ in iter_messages(next((tmp_path / 'bag').glob('*.mcap')), status)]
+    assert values == sorted(values) and len(values) == recorder.written
+    assert status.get('truncated') is None
+
+
+KILLED_WRITER = textwrap.dedent('''
+    import sys, time
+    from rclpy.serialization import serialize_message
+    from std_msgs.msg import Float64
+    from screwgear_ros.runs import RunRecorder, TopicSpec
+    rec = RunRecorder(sys.argv[1], [TopicSpec('/transmission_error', 'std_msgs/msg/Float64')],
+                      serialize_message, chunk_size=4096, flush_period=0.1)
+    k = 0
+    def burst(n):
+        global k
+        for _ in range(n):
+            rec.write('/transmission_error', k * 50_000, Float64(data=float(k)))
+            k += 1
+    burst(3000)
+    while rec.written < 3000:
+        time.sleep(0.01)
+    time.sleep(0.5)                       # several flush periods: all 3000 are on disk
+    print('flushed', k, flush=True)
+    while True:
+        burst(20)
+        print('written', rec.written, flush=True)
+        time.sleep(0.002)
+''')
+
+
+def test_kill_9_leaves_every_flushed_chunk_readable(tmp_path: Path) -> None:
+    bag = tmp_path / 'bag'
+    proc = subprocess.Popen([sys.executable, '-c', KILLED_WRITER, str(bag)],
+                            stdout=subprocess.PIPE, text=True)
+    written = 0
+    try:
+        assert proc.stdout.readline().split() == ['flushed', '3000']
+        deadline = time.monotonic() + 0.5
+        while time.monotonic() < deadline:
+            written = int(proc.stdout.readline().split()[1])
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    assert proc.returncode == -signal.SIGKILL
+    assert (bag / 'metadata.yaml').is_file()          # still a rosbag2 directory
+    status: dict = {}
+    mcap_file, = bag.glob('*.mcap')
+    values = [(t, topic) for topic, _, t, _ in iter_messages(mcap_file, status)]
+    assert status['truncated'] and 'not closed' in status['truncated']
+    # Exactly a prefix of what was written, in order, with everything flushed before.
+    assert [t for t, _ in values] == [k * 50_000 for k in range(len(values))]
+    assert len(values) >= 3000
+    lost = written - len(values)
+    print(f'kill -9: {len(values)} messages readable, {lost} of the {written} handed to the '
+          f'writer lost ({os.path.getsize(mcap_file)} bytes on disk)')
+    with pytest.raises(BagError) as err:
+        read_run(bag)
+    assert err.value.kind in ('truncated', 'no_parameters')
