@@ -1,0 +1,103 @@
+"""What every report section shares: the section record, verdicts, tables, figures.
+
+A section module computes its numbers in a ``compute(quick)`` function (returning a
+plain dataclass the tests check) and turns them into a :class:`Section` with
+``render(result, outdir)``: Markdown text, PNG figures written into ``outdir``
+(matplotlib, Agg backend) and a list of :class:`Verdict`s.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterable, Sequence
+
+import matplotlib
+
+matplotlib.use('Agg')
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
+
+HOLDS = 'holds'
+FAILS = 'does not hold'
+VAGUE = 'vague'
+UNCHECKABLE = 'cannot be checked'
+
+#: Colours of the report's figures (colour-blind safe, Okabe–Ito).
+COLORS = ('#0072B2', '#D55E00', '#009E73', '#CC79A7', '#E69F00', '#56B4E9', '#000000')
+
+plt.rcParams.update({'figure.dpi': 110, 'font.size': 10, 'axes.grid': True,
+                     'grid.alpha': 0.3, 'legend.fontsize': 9, 'axes.titlesize': 11})
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """One claim of the paper, its number or words, what the model gives, the verdict."""
+
+    claim: str
+    paper: str
+    recomputed: str
+    verdict: str          # HOLDS | FAILS | VAGUE | UNCHECKABLE, optionally qualified
+    note: str = ''
+
+
+@dataclass
+class Section:
+    """One section of the report: Markdown body, figure files, verdicts."""
+
+    number: int
+    title: str
+    body: str
+    figures: list[str] = field(default_factory=list)
+    verdicts: list[Verdict] = field(default_factory=list)
+
+    def markdown(self) -> str:
+        lines = [f'## {self.number}. {self.title}', '', self.body.strip(), '']
+        if self.verdicts:
+            lines += ['**Verdicts**', '', verdict_table(self.verdicts), '']
+        return '\n'.join(lines)
+
+
+def table(header: Sequence[str], rows: Iterable[Sequence[object]]) -> str:
+    """A Markdown table; cells are str()-ed as given (format numbers before)."""
+    out = ['| ' + ' | '.join(header) + ' |', '|' + '---|' * len(header)]
+    out += ['| ' + ' | '.join(str(c) for c in row) + ' |' for row in rows]
+    return '\n'.join(out)
+
+
+def verdict_table(verdicts: Sequence[Verdict]) -> str:
+    return table(('claim', 'paper', 'recomputed', 'verdict'),
+                 ((v.claim, v.paper, v.recomputed,
+                   f'**{v.verdict}**' + (f': {v.note}' if v.note else '')) for v in verdicts))
+
+
+def save_figure(fig: plt.Figure, outdir: Path, name: str, alt: str) -> tuple[str, str]:
+    """Write ``fig`` as ``outdir/name`` (PNG), close it; returns (file name, Markdown link)."""
+    fig.savefig(outdir / name, bbox_inches='tight')
+    plt.close(fig)
+    return name, f'![{alt}]({name})'
+
+
+def fmt(value: float, digits: int = 4) -> str:
+    """A number to ``digits`` significant digits, plain notation where readable."""
+    if value == 0.0:
+        return '0'
+    text = f'{value:.{digits}g}'
+    if 'e' in text:
+        mantissa, exponent = text.split('e')
+        return f'{mantissa}·10^{int(exponent)}'
+    return text
+
+
+def config_path(name: str) -> Path:
+    """A file of the package's ``config/`` (installed share dir, else the source tree)."""
+    candidates = [Path(sys.prefix) / 'share' / 'screwgear_ros' / 'config' / name,
+                  Path(__file__).resolve().parents[2] / 'config' / name]
+    for path in candidates:
+        if path.is_file():
+            return path
+    raise FileNotFoundError(f'config/{name} not found in {[str(p) for p in candidates]}')
+
+
+__all__ = ['HOLDS', 'FAILS', 'VAGUE', 'UNCHECKABLE', 'COLORS', 'Verdict', 'Section', 'table',
+           'verdict_table', 'save_figure', 'fmt', 'config_path', 'plt']
