@@ -22,7 +22,8 @@ from std_msgs.msg import Empty, Float64, Float64MultiArray, Header, Int8, String
 from screwgear_ros.commands import apply_command
 from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.plant import Plant
-from screwgear_ros.runs import RunRecorder, TopicSpec, run_parameters_yaml
+from screwgear_ros.run_parameters import RunParameters, dump
+from screwgear_ros.runs import RunRecorder, TopicSpec
 
 INPUT_TYPES = {'cmd_torque': Float64, 'cmd_direction': Int8, 'cmd_effort': Float64MultiArray,
                'load_torque': Float64}
@@ -94,8 +95,9 @@ def record_inprocess(path: str | Path, params: TableParams, settings: SimSetting
             velocity=list(o.delta_rate), effort=list(o.mesh_force)))
         recorder.write('/clock', t, Clock(clock=stamp(t)))
 
-    recorder.write(name['run_parameters'], 0, String(data=run_parameters_yaml(
-        params, settings, plant.state, 0)))
+    initial = tuple(float(v) for v in plant.state)
+    recorder.write(name['run_parameters'], 0, String(data=dump(RunParameters(
+        params, settings, initial, 0))))
     path_in_force = plant.outputs().active_path
     recorder.write(name['active_path'], 0, Int8(data=path_in_force))
     publish()
@@ -117,8 +119,8 @@ def record_inprocess(path: str | Path, params: TableParams, settings: SimSetting
             elif action.kind == 'parameters':
                 params = params.replace(**action.value)
                 plant.set_params(params)
-                recorder.write(name['run_parameters'], t, String(data=run_parameters_yaml(
-                    params, settings, plant.state, plant.step)))
+                recorder.write(name['run_parameters'], t, String(data=dump(RunParameters(
+                    params, settings, initial, 0))))
             else:
                 plant.set_input(apply_command(plant.input, action.kind, action.value, params))
                 data = list(action.value) if action.kind == 'cmd_effort' else action.value

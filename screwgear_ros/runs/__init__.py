@@ -6,6 +6,5 @@ The bag contract (topics, log times, parameters) is described in ``docs/recordin
 """
 
 from .recorder import RunRecorder, TopicSpec
-from .runparams import run_parameters_yaml
 
-__all__ = ['RunRecorder', 'TopicSpec', 'run_parameters_yaml']
+__all__ = ['RunRecorder', 'TopicSpec']

@@ -107,7 +107,7 @@ def reference_outputs(run: RecordedRun,
     start = run.parameters
     params: TableParams = start.params
     drive = DriveInput()
-    pieces = [_Piece(start.start_step, start.initial_state.copy(),
+    pieces = [_Piece(start.start_step, np.array(start.initial_state, dtype=np.float64),
                      [Segment(start.start_step, drive, params)])]
     # Pass 1: pieces, segments, and the context (piece, input, parameters) of each sample.
     contexts: list[tuple[str, int, int, int, DriveInput, TableParams]] = []

@@ -72,7 +72,7 @@ class ReplayedOutputs:
 def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
     """Re-run the recorded inputs through :class:`Plant` at dt/refine."""
     start = run.parameters
-    plant = Plant(start.params, run.dt / refine, start.initial_state)
+    plant = Plant(start.params, run.dt / refine, np.asarray(start.initial_state))
     plant.step = start.start_step * refine
     js = np.empty((len(run.joint_states), 9))
     te = np.empty(len(run.transmission_error))
@@ -86,8 +86,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
             raise BagError('invalid', f'step {step} comes after step {plant.step // refine} '
                            'in the file: time runs backwards')
         if n:
-            if not plant.advance(n):
-                plant.step += n   # the node keeps time while faulted; the state is frozen
+            plant.advance(n)   # after a fault the node, like the plant, stands still
     for kind, step, event, i in timeline(run):
         advance_to(step)
         if kind == 'event':
