@@ -11,10 +11,12 @@ that names the parameter, its value and the rule it breaks.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Mapping
 
+import numpy as np
 import yaml
 
 MODES = ('anti_backlash', 'conventional')
@@ -36,8 +38,13 @@ class ParameterError(ValueError):
         super().__init__(f'parameter {name!r} = {value!r} refused: {rule}')
 
 
+def _is_number(value: Any) -> bool:
+    """A real number (Python or NumPy scalar), but not a bool."""
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
 def _finite(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if not _is_number(value):
         raise ParameterError(name, value, 'must be a number')
     if not math.isfinite(value):
         raise ParameterError(name, value, 'must be finite')
@@ -59,8 +66,7 @@ def _non_negative(name: str, value: Any) -> float:
 
 
 def _teeth(name: str, value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
-            value) or value != int(value):
+    if not _is_number(value) or not math.isfinite(value) or value != int(value):
         raise ParameterError(name, value, 'must be a whole number of teeth')
     if value < 1:
         raise ParameterError(name, value, 'must be >= 1')
@@ -270,8 +276,6 @@ def max_stable_dt(p: TableParams) -> float:
     every eigenvalue λ of the 6×6 first-order system; dt is bisected on
     max |R(λ·dt)| ≤ 1.
     """
-    import numpy as np
-
     k = effective_stiffness(p) + p.mesh_stiffness_amplitude
     r = np.array([p.radius_pinion_1, p.radius_table, p.radius_pinion_3])
     inertia = np.array([p.inertia_pinion_1, p.inertia_table, p.inertia_pinion_3])
