@@ -70,6 +70,7 @@ class Health:
     rejected: dict[str, int] = field(default_factory=dict)   # input topic → count
     fault: str | None = None
     recorder: tuple[int, int] | None = None                  # (written, dropped) or None
+    recorder_error: str | None = None
     dt: float = 0.0
 
 
@@ -96,6 +97,9 @@ def diagnostic_values(params: TableParams, outputs: Outputs,
         if health.recorder is not None and health.recorder[1] > 0:
             level = WARN
             problems.append(f'recorder dropped {health.recorder[1]} messages')
+        if health.recorder_error is not None:
+            level = WARN
+            problems.append(f'recording failed: {health.recorder_error}')
     message = '; '.join(problems) if problems else 'running'
     p = health.pacer
     values = [

@@ -38,13 +38,13 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, Float64, Float64MultiArray, Int8, String
 from std_srvs.srv import Trigger
 
-from .. import run_parameters
 from ..commands import INPUT_TOPICS, InputRejected, apply_command
 from ..model import active_path
 from ..pacing import FactorMeter, Pacer, sim_time_ns
 from ..params import ParameterError, split_parameters
 from ..plant import DriveInput, Outputs, Plant
 from ..ratelimit import RateLimiter
+from .. import run_parameters
 from ..ros import messages, parameters
 from ..status import (MAX_PHASE_PER_STEP, Health, diagnostic_values, mesh_phase_per_step,
                       status_line)
@@ -194,12 +194,16 @@ class TableSim(Node):
         next_status = time.monotonic() + STATUS_PERIOD
         while not self._stop.is_set():
             pacer = self._apply_events(pacer)
-            if plant.fault is None and not plant.advance(self._settings.steps_per_publish):
+            n = self._settings.steps_per_publish
+            if plant.fault is None:
+                plant.advance(n)
+            if plant.fault is not None:   # time goes on, the last finite state is held
                 self._report_fault()
+                plant.step += n
             out = plant.outputs()
             if not pacer.wait(self._stop):
                 break
-            self._publish_outputs(out, record=plant.fault is None)
+            self._publish_outputs(out)
             if meter.elapsed() >= DIAGNOSTICS_PERIOD:
                 self._health.achieved_factor = meter.update(out.time)
                 self._publish_diagnostics(out)
@@ -269,7 +273,7 @@ class TableSim(Node):
         self._pub_path.publish(msg)
         self._record(self._pub_path.topic_name, step, msg)
 
-    def _publish_outputs(self, out: Outputs, record: bool = True) -> None:
+    def _publish_outputs(self, out: Outputs) -> None:
         t_ns = sim_time_ns(out.step, self.plant.dt)
         batch = []
         if self._settings.publish_clock:
@@ -280,7 +284,7 @@ class TableSim(Node):
                   (self._pub_te, messages.transmission_error(out))]
         for pub, msg in batch:
             pub.publish(msg)
-        if record and self._recorder is not None:
+        if self._recorder is not None:
             for pub, msg in batch:
                 self._recorder.write(pub.topic_name, t_ns, msg)
 
@@ -291,6 +295,7 @@ class TableSim(Node):
         health.fault = self.plant.fault
         if self._recorder is not None:
             health.recorder = (self._recorder.written, self._recorder.dropped)
+            health.recorder_error = self._recorder.error
         params = self.plant.params
         level, text, values = diagnostic_values(params, out, health)
         msg = messages.diagnostics(f'{self._fqn}: simulation', 'screwgear_ros/table_sim',
