@@ -245,7 +245,7 @@ def test_parameter_changes_take_effect_or_are_refused_with_a_reason(table):
         assert table.peer.get_parameters(NODE, ['inertia_table']) == {'inertia_table': 46.0}
         # settings fixed for a run say so
         for name, value in (('dt', 2e-5), ('mode', 'conventional'), ('record', '/tmp/x'),
-                            ('mesh_phase', 'time')):
+                            ('mesh_phase', 'time'), ('publish_clock', False)):
             result = _param(table, name, value)
             assert not result.successful and 'read-only' in result.reason, name
         # max_torque rules the validation of the next command

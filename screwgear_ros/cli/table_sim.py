@@ -80,7 +80,8 @@ class TableSim(Node):
         self._pub_mesh = self.create_publisher(JointState, 'mesh_state', 10)
         self._pub_te = self.create_publisher(Float64, 'transmission_error', 10)
         self._pub_path = self.create_publisher(Int8, 'active_path', LATCHED)
-        self._pub_clock = self.create_publisher(Clock, '/clock', 10)
+        self._pub_clock = (self.create_publisher(Clock, '/clock', 10) if settings.publish_clock
+                           else None)
         self._pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self._subs = [self.create_subscription(kind, topic, partial(self._on_command, topic), 10)
                       for topic, kind in INPUT_TYPES.items()]
@@ -119,7 +120,7 @@ class TableSim(Node):
         topics = [TopicSpec(pub.topic_name, _msgtype(pub.msg_type),
                             pub is self._pub_path)
                   for pub in (self._pub_joints, self._pub_mesh, self._pub_te, self._pub_path,
-                              self._pub_clock, self._pub_diag)]
+                              self._pub_clock, self._pub_diag) if pub is not None]
         topics += [TopicSpec(sub.topic_name, _msgtype(sub.msg_type)) for sub in self._subs]
         topics += [TopicSpec(self._fqn + '/run_parameters', 'std_msgs/msg/String'),
                    TopicSpec(self._fqn + '/reset', 'std_msgs/msg/Empty')]
@@ -276,7 +277,7 @@ class TableSim(Node):
     def _publish_outputs(self, out: Outputs) -> None:
         t_ns = sim_time_ns(out.step, self.plant.dt)
         batch = []
-        if self._settings.publish_clock:
+        if self._pub_clock is not None:
             batch.append((self._pub_clock, messages.clock(t_ns)))
         batch += [(self._pub_joints, messages.joint_states(out, list(self._settings.joint_names),
                                                            t_ns)),

@@ -19,8 +19,10 @@ from ..params import default_values
 
 #: Settings fixed for a run. dt and mode shape the integration and the mechanism;
 #: switching mesh_phase mid-run would jump the STE (a step of up to 2·ε in δ, an
-#: impact the table never saw); record names the bag already being written.
-READ_ONLY = frozenset({'dt', 'mode', 'mesh_phase', 'record'})
+#: impact the table never saw); record names the bag already being written; the
+#: /clock publisher exists only when publish_clock is true, so that the other tables
+#: of a multi-table graph leave /clock to one of them.
+READ_ONLY = frozenset({'dt', 'mode', 'mesh_phase', 'record', 'publish_clock'})
 
 DESCRIPTIONS = {
     'inertia_pinion_1': 'I1, inertia of pinion 1, kg·m²',
@@ -54,7 +56,7 @@ DESCRIPTIONS = {
     'publish_rate': 'output rate, Hz; 1/publish_rate must be a whole number of steps dt',
     'real_time_factor': 'simulation time / wall time; 0 = as fast as possible',
     'record': 'rosbag2 (MCAP) directory to record this run to; empty = off (fixed for a run)',
-    'publish_clock': 'publish simulation time on /clock',
+    'publish_clock': 'publish simulation time on /clock (fixed for a run)',
     'joint_names': 'joint_states names of pinion 1, table, pinion 3',
 }
 
