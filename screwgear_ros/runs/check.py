@@ -88,7 +88,7 @@ class _Piece:
     samples: set[int] = field(default_factory=set)
 
 
-def _signal_names(run: RecordedRun) -> list[tuple[str, str]]:
+def signal_names(run: RecordedRun) -> list[tuple[str, str]]:
     joints = run.parameters.settings.joint_names
     return ([(f'{j} position', 'rad') for j in joints]
             + [(f'{j} velocity', 'rad/s') for j in joints]
@@ -206,7 +206,7 @@ def check_run(run: RecordedRun,
     columns = [(recorded[:, c], ref_js[:, c], rk4.joint_states[:, c] - fine.joint_states[:, c],
                 times_js) for c in range(9)]
     columns.append((rec_te, ref_te, rk4.transmission_error - fine.transmission_error, times_te))
-    for (name, unit), (rec, ref, richardson, times) in zip(_signal_names(run), columns):
+    for (name, unit), (rec, ref, richardson, times) in zip(signal_names(run), columns):
         if len(rec) == 0:
             continue
         err = np.abs(rec - ref)
@@ -253,5 +253,5 @@ def format_report(report: CheckReport) -> str:
     return '\n'.join(lines)
 
 
-__all__ = ['SAFETY', 'FLOOR_REL', 'FLOOR_ABS', 'SignalResult', 'CheckReport',
+__all__ = ['SAFETY', 'FLOOR_REL', 'FLOOR_ABS', 'SignalResult', 'CheckReport', 'signal_names',
            'reference_outputs', 'check_run', 'format_report']

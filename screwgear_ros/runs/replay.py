@@ -6,18 +6,22 @@ recorded inputs, parameter changes and resets to a fresh :class:`Plant` at their
 recorded steps and collects its outputs where the bag has outputs: with
 ``refine = 1`` this is the node's own computation again (bit for bit), with
 ``refine = 2`` the same run at dt/2 (the Richardson estimate of RK4's error that
-``check_run`` judges by). :func:`command_schedule` lists the input commands for
-``replay_run`` to publish into a live node.
+``check_run`` judges by). :func:`schedule_from_run` and :func:`load_scenario` list
+what ``replay_run`` does to a live node, and when: publish an input command, set
+parameters, call the reset service.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterator
 
 import numpy as np
+import yaml
 
-from ..commands import InputRejected, apply_command
+from ..commands import INPUT_TOPICS, InputRejected, apply_command
+from ..params import ParameterError, default_values, split_parameters
 from ..plant import DriveInput, Outputs, Plant
 from .bagread import BagError, Command, Event, ParameterChange, RecordedRun, Reset
 
@@ -29,9 +33,10 @@ TRANSMISSION_ERROR = 'transmission_error'
 def timeline(run: RecordedRun) -> Iterator[tuple[str, int, Event | None, int]]:
     """(kind, step, event or None, sample index) for every event and output sample,
     in file order. ``kind`` is 'event', 'joint_states' or 'transmission_error'."""
-    orders = [np.array([o for o, _ in run.events], dtype=np.int64),
+    orders = [np.array([o for o, _ in run.events], dtype=np.float64),
               run.joint_states.order, run.transmission_error.order]
     kinds = np.concatenate([np.full(len(o), k) for k, o in enumerate(orders)]).astype(np.int64)
+    # Event positions are floats so that a moved event can sit between two outputs.
     index = np.concatenate([np.arange(len(o)) for o in orders]).astype(np.int64)
     by_file = np.argsort(np.concatenate(orders), kind='stable')
     js_steps, te_steps = run.joint_states.steps, run.transmission_error.steps
@@ -108,20 +113,103 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
     return ReplayedOutputs(js, te, plant.fault)
 
 
+#: Settings a replay does not copy from the recording: where to record, and the pace
+#: (replay_run sets the pace itself).
+NOT_REPLAYED = ('record', 'real_time_factor')
+
+
 @dataclass(frozen=True)
-class ScheduledCommand:
-    """An input command to publish when the node's simulation time reaches ``step``."""
+class Action:
+    """Something to do to the node when its simulation reaches ``step``.
+
+    ``kind``: an input topic name (value = the message's data), 'parameters'
+    (value = mapping of parameter name → new value) or 'reset' (value None).
+    """
 
     step: int
-    topic: str       # relative input topic name
-    value: object    # the message's data field
+    kind: str
+    value: Any = None
 
 
-def command_schedule(run: RecordedRun) -> list[ScheduledCommand]:
-    """The recorded input commands in the order applied (what replay_run publishes)."""
-    return [ScheduledCommand(e.step, e.topic, e.value) for _, e in run.events
-            if isinstance(e, Command)]
+@dataclass
+class Schedule:
+    """What replay_run does: start the node with ``start`` parameters, then ``actions``
+    in order, until step ``end_step``."""
+
+    start: dict[str, Any]          # every node parameter, ROS names (record excluded)
+    actions: list[Action] = field(default_factory=list)
+    end_step: int = 0
+
+    @property
+    def dt(self) -> float:
+        return float(self.start['dt'])
+
+    @property
+    def ticks(self) -> int:
+        """Integration steps per publish tick."""
+        return int(round(1.0 / (float(self.start['publish_rate']) * self.dt)))
+
+
+def _values(parameters) -> dict[str, Any]:
+    values = {**parameters.params.as_dict(), **parameters.settings.as_dict()}
+    return {k: v for k, v in values.items() if k not in NOT_REPLAYED}
+
+
+def schedule_from_run(run: RecordedRun) -> Schedule:
+    """The recorded events of a run as replay actions: every input command as applied,
+    every changed parameter (``NOT_REPLAYED`` aside) and every reset."""
+    previous = _values(run.parameters)
+    schedule = Schedule(dict(previous), end_step=run.end_step)
+    for _, event in run.events:
+        if isinstance(event, Command):
+            schedule.actions.append(Action(event.step, event.topic, event.value))
+        elif isinstance(event, ParameterChange):
+            values = _values(event.parameters)
+            changed = {k: v for k, v in values.items() if previous.get(k) != v}
+            previous = values
+            if changed:
+                schedule.actions.append(Action(event.step, 'parameters', changed))
+        elif isinstance(event, Reset):
+            schedule.actions.append(Action(event.step, 'reset'))
+    return schedule
+
+
+def load_scenario(path: str | Path) -> Schedule:
+    """A scripted run (the test bags are recorded from these), YAML::
+
+        parameters: {table_damping: 8867.0, publish_rate: 200.0}   # node start values
+        duration: 4.0                                               # s of simulation
+        actions:                                                    # at simulation times, s
+          - {time: 0.2, cmd_torque: 400.0}
+          - {time: 1.5, parameters: {mesh_damping: 1000.0}}
+          - {time: 2.0, reset: true}
+    """
+    document = yaml.safe_load(Path(path).read_text(encoding='utf-8')) or {}
+    overrides = dict(document.get('parameters') or {})
+    try:
+        params, settings = split_parameters({**default_values(), **overrides})
+    except ParameterError as exc:
+        raise ValueError(f'{path}: {exc}') from None
+    start = {k: v for k, v in {**params.as_dict(), **settings.as_dict()}.items()
+             if k not in NOT_REPLAYED}
+    dt = settings.dt
+    schedule = Schedule(start, end_step=int(round(float(document['duration']) / dt)))
+    for entry in document.get('actions') or []:
+        entry = dict(entry)
+        step = int(round(float(entry.pop('time')) / dt))
+        if len(entry) != 1:
+            raise ValueError(f'{path}: each action has a time and one of '
+                             f'{", ".join(INPUT_TOPICS)}, parameters, reset: {entry}')
+        kind, value = entry.popitem()
+        if kind == 'reset':
+            value = None
+        elif kind not in INPUT_TOPICS and kind != 'parameters':
+            raise ValueError(f'{path}: unknown action {kind!r}')
+        schedule.actions.append(Action(step, kind, value))
+    schedule.actions.sort(key=lambda a: a.step)
+    return schedule
 
 
 __all__ = ['timeline', 'apply_event', 'joint_values', 'ReplayedOutputs', 'replay_in_process',
-           'ScheduledCommand', 'command_schedule', 'JOINT_STATES', 'TRANSMISSION_ERROR']
+           'Action', 'Schedule', 'schedule_from_run', 'load_scenario', 'NOT_REPLAYED',
+           'JOINT_STATES', 'TRANSMISSION_ERROR']

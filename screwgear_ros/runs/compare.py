@@ -1,0 +1,229 @@
+"""Compare a replayed run with the run it replays: event timing, then trajectories.
+
+A replay over DDS applies each recorded event (input command, parameter change,
+reset) at the first integration batch after it arrives, so it may land a publish
+tick or so away from its recorded step. :func:`compare_runs` measures those delays
+by matching the events of both bags in order, and judges the trajectory difference
+by what such delays can explain: the tolerance of each signal is the sum over
+events of the largest deviation an in-process replay of the ORIGINAL shows when
+that one event alone is moved by ±J publish ticks (J = the largest delay measured,
+at least one tick), times ``SAFETY``: a first-order (superposition) bound on the
+effect of independent timing errors of up to J ticks each. Samples within J ticks
+of an event are left out of both: there a late step or reset differs by the whole
+jump it makes, whatever the accuracy; what matters is what persists after it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .bagread import Command, Event, ParameterChange, RecordedRun, Reset
+from .check import FLOOR_ABS, FLOOR_REL, signal_names
+from .replay import replay_in_process
+
+#: Tolerance = SAFETY × first-order bound of the measured timing jitter's effect.
+SAFETY = 2.0
+
+@dataclass(frozen=True)
+class EventTiming:
+    """When one recorded event took effect in the original and in the replay."""
+
+    what: str
+    original_step: int
+    new_step: int | None      # None: never applied in the replay
+
+    @property
+    def delay(self) -> int | None:
+        return None if self.new_step is None else self.new_step - self.original_step
+
+
+@dataclass(frozen=True)
+class SignalDiff:
+    name: str
+    unit: str
+    max_diff: float
+    rms_diff: float
+    at_time: float
+    tolerance: float
+
+    @property
+    def ok(self) -> bool:
+        return self.max_diff <= self.tolerance
+
+
+@dataclass
+class Comparison:
+    """Timing of every event and the trajectory difference per signal."""
+
+    timings: list[EventTiming]
+    ticks: int                                # integration steps per publish tick
+    jitter_ticks: float                       # largest |delay| in publish ticks
+    samples: int                              # common output samples compared
+    excluded: int = 0                         # samples left out near events
+    signals: list[SignalDiff] = field(default_factory=list)
+    identical: bool = False                   # same values at every common sample
+
+    @property
+    def ok(self) -> bool:
+        return (all(t.new_step is not None for t in self.timings)
+                and all(s.ok for s in self.signals))
+
+
+def _physical_events(run: RecordedRun) -> list[tuple[int, Event]]:
+    """Events that change the physics: commands, resets, parameter changes of TableParams
+    (a settings-only change such as real_time_factor does not count)."""
+    out = []
+    params = run.parameters.params
+    for k, (_, event) in enumerate(run.events):
+        if isinstance(event, ParameterChange):
+            if event.parameters.params == params:
+                continue
+            params = event.parameters.params
+        out.append((k, event))
+    return out
+
+
+def _describe(event: Event) -> str:
+    if isinstance(event, Command):
+        return f'{event.topic} {event.value}'
+    if isinstance(event, ParameterChange):
+        return 'parameter change'
+    return 'reset'
+
+
+def _same(a: Event, b: Event) -> bool:
+    if type(a) is not type(b):
+        return False
+    if isinstance(a, Command):
+        return a.topic == b.topic and a.value == b.value
+    if isinstance(a, ParameterChange):
+        return a.parameters.params == b.parameters.params
+    return True
+
+
+def match_events(original: RecordedRun, new: RecordedRun) -> list[EventTiming]:
+    """Each physical event of ``original`` with the step the same event took in ``new``."""
+    candidates = _physical_events(new)
+    timings, j = [], 0
+    for _, event in _physical_events(original):
+        k = j
+        while k < len(candidates) and not _same(event, candidates[k][1]):
+            k += 1
+        if k < len(candidates):
+            timings.append(EventTiming(_describe(event), event.step, candidates[k][1].step))
+            j = k + 1
+        else:
+            timings.append(EventTiming(_describe(event), event.step, None))
+    return timings
+
+
+def shift_event(run: RecordedRun, index: int, steps: int) -> RecordedRun:
+    """``run`` with event ``index`` moved by ``steps`` integration steps (same outputs
+    sampled). In file order an event at step s follows the outputs of step s."""
+    moved_order, moved = run.events[index]
+    target = moved.step + steps
+    out_steps = np.concatenate([run.joint_states.steps, run.transmission_error.steps])
+    out_order = np.concatenate([run.joint_states.order, run.transmission_error.order])
+    before = out_order[out_steps <= target]
+    order = (float(before.max()) if len(before) else -1.0) + 0.5
+    events = [(float(o), e) for o, e in run.events]
+    events[index] = (order, replace(moved, step=target))
+    events.sort(key=lambda item: (item[1].step, item[0]))
+    return replace(run, events=events)
+
+
+def _signal_matrix(js: np.ndarray, te: np.ndarray, rows_js: np.ndarray,
+                   rows_te: np.ndarray) -> list[np.ndarray]:
+    return [js[rows_js, c] for c in range(9)] + [te[rows_te]]
+
+
+def compare_runs(original: RecordedRun, new: RecordedRun) -> Comparison:
+    """Event timing and trajectory difference of ``new`` against ``original``."""
+    ticks = original.parameters.settings.steps_per_publish
+    timings = match_events(original, new)
+    delays = [abs(t.delay) for t in timings if t.delay is not None]
+    jitter = max(delays, default=0) / ticks
+    _, a_js, b_js = np.intersect1d(original.joint_states.steps, new.joint_states.steps,
+                                   return_indices=True)
+    _, a_te, b_te = np.intersect1d(original.transmission_error.steps,
+                                   new.transmission_error.steps, return_indices=True)
+    budget = max(1, int(np.ceil(jitter))) * ticks
+    event_steps = np.array([e.step for _, e in _physical_events(original)], dtype=np.int64)
+
+    def away(rows: np.ndarray, steps: np.ndarray) -> np.ndarray:
+        near = np.zeros(len(rows), dtype=bool)
+        for s in event_steps:
+            near |= np.abs(steps[rows] - s) <= budget
+        return rows[~near], ~near
+
+    a_js, keep = away(a_js, original.joint_states.steps)
+    b_js = b_js[keep]
+    a_te, keep = away(a_te, original.transmission_error.steps)
+    b_te = b_te[keep]
+    result = Comparison(timings, ticks, jitter, len(a_js),
+                        len(original.joint_states) - len(a_js))
+    orig = _signal_matrix(original.joint_states.values, original.transmission_error.values[:, 0],
+                          a_js, a_te)
+    repl = _signal_matrix(new.joint_states.values, new.transmission_error.values[:, 0],
+                          b_js, b_te)
+    result.identical = all(np.array_equal(x, y) for x, y in zip(orig, repl))
+
+    # Sensitivity of the original to each physical event moved by ±J ticks.
+    base = replay_in_process(original)
+    base_cols = _signal_matrix(base.joint_states, base.transmission_error, a_js, a_te)
+    bound = [np.zeros(()) for _ in base_cols]
+    for index, _ in _physical_events(original):
+        worst = [0.0] * len(base_cols)
+        for steps in (-budget, budget):
+            if original.events[index][1].step + steps < original.parameters.start_step:
+                continue
+            moved = replay_in_process(shift_event(original, index, steps))
+            cols = _signal_matrix(moved.joint_states, moved.transmission_error, a_js, a_te)
+            worst = [max(w, float(np.max(np.abs(c - b), initial=0.0)))
+                     for w, c, b in zip(worst, cols, base_cols)]
+        bound = [b + w for b, w in zip(bound, worst)]
+
+    names = signal_names(original)
+    times_js = original.joint_states.steps[a_js] * original.dt
+    times_te = original.transmission_error.steps[a_te] * original.dt
+    for c, ((name, unit), x, y, b) in enumerate(zip(names, orig, repl, bound)):
+        if len(x) == 0:
+            continue
+        diff = np.abs(y - x)
+        worst = int(np.argmax(diff))
+        floor = max(FLOOR_REL * float(np.max(np.abs(x))), FLOOR_ABS[unit])
+        times = times_te if c == 9 else times_js
+        result.signals.append(SignalDiff(name, unit, float(diff[worst]),
+                                         float(np.sqrt(np.mean(diff ** 2))),
+                                         float(times[worst]), SAFETY * float(b) + floor))
+    return result
+
+
+def format_comparison(c: Comparison) -> str:
+    """What ``replay_run --compare`` prints."""
+    lines = ['replay vs original: event timing (integration steps; one publish tick = '
+             f'{c.ticks} steps)']
+    for t in c.timings:
+        lines.append(f'  {t.what:<32} recorded step {t.original_step:>9}  replayed '
+                     + ('never' if t.new_step is None else
+                        f'{t.new_step:>9}  delay {t.delay:+d}'))
+    lines.append(f'  largest timing difference: {c.jitter_ticks:g} publish ticks')
+    lines.append(f'trajectory difference at {c.samples} common samples ({c.excluded} within '
+                 'the timing budget of an event left out); tolerance = '
+                 f'{SAFETY:g} × Σ over events of the deviation when that event moves by '
+                 f'±{max(1, int(np.ceil(c.jitter_ticks)))} tick(s)')
+    lines.append(f'  {"signal":<26}{"unit":<7}{"max diff":>12}{"RMS diff":>12}'
+                 f'{"at t [s]":>11}{"tolerance":>12}  verdict')
+    for s in c.signals:
+        lines.append(f'  {s.name:<26}{s.unit:<7}{s.max_diff:>12.3e}{s.rms_diff:>12.3e}'
+                     f'{s.at_time:>11.4f}{s.tolerance:>12.3e}  {"ok" if s.ok else "FAIL"}')
+    if c.identical:
+        lines.append('  the replay reproduces the original bit for bit')
+    lines.append('  RESULT: ' + ('PASS' if c.ok else 'FAIL'))
+    return '\n'.join(lines)
+
+
+__all__ = ['SAFETY', 'EventTiming', 'SignalDiff', 'Comparison', 'match_events', 'shift_event',
+           'compare_runs', 'format_comparison']

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Re-record the checked-in test bags under test/data/ with the project's own node.
+#
+# Each scenario in test/data/scenarios/<name>.yaml (start parameters, timed commands,
+# parameter changes, resets) is played into a fresh table_sim by replay_run, which
+# starts the node with record:=test/data/<name>, follows its /clock and stops it with
+# SIGINT; check_run then checks every new bag against the reference solution.
+#
+#   SCREWGEAR_VENV=... bash scripts/record_test_bags.sh [name ...]   # default: all
+#
+# DDS stays on loopback; pick a ROS_DOMAIN_ID nobody else uses (default 42).
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+bash "$root/scripts/setup_venv.sh" >/dev/null
+. "$root/scripts/env.sh"
+export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-42}"
+cd "$root/test/data"
+names=("$@")
+[ ${#names[@]} -gt 0 ] || names=($(cd scenarios && ls *.yaml | sed 's/\.yaml$//'))
+for name in "${names[@]}"; do
+    rm -rf "$name"
+    replay_run --script "scenarios/$name.yaml" --record "$name"
+    check_run --no-progress "$name" | tail -n 1
+    du -sh "$name"
+done
