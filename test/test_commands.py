@@ -1,0 +1,107 @@
+"""Command validation against the input contract of shared/spec/interface.md."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from screwgear_ros.commands import (INPUT_TOPICS, InputRejected, apply_command, apply_direction,
+                                    apply_effort, apply_load, apply_torque, load_limit)
+from screwgear_ros.params import TableParams
+from screwgear_ros.plant import DriveInput
+
+P = TableParams()                 # max_torque 400 N·m, r1 = 0.078 m, r2 = 0.582 m
+NOW = DriveInput(torque=120.0, direction=-1, load=15.0)
+BAD_NUMBERS = [math.nan, math.inf, -math.inf, None, 'ten', True]
+
+
+def test_the_input_topics_and_types_are_the_spec_table():
+    assert INPUT_TOPICS == {'cmd_torque': 'std_msgs/msg/Float64',
+                            'cmd_direction': 'std_msgs/msg/Int8',
+                            'cmd_effort': 'std_msgs/msg/Float64MultiArray',
+                            'load_torque': 'std_msgs/msg/Float64'}
+
+
+@pytest.mark.parametrize('value', [0.0, 0, 0.5, 399.999, 400.0])
+def test_torque_within_0_and_max_is_taken_and_nothing_else_changes(value):
+    assert apply_command(NOW, 'cmd_torque', value, P) == DriveInput(float(value), -1, 15.0)
+
+
+@pytest.mark.parametrize('value', [-1e-12, -5.0, 400.0000001, 1e9, *BAD_NUMBERS])
+def test_torque_outside_the_rule_is_rejected_naming_topic_and_value(value):
+    with pytest.raises(InputRejected) as info:
+        apply_command(NOW, 'cmd_torque', value, P)
+    text = str(info.value)
+    assert text.startswith('cmd_torque: rejected ') and repr(value) in text
+    assert 'stays in force' in text
+
+
+def test_max_torque_is_the_parameter_in_force():
+    assert apply_command(NOW, 'cmd_torque', 40.0, P.replace(max_torque=50.0)).torque == 40.0
+    with pytest.raises(InputRejected, match='50'):
+        apply_command(NOW, 'cmd_torque', 60.0, P.replace(max_torque=50.0))
+    with pytest.raises(InputRejected):
+        apply_torque(NOW, 60.0, 50.0)
+
+
+@pytest.mark.parametrize('value', [1, -1])
+def test_direction_plus_or_minus_one_is_taken(value):
+    assert apply_command(NOW, 'cmd_direction', value, P) == DriveInput(120.0, value, 15.0)
+
+
+@pytest.mark.parametrize('value', [0, 2, -2, 127, -128, True, 0.5, math.nan, None])
+def test_any_other_direction_is_rejected(value):
+    with pytest.raises(InputRejected, match=r'^cmd_direction: rejected .*\+1 or -1'):
+        apply_direction(NOW, value)
+
+
+@pytest.mark.parametrize('effort, torque, direction', [
+    ([250.0], 250.0, 1), ([-250.0], 250.0, -1), ([-400.0], 400.0, -1), ([3], 3.0, 1),
+])
+def test_effort_sign_sets_direction_and_magnitude_the_torque(effort, torque, direction):
+    assert apply_command(NOW, 'cmd_effort', effort, P) == DriveInput(torque, direction, 15.0)
+
+
+def test_zero_effort_means_no_torque_and_keeps_the_direction():
+    assert apply_effort(NOW, [0.0], 400.0) == DriveInput(0.0, -1, 15.0)
+    assert apply_effort(NOW, [-0.0], 400.0) == DriveInput(0.0, -1, 15.0)
+
+
+@pytest.mark.parametrize('effort', [[], [1.0, 2.0], [0.0, 0.0, 0.0], [math.nan], [math.inf],
+                                    [-math.inf], [400.5], [-401.0], ['x']])
+def test_effort_of_the_wrong_length_or_value_is_rejected(effort):
+    with pytest.raises(InputRejected, match=r'^cmd_effort: rejected '):
+        apply_command(NOW, 'cmd_effort', effort, P)
+
+
+def test_load_is_signed_and_bounded_by_ten_times_what_the_drive_can_hold():
+    limit = 10.0 * 400.0 * 0.582 / 0.078            # N·m at the table
+    assert load_limit(400.0, 0.078, 0.582) == pytest.approx(limit)
+    assert apply_command(NOW, 'load_torque', -2500.0, P) == DriveInput(120.0, -1, -2500.0)
+    assert apply_command(NOW, 'load_torque', limit * 0.999, P).load == limit * 0.999
+    for value in (limit * 1.001, -limit * 1.001, *BAD_NUMBERS):
+        with pytest.raises(InputRejected, match=r'^load_torque: rejected '):
+            apply_command(NOW, 'load_torque', value, P)
+    with pytest.raises(InputRejected):
+        apply_load(NOW, 11.0, 10.0)
+
+
+def test_an_unknown_topic_is_rejected():
+    with pytest.raises(InputRejected, match='unknown input topic'):
+        apply_command(NOW, 'cmd_speed', 1.0, P)
+
+
+def test_folding_a_stream_keeps_the_last_valid_command_through_rejections():
+    stream = [('cmd_direction', 1), ('cmd_torque', 100.0), ('cmd_torque', math.nan),
+              ('cmd_direction', 0), ('load_torque', 30.0), ('cmd_effort', [1.0, 2.0]),
+              ('cmd_torque', 500.0), ('cmd_effort', [-80.0]), ('cmd_direction', 3)]
+    drive, rejected = DriveInput(), []
+    for topic, value in stream:
+        try:
+            drive = apply_command(drive, topic, value, P)
+        except InputRejected:
+            rejected.append(topic)
+    assert drive == DriveInput(torque=80.0, direction=-1, load=30.0)
+    assert rejected == ['cmd_torque', 'cmd_direction', 'cmd_effort', 'cmd_torque',
+                        'cmd_direction']

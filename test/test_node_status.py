@@ -1,0 +1,91 @@
+"""What the node reports: contact per mesh, mesh phase per step, diagnostic levels."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from screwgear_ros.pacing import PacerStats
+from screwgear_ros.params import TableParams
+from screwgear_ros.plant import DriveInput, Outputs, Plant
+from screwgear_ros.status import (ERROR, MAX_PHASE_PER_STEP, OK, WARN, Health,
+                                  contact_states, diagnostic_values, mesh_frequency_ratio,
+                                  mesh_phase_per_step, status_line)
+
+P = TableParams()
+DT = 50e-6
+
+
+def outputs(delta=(1e-4, -1e-4), velocity=(0.0, 0.0, 0.0), time=1.0, path=1) -> Outputs:
+    return Outputs(time=time, step=int(round(time / DT)), position=(0.0, 0.0, 0.0),
+                   velocity=velocity, effort=(0.0, 0.0, 0.0), delta=delta,
+                   delta_rate=(0.0, 0.0), mesh_force=(0.0, 0.0), active_path=path)
+
+
+def test_contact_states_follow_the_backlash_law():
+    b = P.backlash                                        # 75 µm
+    assert contact_states(P, outputs((b * 1.01, -b * 1.01))) == ('forward flank',
+                                                                 'reverse flank')
+    assert contact_states(P, outputs((b * 0.99, -b))) == ('in the gap', 'in the gap')
+    assert contact_states(P, outputs((-2 * b, 2 * b))) == ('reverse flank', 'forward flank')
+    conventional = P.replace(mode='conventional')
+    assert contact_states(conventional, outputs((b * 2, 0.0)))[1] == 'disengaged'
+
+
+def test_the_preload_equilibrium_holds_both_flanks():
+    assert contact_states(P, Plant(P, DT).outputs()) == ('forward flank', 'reverse flank')
+
+
+def test_mesh_phase_per_step_is_teeth_times_pinion_speed_times_dt():
+    out = outputs(velocity=(10.0, 1.34, -12.0))
+    assert mesh_phase_per_step(P, out, DT) == pytest.approx(24 * 12.0 * DT)
+    timed = P.replace(mesh_phase='time')
+    assert mesh_phase_per_step(timed, out, DT) == pytest.approx(P.mesh_frequency * DT)
+    # the paper's speed (24 r/min at the pinion) is ω_e = 60.3 rad/s: Ω = 0.043
+    paper = outputs(velocity=(24 * 2 * math.pi / 60, 0.0, 0.0))
+    assert mesh_frequency_ratio(P, paper) == pytest.approx(0.0433, abs=1e-4)
+
+
+def health(**changes) -> Health:
+    h = Health(requested_factor=1.0, achieved_factor=1.0, pacer=PacerStats(),
+               rejected={'cmd_torque': 2, 'cmd_direction': 1}, dt=DT)
+    for k, v in changes.items():
+        setattr(h, k, v)
+    return h
+
+
+def test_a_healthy_run_is_ok_and_reports_counts():
+    level, message, values = diagnostic_values(P, outputs(), health())
+    v = dict(values)
+    assert level == OK and message == 'running'
+    assert v['rejected_inputs'] == '3' and v['rejected_cmd_torque'] == '2'
+    assert v['mesh_1_contact'] == 'forward flank' and v['fault'] == ''
+
+
+def test_falling_behind_too_fast_a_mesh_and_faults_raise_the_level():
+    level, message, _ = diagnostic_values(P, outputs(), health(achieved_factor=0.7))
+    assert level == WARN and 'cannot keep up' in message
+    fast = MAX_PHASE_PER_STEP / (24 * DT) * 1.1                 # pinion speed, rad/s
+    level, message, _ = diagnostic_values(P, outputs(velocity=(fast, 0.0, 0.0)), health())
+    assert level == WARN and 'mesh phase' in message
+    level, message, values = diagnostic_values(P, outputs(), health(fault='state non-finite'))
+    assert level == ERROR and message == 'state non-finite'
+    assert dict(values)['fault'] == 'state non-finite'
+    level, message, _ = diagnostic_values(P, outputs(), health(recorder=(10, 3)))
+    assert level == WARN and 'dropped 3' in message
+    # factor 0 (as fast as possible) never counts as falling behind
+    level, _, _ = diagnostic_values(P, outputs(), health(requested_factor=0.0,
+                                                         achieved_factor=12.0))
+    assert level == OK
+
+
+def test_status_line_shows_time_factor_angle_speed_path_and_te():
+    plant = Plant(P, DT)
+    plant.set_input(DriveInput(100.0, -1, 0.0))
+    plant.advance(2000)
+    line = status_line(plant.outputs(), 0.998)
+    out = plant.outputs()
+    for part in ('t =     0.100 s', 'x 1.00', f'{out.position[1]:+.6f} rad', 'path 3',
+                 f'{out.transmission_error * 1e6:+9.3f} um'):
+        assert part in line
