@@ -11,9 +11,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
+import yaml
 from builtin_interfaces.msg import Time
+from mcap.records import Channel, Message, Schema
+from mcap.stream_reader import StreamReader
 from rclpy.serialization import serialize_message
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -133,4 +136,39 @@ def record_inprocess(path: str | Path, params: TableParams, settings: SimSetting
     return recorder
 
 
-__all__ = ['Action', 'topic_specs', 'record_inprocess', 'stamp', 'INPUT_TYPES']
+Edit = Callable[[str, str, int, bytes], 'tuple[int, bytes] | None']
+
+
+def copy_bag(src: Path, dst: Path, edit: Edit | None = None) -> int:
+    """Rewrite the bag ``src`` to ``dst`` message by message, in file order.
+
+    ``edit(topic, type, log_time, cdr)`` returns the (log_time, cdr) to write, or
+    None to drop the message. Returns the number of messages written.
+    """
+    mcap_file, = Path(src).glob('*.mcap')
+    schemas: dict[int, str] = {}
+    channels: dict[int, TopicSpec] = {}
+    messages: list[tuple[str, int, bytes]] = []
+    with open(mcap_file, 'rb') as stream:
+        for record in StreamReader(stream).records:
+            if isinstance(record, Schema):
+                schemas[record.id] = record.name
+            elif isinstance(record, Channel):
+                qos = yaml.safe_load(record.metadata['offered_qos_profiles'])
+                channels[record.id] = TopicSpec(record.topic, schemas[record.schema_id],
+                                                qos[0]['durability'] == 'transient_local')
+            elif isinstance(record, Message):
+                spec = channels[record.channel_id]
+                kept = (record.log_time, record.data) if edit is None else edit(
+                    spec.name, spec.msgtype, record.log_time, record.data)
+                if kept is not None:
+                    messages.append((spec.name, *kept))
+    recorder = RunRecorder(dst, list(channels.values()), bytes)
+    for topic, log_time, data in messages:
+        recorder.write(topic, log_time, data)
+    recorder.close()
+    assert recorder.dropped == 0
+    return recorder.written
+
+
+__all__ = ['Action', 'topic_specs', 'record_inprocess', 'copy_bag', 'stamp', 'INPUT_TYPES']

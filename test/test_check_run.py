@@ -1,0 +1,119 @@
+"""check_run, as installed (its console script): passes every checked-in bag, fails a
+corrupted copy with exit 1, and refuses what it cannot check with exit 2.
+
+The checked-in bags were recorded by table_sim itself (scripts/record_test_bags.sh);
+the reference they are judged against is SciPy's DOP853 on the recorded inputs.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from rosbags.typesys import Stores, get_typestore
+
+from bag_runs import copy_bag
+
+DATA = Path(__file__).parent / 'data'
+BAGS = ['steady_drive', 'reversals_anti_backlash', 'reversals_conventional',
+        'load_steps_parameter_changes']
+STORE = get_typestore(Stores.ROS2_JAZZY)
+
+
+def check_run(*args: object) -> subprocess.CompletedProcess:
+    exe = shutil.which('check_run')
+    assert exe is not None, 'check_run is not installed in the venv'
+    return subprocess.run([exe, '--no-progress', *map(str, args)], capture_output=True,
+                          text=True, timeout=300)
+
+
+@pytest.mark.parametrize('name', BAGS)
+def test_every_checked_in_bag_passes(name: str) -> None:
+    bag = DATA / name
+    assert sum(f.stat().st_size for f in bag.iterdir()) < 1_000_000
+    result = check_run(bag)
+    assert result.returncode == 0, result.stdout + result.stderr
+    out = result.stdout
+    assert 'RESULT: PASS' in out
+    for needle in ('table position', 'rad/s', 'N·m', 'transmission_error', 'tolerance',
+                   'Richardson', 'DOP853', 'bit for bit'):
+        assert needle in out, needle
+
+
+def _edited(tmp_path: Path, edit) -> Path:
+    dst = tmp_path / 'edited'
+    copy_bag(DATA / 'steady_drive', dst, edit)
+    return dst
+
+
+def test_an_unchanged_copy_passes(tmp_path: Path) -> None:
+    """The copy machinery itself does not break a bag (so the failures below are the edits)."""
+    result = check_run(_edited(tmp_path, None))
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_a_corrupted_output_fails(tmp_path: Path) -> None:
+    """0.1 µrad on the table angle at one instant: physically nothing, far beyond RK4's error."""
+    target = 2 * 10**9            # t = 2 s
+
+    def nudge(topic, msgtype, log_time, raw):
+        if topic.endswith('/joint_states') and log_time == target:
+            msg = STORE.deserialize_cdr(raw, msgtype)
+            msg.position = msg.position.copy()     # rosbags decodes read-only views
+            msg.position[1] += 1e-7
+            raw = bytes(STORE.serialize_cdr(msg, msgtype))
+        return log_time, raw
+    result = check_run(_edited(tmp_path, nudge))
+    assert result.returncode == 1, result.stdout + result.stderr
+    fails = [line for line in result.stdout.splitlines() if line.endswith('FAIL')]
+    assert [line.split()[0:2] for line in fails] == [['table', 'position']]
+    assert 'RESULT: FAIL' in result.stdout and '2.0000' in fails[0]
+
+
+def test_a_corrupted_input_fails(tmp_path: Path) -> None:
+    """The recorded command says 380 N·m where the node applied 400 N·m."""
+    def lie(topic, msgtype, log_time, raw):
+        if topic.endswith('/cmd_torque'):
+            raw = bytes(STORE.serialize_cdr(STORE.types[msgtype](data=380.0), msgtype))
+        return log_time, raw
+    result = check_run(_edited(tmp_path, lie))
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert 'table velocity' in result.stdout and 'RESULT: FAIL' in result.stdout
+    assert 'differs from the recording' in result.stdout      # replay disagrees too
+
+
+def test_a_bag_without_parameters_is_refused(tmp_path: Path) -> None:
+    bag = _edited(tmp_path, lambda topic, msgtype, t, raw:
+                  None if topic.endswith('/run_parameters') else (t, raw))
+    result = check_run(bag)
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert 'no run_parameters' in result.stderr
+
+
+def test_a_truncated_bag_is_refused_unless_asked(tmp_path: Path) -> None:
+    bag = tmp_path / 'cut'
+    shutil.copytree(DATA / 'reversals_anti_backlash', bag)
+    mcap_file, = bag.glob('*.mcap')
+    data = mcap_file.read_bytes()
+    mcap_file.write_bytes(data[:len(data) * 6 // 10])
+    result = check_run(bag)
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert 'not closed' in result.stderr and '--allow-truncated' in result.stderr
+    result = check_run('--allow-truncated', bag)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert 'WARNING' in result.stdout and 'RESULT: PASS' in result.stdout
+
+
+def test_paths_that_are_not_bags_are_refused(tmp_path: Path) -> None:
+    (tmp_path / 'notes.txt').write_text('not a bag')
+    (tmp_path / 'empty').mkdir()
+    (tmp_path / 'fake').mkdir()
+    (tmp_path / 'fake' / 'fake_0.mcap').write_bytes(b'definitely not MCAP data')
+    for path in (tmp_path / 'missing', tmp_path / 'notes.txt', tmp_path / 'empty',
+                 tmp_path / 'fake'):
+        result = check_run(path)
+        assert result.returncode == 2, (path, result.stdout, result.stderr)
+        assert result.stderr.startswith('check_run: cannot check'), result.stderr
+        assert 'Traceback' not in result.stderr
