@@ -60,8 +60,11 @@ class Section:
 
 def table(header: Sequence[str], rows: Iterable[Sequence[object]]) -> str:
     """A Markdown table; cells are str()-ed as given (format numbers before)."""
-    out = ['| ' + ' | '.join(header) + ' |', '|' + '---|' * len(header)]
-    out += ['| ' + ' | '.join(str(c) for c in row) + ' |' for row in rows]
+    def cell(value: object) -> str:
+        return str(value).replace('|', '\\|')
+
+    out = ['| ' + ' | '.join(cell(h) for h in header) + ' |', '|' + '---|' * len(header)]
+    out += ['| ' + ' | '.join(cell(c) for c in row) + ' |' for row in rows]
     return '\n'.join(out)
 
 
