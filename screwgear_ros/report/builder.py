@@ -16,8 +16,8 @@ from .common import Section, verdict_table
 
 SECTIONS: tuple[ModuleType, ...] = (derived, response, damping, stiffness, index, stability,
                                     fluctuation, thermal, antibacklash, validation)
-PAPER = ('a double screw gear anti-backlash rotary table: lumped-parameter model, '
-         'normalized equation, RK4 (the paper in `shared/seed/`)')
+PAPER = ('the paper on the double screw gear anti-backlash rotary table '
+         '(lumped-parameter model, normalized equation, RK4)')
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ from pathlib import Path
 from ..normalized import from_table
 from ..params import (PAPER_DRIVE_TORQUE, PAPER_PINION_SPEED, TableParams, equivalent_mass,
                       mean_mesh_force, mesh_frequency_at, natural_frequency)
-from .common import FAILS, HOLDS, VAGUE, Section, Verdict, fmt, table
+from .common import HOLDS, VAGUE, Section, Verdict, fmt, table
 
 #: The paper's printed numbers.
 PAPER = {'m_e': 5.150, 'F_m': 5128.0, 'omega_0': 1393.466, 'omega_e': 60.319,
