@@ -89,9 +89,12 @@ class Replayer:
             pass
 
     def close(self) -> None:
+        """Stop spinning and shut the context down; the spin thread is joined so that no
+        thread is left inside rcl when the interpreter exits."""
         self.executor.shutdown(timeout_sec=2.0)
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
+        self._thread.join(timeout=5.0)
 
     # ------------------------------------------------------------------ time
 

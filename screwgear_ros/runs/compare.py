@@ -6,11 +6,12 @@ tick or so away from its recorded step. :func:`compare_runs` measures those dela
 by matching the events of both bags in order, and judges the trajectory difference
 by what such delays can explain: the tolerance of each signal is the sum over
 events of the largest deviation an in-process replay of the ORIGINAL shows when
-that one event alone is moved by ±J publish ticks (J = the largest delay measured,
-at least one tick), times ``SAFETY``: a first-order (superposition) bound on the
-effect of independent timing errors of up to J ticks each. Samples within J ticks
-of an event are left out of both: there a late step or reset differs by the whole
-jump it makes, whatever the accuracy; what matters is what persists after it.
+that one event alone is moved by ±J_k publish ticks (J_k = that event's measured
+delay rounded up to whole ticks, at least one), times ``SAFETY``: a first-order
+(superposition) bound on the effect of independent timing errors of up to J_k
+ticks each. Samples within J_k ticks of event k are left out of both: there a late
+step or reset differs by the whole jump it makes, whatever the accuracy; what
+matters is what persists after it.
 """
 
 from __future__ import annotations
@@ -149,13 +150,14 @@ def compare_runs(original: RecordedRun, new: RecordedRun) -> Comparison:
                                    return_indices=True)
     _, a_te, b_te = np.intersect1d(original.transmission_error.steps,
                                    new.transmission_error.steps, return_indices=True)
-    budget = max(1, int(np.ceil(jitter))) * ticks
-    event_steps = np.array([e.step for _, e in _physical_events(original)], dtype=np.int64)
+    events = _physical_events(original)
+    budgets = [max(1, -(-abs(t.delay) // ticks) if t.delay is not None else 1) * ticks
+               for t in timings]
 
     def away(rows: np.ndarray, steps: np.ndarray) -> np.ndarray:
         near = np.zeros(len(rows), dtype=bool)
-        for s in event_steps:
-            near |= np.abs(steps[rows] - s) <= budget
+        for (_, event), budget in zip(events, budgets):
+            near |= np.abs(steps[rows] - event.step) <= budget
         return rows[~near], ~near
 
     a_js, keep = away(a_js, original.joint_states.steps)
@@ -170,11 +172,11 @@ def compare_runs(original: RecordedRun, new: RecordedRun) -> Comparison:
                           b_js, b_te)
     result.identical = all(np.array_equal(x, y) for x, y in zip(orig, repl))
 
-    # Sensitivity of the original to each physical event moved by ±J ticks.
+    # Sensitivity of the original to each physical event moved by ±J_k ticks.
     base = replay_in_process(original)
     base_cols = _signal_matrix(base.joint_states, base.transmission_error, a_js, a_te)
     bound = [np.zeros(()) for _ in base_cols]
-    for index, _ in _physical_events(original):
+    for (index, _), budget in zip(events, budgets):
         worst = [0.0] * len(base_cols)
         for steps in (-budget, budget):
             if original.events[index][1].step + steps < original.parameters.start_step:
@@ -212,8 +214,8 @@ def format_comparison(c: Comparison) -> str:
     lines.append(f'  largest timing difference: {c.jitter_ticks:g} publish ticks')
     lines.append(f'trajectory difference at {c.samples} common samples ({c.excluded} within '
                  'the timing budget of an event left out); tolerance = '
-                 f'{SAFETY:g} × Σ over events of the deviation when that event moves by '
-                 f'±{max(1, int(np.ceil(c.jitter_ticks)))} tick(s)')
+                 f'{SAFETY:g} × Σ over events of the deviation when that event alone moves by '
+                 '± its delay (whole ticks, at least one)')
     lines.append(f'  {"signal":<26}{"unit":<7}{"max diff":>12}{"RMS diff":>12}'
                  f'{"at t [s]":>11}{"tolerance":>12}  verdict')
     for s in c.signals:
