@@ -12,6 +12,7 @@ from __future__ import annotations
 import signal
 
 import numpy as np
+from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Int8
 
@@ -30,7 +31,8 @@ def test_demo_controller_follows_a_back_and_forth_profile(tmp_path):
     try:
         with Peer('test_closed_loop') as peer:
             js = peer.subscribe('/joint_states', JointState)
-            path = peer.subscribe('/active_path', Int8, 10)
+            path = peer.subscribe('/active_path', Int8, QoSProfile(
+                depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
             js.wait_for(lambda m: True, STARTUP_TIMEOUT, 'joint_states')
             ctl = start_process('demo_controller',
                                 params={'targets': [TARGET, -TARGET], 'dwell': DWELL},
@@ -41,7 +43,7 @@ def test_demo_controller_follows_a_back_and_forth_profile(tmp_path):
             t0 = stamp_ns(start) * 1e-9
             js.wait_next(lambda m: stamp_ns(m) * 1e-9 > t0 + 2 * DWELL, 30,
                          'two dwell periods of simulation time')
-            path.wait_for(lambda m: m.data == 3, 1, 'a reversal onto path 3')
+            path.wait_for(lambda m: m.data == 3, 5, 'a reversal onto path 3')
         t = np.array([stamp_ns(m) * 1e-9 for m in js.snapshot()]) - t0
         angle = np.array([m.position[1] for m in js.snapshot()])
         # the controller's profile clock starts up to a few periods before the motion

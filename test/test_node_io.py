@@ -103,17 +103,20 @@ def test_joint_states_at_the_publish_rate_with_clock_on_the_same_ticks(table):
     msgs = table.js.snapshot()[-400:]
     stamps = np.array([stamp_ns(m) for m in msgs])
     gaps = np.diff(stamps)
-    # every stamp on the 1 ms grid of simulation time; (nearly) none missing
+    # every stamp on the 1 ms grid of simulation time, one message per period (a
+    # subscriber stalled by a loaded machine may lose some: keep-last 10)
     assert np.all(stamps % PERIOD_NS == 0) and np.all(gaps > 0)
+    assert np.median(gaps) == PERIOD_NS
     expected = (stamps[-1] - stamps[0]) // PERIOD_NS + 1
-    assert len(msgs) >= 0.9 * expected
+    assert len(msgs) >= 0.5 * expected
     assert list(msgs[-1].name) == ['pinion_1', 'table', 'pinion_3']
     assert all(finite(m) for m in msgs)
     # /clock ticks with joint_states and only moves forward
     clocks = np.array([stamp_ns(m) for m in table.clock.snapshot()])
     assert np.all(np.diff(clocks) > 0)
     window = clocks[(clocks >= stamps[0]) & (clocks <= stamps[-1])]
-    assert np.all(window % PERIOD_NS == 0) and len(window) >= 0.9 * expected
+    assert np.all(window % PERIOD_NS == 0) and len(window) >= 0.5 * expected
+    assert np.median(np.diff(window)) == PERIOD_NS
 
 
 def test_forward_command_turns_the_table_forward_and_a_reversal_turns_it_back(table):
@@ -258,10 +261,15 @@ def test_parameter_changes_take_effect_or_are_refused_with_a_reason(table):
         # publish_rate changes the output grid at run time
         assert _param(table, 'publish_rate', 250.0).successful
         assert not _param(table, 'publish_rate', 300.0).successful  # not whole steps
-        table.next_js()
-        msgs = [table.next_js() for _ in range(30)]
-        stamps = np.array([stamp_ns(m) for m in msgs])
-        assert set(np.diff(stamps)) <= {4 * PERIOD_NS, 8 * PERIOD_NS}
+        last = stamp_ns(table.next_js())
+        for _ in range(1000):                  # until the new rate shows: a 4 ms gap
+            stamp = stamp_ns(table.next_js())
+            if stamp - last == 4 * PERIOD_NS:
+                break
+            last = stamp
+        stamps = np.array([stamp] + [stamp_ns(table.next_js()) for _ in range(30)])
+        assert np.all((stamps - stamps[0]) % (4 * PERIOD_NS) == 0)   # the 250 Hz grid
+        assert np.median(np.diff(stamps)) == 4 * PERIOD_NS
     finally:
         for name, value in (('publish_rate', 1000.0), ('max_torque', 400.0),
                             ('inertia_table', 46.101), ('preload_torque', T_P)):

@@ -6,6 +6,7 @@ import signal
 from pathlib import Path
 
 import pytest
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Int8
@@ -15,6 +16,8 @@ from ros_procs import (STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start
 
 PAPER_YAML = Path(__file__).resolve().parents[1] / 'config' / 'paper.yaml'
 T_P = 350.0
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def test_two_namespaced_tables_do_not_cross_talk_and_stop_cleanly(tmp_path):
@@ -31,7 +34,8 @@ def test_two_namespaced_tables_do_not_cross_talk_and_stop_cleanly(tmp_path):
     try:
         with Peer('test_namespaces') as peer:
             js = {ns: peer.subscribe(f'/axis_{ns}/joint_states', JointState) for ns in 'ab'}
-            path = {ns: peer.subscribe(f'/axis_{ns}/active_path', Int8, 10) for ns in 'ab'}
+            path = {ns: peer.subscribe(f'/axis_{ns}/active_path', Int8, LATCHED)
+                    for ns in 'ab'}
             clock = peer.subscribe('/clock', Clock)
             for ns in 'ab':
                 js[ns].wait_for(lambda m: True, STARTUP_TIMEOUT, f'/axis_{ns}/joint_states')
@@ -53,6 +57,7 @@ def test_two_namespaced_tables_do_not_cross_talk_and_stop_cleanly(tmp_path):
             torque_b.publish(Float64(data=20.0))
             js['b'].wait_next(lambda m: m.position[1] < -1e-4, 10, 'table b turning back')
             path['b'].wait_for(lambda m: m.data == 3, 10, 'path 3 on b')
+            path['a'].wait_for(lambda m: True, 10, 'the latched path of a')
             assert [m.data for m in path['a'].snapshot()] == [1]
             assert js['a'].latest().effort[0] == 320.0 + 20.0   # a kept its own command
             # /clock is a's simulation time
