@@ -303,16 +303,22 @@ def test_a_change_that_makes_the_step_unstable_stops_integration_not_publishing(
         values = table.next_diag(lambda v: v['fault'] != '', timeout=15)
         assert 'non-finite' in values['fault']
         msgs = [table.next_js() for _ in range(20)]
-        assert all(finite(m) for m in msgs)
-        assert stamp_ns(msgs[-1]) > stamp_ns(msgs[0])   # simulation time goes on
-        assert all(list(m.position) == list(msgs[0].position) for m in msgs)  # state held
+        assert all(finite(m) for m in msgs)             # still publishing, never NaN
+        assert len({stamp_ns(m) for m in msgs}) == 1    # the simulation stands still
+        assert all(list(m.position) == list(msgs[0].position) for m in msgs)
         assert table.proc.output()[1].count('non-finite') == 1   # reported once
+        # a command arriving meanwhile is taken and in force after the reset
+        table.send('cmd_torque', 5.0)
+        table.next_js(lambda m: m.effort[0] == T_P + 5.0, 'the command taken while halted')
     finally:
         assert _param(table, 'ste_amplitudes', [1.5384e-3]).successful
         assert _param(table, 'mesh_damping', 717.4777661364236).successful
-        table.fresh()
+        assert table.peer.call(Trigger, f'{NODE}/reset').success
     values = table.next_diag(lambda v: v['fault'] == '', timeout=15)
     assert values['fault'] == ''
+    moving = table.next_js(lambda m: m.velocity[1] > 0.0, 'the table driven again')
+    assert stamp_ns(moving) > stamp_ns(msgs[-1])
+    table.fresh()
 
 
 def test_the_recording_reproduces_every_output_of_this_module_bit_for_bit(table):

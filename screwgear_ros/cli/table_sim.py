@@ -195,12 +195,10 @@ class TableSim(Node):
         next_status = time.monotonic() + STATUS_PERIOD
         while not self._stop.is_set():
             pacer = self._apply_events(pacer)
-            n = self._settings.steps_per_publish
-            if plant.fault is None:
-                plant.advance(n)
-            if plant.fault is not None:   # time goes on, the last finite state is held
+            # After a fault the plant stands still (state and time) until ~/reset; the
+            # node keeps publishing that last finite state every tick.
+            if not plant.advance(self._settings.steps_per_publish):
                 self._report_fault()
-                plant.step += n
             out = plant.outputs()
             if not pacer.wait(self._stop):
                 break
@@ -256,8 +254,9 @@ class TableSim(Node):
     def _report_fault(self) -> None:
         if not self._fault_reported:
             self._fault_reported = True
-            self.get_logger().error(f'{self.plant.fault}; publishing the last finite state; '
-                                    'call ~/reset to restart from equilibrium')
+            self.get_logger().error(f'{self.plant.fault}; simulation halted, publishing the '
+                                    'last finite state; call ~/reset to restart from '
+                                    'equilibrium')
 
     def _record(self, topic: str, step: int, msg: Any) -> None:
         if self._recorder is not None:
