@@ -135,11 +135,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--record', action='store_true',
                         help='repeat every node scenario with recording on')
-    parser.add_argument('--quick', action='store_true', help='shorter windows (3 s)')
+    parser.add_argument('--window', type=float, default=WINDOW,
+                        help='wall seconds measured per node scenario (default %(default)s; '
+                             '60 shows the drift over a minute)')
+    parser.add_argument('--quick', action='store_true', help='3 s windows')
     args = parser.parse_args()
     global WINDOW
-    if args.quick:
-        WINDOW = 3.0
+    WINDOW = 3.0 if args.quick else args.window
 
     print('integrator (Plant.advance, paper parameters, dt = 50 µs)')
     rows = [('compiled (numba), one 2e6-step call', integrator_rate(2_000_000, 2_000_000, True)),

@@ -22,7 +22,8 @@ LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
 
 def test_two_namespaced_tables_do_not_cross_talk_and_stop_cleanly(tmp_path):
     # /axis_a: the shipped paper.yaml with the preload edited to 320 N·m (so the file is
-    # visibly what was loaded); /axis_b: paper.yaml verbatim, without /clock.
+    # visibly what was loaded); /axis_b: paper.yaml verbatim, without /clock, and a
+    # misspelt parameter that must be reported, not silently ignored.
     edited = tmp_path / 'paper_320.yaml'
     text = PAPER_YAML.read_text()
     assert 'preload_torque: 350.0' in text
@@ -30,7 +31,8 @@ def test_two_namespaced_tables_do_not_cross_talk_and_stop_cleanly(tmp_path):
     a = start_process('table_sim', ['-r', '__ns:=/axis_a'], params_file=edited,
                       workdir=tmp_path / 'a')
     b = start_process('table_sim', ['-r', '__ns:=/axis_b'], params_file=PAPER_YAML,
-                      params={'publish_clock': False}, workdir=tmp_path / 'b')
+                      params={'publish_clock': False, 'inertia_tabel': 3.0},   # a typo
+                      workdir=tmp_path / 'b')
     try:
         with Peer('test_namespaces') as peer:
             js = {ns: peer.subscribe(f'/axis_{ns}/joint_states', JointState) for ns in 'ab'}
@@ -66,6 +68,7 @@ def test_two_namespaced_tables_do_not_cross_talk_and_stop_cleanly(tmp_path):
         seconds_a = assert_clean_exit(a, signal.SIGINT)
         seconds_b = assert_clean_exit(b, signal.SIGTERM)
         assert seconds_a < 5.0 and seconds_b < 5.0    # a hang check; ~0.4 s measured
+        assert "'inertia_tabel' is not a table_sim parameter" in b.output()[1]
     finally:
         a.kill()
         b.kill()

@@ -97,6 +97,9 @@ class TableSim(Node):
 
     def start(self) -> None:
         s = self._settings
+        for name in parameters.unknown_overrides(self):
+            self.get_logger().warning(f'parameter {name!r} is not a table_sim parameter; '
+                                      'ignored (a typo?)')
         self.get_logger().info(
             f'{self.plant.params.mode} mode, mesh phase {self.plant.params.mesh_phase}, '
             f'dt = {s.dt * 1e6:g} us, {s.publish_rate:g} Hz ({s.steps_per_publish} steps per '

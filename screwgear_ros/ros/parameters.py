@@ -90,6 +90,14 @@ def declare(node: Node) -> dict[str, Any]:
     return {p.name: plain(p.value) for p in declared}
 
 
+def unknown_overrides(node: Node) -> list[str]:
+    """Names given on the command line or in a parameter file that the node does not
+    have (a typo, or a parameter meant for another node under ``/**``)."""
+    given = getattr(node, '_parameter_overrides', {})   # rclpy keeps them here
+    return sorted(name for name in given
+                  if not node.has_parameter(name) and not name.startswith('qos_overrides.'))
+
+
 def _integers_as_doubles(node: Node, params: Iterable[Parameter]) -> list[Parameter]:
     """Let `ros2 param set table_sim inertia_table 46` mean 46.0 (whole numbers parse
     as integers); other type mismatches are left for rclpy to refuse."""
@@ -116,4 +124,5 @@ def changed_values(current: dict[str, Any], params: Iterable[Parameter]) -> dict
     return candidate
 
 
-__all__ = ['READ_ONLY', 'DESCRIPTIONS', 'plain', 'declare', 'changed_values']
+__all__ = ['READ_ONLY', 'DESCRIPTIONS', 'plain', 'declare', 'changed_values',
+           'unknown_overrides']
