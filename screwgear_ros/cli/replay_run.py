@@ -152,6 +152,21 @@ class Replayer:
         if not result.successful:
             raise ReplayError(f'{self.target} refused {values}: {result.reason}')
 
+    def differences(self, start: dict[str, Any], timeout: float = 10.0) -> list[str]:
+        """Parameters of the live node that differ from the recording's start values."""
+        from rclpy.parameter import parameter_value_to_python
+        names = sorted(start)
+        future = self.params.get_parameters(names)
+        deadline = time.monotonic() + timeout
+        while not future.done():
+            if time.monotonic() > deadline:
+                raise ReplayError(f'reading the parameters of {self.target} timed out')
+            time.sleep(0.001)
+        live = [parameter_value_to_python(v) for v in future.result().values]
+        return [f'{n} = {v!r} (recorded {start[n]!r})' for n, v in zip(names, live)
+                if (list(v) if isinstance(v, (list, tuple)) else v)
+                != (list(start[n]) if isinstance(start[n], (list, tuple)) else start[n])]
+
     def perform(self, action: Action) -> None:
         if action.kind in INPUT_TYPES:
             data = [float(v) for v in action.value] if action.kind == 'cmd_effort' \
@@ -193,8 +208,7 @@ def run_replay(schedule: Schedule, replayer: Replayer, stop: threading.Event,
                spawned: bool, rate: float, lead_ticks: int) -> int:
     """Play the schedule; returns the offset (steps) the run was shifted by."""
     replayer.set_dt(schedule.dt)
-    replayer.connect(any(a.kind == 'parameters' for a in schedule.actions) or spawned,
-                     any(a.kind == 'reset' for a in schedule.actions), stop)
+    replayer.connect(True, any(a.kind == 'reset' for a in schedule.actions), stop)
     ticks = schedule.ticks
     if spawned:
         offset = 0
@@ -205,6 +219,9 @@ def run_replay(schedule: Schedule, replayer: Replayer, stop: threading.Event,
             print(f'replay_run: warning: the node reached step {now} before the replay was '
                   f'connected; the first action (step {first}) will be late', file=sys.stderr)
     else:
+        for line in replayer.differences(schedule.start):
+            print(f'replay_run: warning: the running node has {line}; the replay will '
+                  'not reproduce the recording', file=sys.stderr)
         now = replayer.wait_clock(0, stop, CONNECT_TIMEOUT)
         offset = (now // ticks + 2) * ticks
         print(f'replay_run: the node is at t = {now * schedule.dt:.6f} s; the recording is '
