@@ -132,6 +132,7 @@ def run_node(dt: float, factor: float, record: bool) -> NodeFigures:
 
 
 def main() -> None:
+    global WINDOW
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--record', action='store_true',
                         help='repeat every node scenario with recording on')
@@ -140,7 +141,6 @@ def main() -> None:
                              '60 shows the drift over a minute)')
     parser.add_argument('--quick', action='store_true', help='3 s windows')
     args = parser.parse_args()
-    global WINDOW
     WINDOW = 3.0 if args.quick else args.window
 
     print('integrator (Plant.advance, paper parameters, dt = 50 µs)')
