@@ -155,6 +155,14 @@ class TableParams:
                 'mesh_stiffness_amplitude', self.mesh_stiffness_amplitude,
                 f'must be < k_eff = k_m(1 - α·ΔT) + k_p = {k_eff:g} N/m, '
                 'or the mesh stiffness K = k_eff + k_a·cos(φ) could go negative')
+        for pinion, radius in (('1', self.radius_pinion_1), ('3', self.radius_pinion_3)):
+            slope = ste_slope(self, pinion)
+            if slope >= radius:
+                raise ParameterError(
+                    'ste_amplitudes', list(self.ste_amplitudes),
+                    f'in angle mesh phase the STE slope z{pinion}·Σ n·|ε_n| = {slope:g} m/rad '
+                    f'must stay below r{pinion} = {radius:g} m, or the mesh of pinion {pinion} '
+                    'would run backwards against its own rotation')
 
     def replace(self, **changes: Any) -> 'TableParams':
         """A validated copy with some parameters changed."""
@@ -220,6 +228,18 @@ def effective_stiffness(p: TableParams) -> float:
             + p.preload_stiffness)
 
 
+def ste_slope(p: TableParams, pinion: str) -> float:
+    """Largest |dε/dθ| of pinion '1' or '3', m/rad: z·Σ n·|ε_n| in `angle` phase, else 0.
+
+    In `angle` phase δ̇ = (r − z·ε'(φ))·θ̇ − r2·θ̇2, so the pinion's lever on its mesh
+    ranges over r ± this slope.
+    """
+    if p.mesh_phase != 'angle':
+        return 0.0
+    teeth = p.teeth_pinion_1 if pinion == '1' else p.teeth_pinion_3
+    return teeth * sum((n + 1) * abs(a) for n, a in enumerate(p.ste_amplitudes))
+
+
 def equivalent_mass(p: TableParams) -> float:
     """m_e = I1·I2 / (I1·r2² + I2·r1²), kg (pinion 1 – table pair)."""
     i1, i2 = p.inertia_pinion_1, p.inertia_table
@@ -272,15 +292,17 @@ def rk4_amplification(z: complex) -> complex:
 def max_stable_dt(p: TableParams) -> float:
     """Largest dt, s, for which RK4 is stable on the linearized 3-DOF model.
 
-    Uses the stiffest mesh state K = k_eff + k_a with both meshes in contact and
+    Uses the stiffest mesh state K = k_eff + k_a with both meshes in contact, the
+    longest pinion lever r + z·Σ n·|ε_n| (`angle` phase, see :func:`ste_slope`) and
     every eigenvalue λ of the 6×6 first-order system; dt is bisected on
     max |R(λ·dt)| ≤ 1.
     """
     k = effective_stiffness(p) + p.mesh_stiffness_amplitude
-    r = np.array([p.radius_pinion_1, p.radius_table, p.radius_pinion_3])
+    lever_1 = p.radius_pinion_1 + ste_slope(p, '1')
+    lever_3 = p.radius_pinion_3 + ste_slope(p, '3')
     inertia = np.array([p.inertia_pinion_1, p.inertia_table, p.inertia_pinion_3])
     # Generalized mesh directions: δ1 = r1θ1 − r2θ2, δ3 = r3θ3 − r2θ2.
-    g = np.array([[r[0], -r[1], 0.0], [0.0, -r[1], r[2]]])
+    g = np.array([[lever_1, -p.radius_table, 0.0], [0.0, -p.radius_table, lever_3]])
     if p.mode == 'conventional':
         g = g[:1]
     stiffness = k * g.T @ g
@@ -361,7 +383,7 @@ def default_values() -> dict[str, Any]:
 __all__ = [
     'MODES', 'MESH_PHASES', 'PAPER_PINION_SPEED', 'PAPER_DRIVE_TORQUE', 'ParameterError',
     'TableParams', 'SimSettings', 'effective_stiffness', 'equivalent_mass',
-    'natural_frequency', 'damping_ratio', 'damping_for_ratio', 'stiffness_fluctuation',
+    'ste_slope', 'natural_frequency', 'damping_ratio', 'damping_for_ratio', 'stiffness_fluctuation',
     'mean_mesh_force', 'mesh_frequency_at', 'performance_index', 'rk4_amplification',
     'max_stable_dt', 'check_step', 'split_parameters', 'ros_parameters', 'load_yaml',
     'default_values',

@@ -2,8 +2,8 @@
 
 :class:`Plant` is what the node (and in-process replays and tests) drive: set the
 input, ``advance(n)``, read :meth:`Plant.outputs`. It holds no ROS. Simulation time
-is ``step·dt`` exactly. If a step ever produces a non-finite state (a parameter
-change made RK4 unstable) the plant restores the last finite state, stops, and
+is ``step·dt`` exactly. If a step ever produces a non-finite state (parameters
+whose physics diverges: RK4 itself is kept stable by ``check_step``) the plant restores the last finite state, stops, and
 reports why through :attr:`Plant.fault`.
 """
 
@@ -110,7 +110,8 @@ class Plant:
             self.state[:] = self._last_finite
             self.fault = (f'state became non-finite between t = {self.time:.6f} s and '
                           f'{(self.step + n) * self.dt:.6f} s; integration stopped at the '
-                          'last finite state (a parameter change made RK4 unstable?)')
+                          'last finite state (the parameters make the model itself unstable, '
+                          'e.g. a parametric resonance of the mesh stiffness)')
             return False
         self.step += n
         return True

@@ -1,6 +1,6 @@
 """table_sim over real DDS: one node process (the installed console script), driven
 from this test process. Topics, commands and reversals, bad input, parameters, reset,
-the non-finite fault path, and at the end the node's own recording of everything
+and at the end the node's own recording of everything
 these tests did, replayed in-process bit for bit.
 
 The tests share the node (starting one costs seconds); each begins from the
@@ -291,34 +291,6 @@ def test_reset_returns_to_the_preload_equilibrium_at_the_current_time(table):
     mesh = table.mesh.wait_next(lambda m: True, 10)
     assert mesh.effort[0] == pytest.approx(T_P / R1, rel=1e-9)
     assert mesh.effort[1] == pytest.approx(-T_P / R1, rel=1e-9)
-
-
-def test_a_change_that_makes_the_step_unstable_stops_integration_not_publishing(table):
-    # Valid one by one, together these make the STE term z·ε' exceed r1: negative
-    # effective mesh damping that RK4 at 50 µs cannot follow; the state blows up.
-    table.fresh()
-    try:
-        assert _param(table, 'mesh_damping', 1.0e5).successful
-        assert _param(table, 'ste_amplitudes', [0.1]).successful
-        values = table.next_diag(lambda v: v['fault'] != '', timeout=15)
-        assert 'non-finite' in values['fault']
-        msgs = [table.next_js() for _ in range(20)]
-        assert all(finite(m) for m in msgs)             # still publishing, never NaN
-        assert len({stamp_ns(m) for m in msgs}) == 1    # the simulation stands still
-        assert all(list(m.position) == list(msgs[0].position) for m in msgs)
-        assert table.proc.output()[1].count('non-finite') == 1   # reported once
-        # a command arriving meanwhile is taken and in force after the reset
-        table.send('cmd_torque', 5.0)
-        table.next_js(lambda m: m.effort[0] == T_P + 5.0, 'the command taken while halted')
-    finally:
-        assert _param(table, 'ste_amplitudes', [1.5384e-3]).successful
-        assert _param(table, 'mesh_damping', 717.4777661364236).successful
-        assert table.peer.call(Trigger, f'{NODE}/reset').success
-    values = table.next_diag(lambda v: v['fault'] == '', timeout=15)
-    assert values['fault'] == ''
-    moving = table.next_js(lambda m: m.velocity[1] > 0.0, 'the table driven again')
-    assert stamp_ns(moving) > stamp_ns(msgs[-1])
-    table.fresh()
 
 
 def test_the_recording_reproduces_every_output_of_this_module_bit_for_bit(table):

@@ -165,11 +165,38 @@ def test_max_stable_dt_is_rk4_imaginary_axis_limit_when_undamped(mode):
 
     |R(iy)|² = 1 − y⁶/72 + y⁸/576 for R(z) = 1 + z + z²/2 + z³/6 + z⁴/24: = 1 at y = 2√2.
     """
-    p = TableParams(mode=mode, mesh_damping=0.0)
+    p = TableParams(mode=mode, mesh_damping=0.0, ste_amplitudes=(), ste_phases=())
     expected = 2.0 * math.sqrt(2.0) / undamped_omega_max(p)
     assert P.max_stable_dt(p) == pytest.approx(expected, rel=1e-9)
     # For scale: the paper's stiffness allows ~1.9 ms, 38× the default 50 µs step.
     assert 1.8e-3 < expected < 2.0e-3
+
+
+def test_max_stable_dt_takes_the_ste_lever_of_angle_phase():
+    """In `angle` phase δ̇ = (r − z·ε')·θ̇ − r2·θ̇2: the pinion's lever reaches r + z·Σn|ε_n|.
+
+    The limit must be that of a pinion with this longer radius; in `time` phase the STE
+    moves with time, not with θ, and the plain radius stands.
+    """
+    eps = (1.5384e-3, 2e-4)
+    slope = 24 * (1 * eps[0] + 2 * eps[1])
+    p = TableParams(mesh_damping=0.0, ste_amplitudes=eps, ste_phases=(0.0, 0.3))
+    assert P.ste_slope(p, '1') == pytest.approx(slope, rel=1e-15)
+    levered = TableParams(mesh_damping=0.0, ste_amplitudes=(), ste_phases=(),
+                          radius_pinion_1=0.078 + slope, radius_pinion_3=0.078 + slope)
+    assert P.max_stable_dt(p) == pytest.approx(
+        2.0 * math.sqrt(2.0) / undamped_omega_max(levered), rel=1e-9)
+    timed = p.replace(mesh_phase='time')
+    assert P.max_stable_dt(timed) == pytest.approx(
+        P.max_stable_dt(p.replace(ste_amplitudes=(), ste_phases=())), rel=1e-12)
+
+
+def test_an_ste_slope_past_the_pinion_radius_is_refused():
+    """z·Σn|ε_n| ≥ r would make the mesh run backwards against the pinion's rotation."""
+    with pytest.raises(ParameterError) as error:
+        TableParams(ste_amplitudes=(0.1,))
+    assert error.value.name == 'ste_amplitudes' and 'r1 = 0.078' in str(error.value)
+    TableParams(ste_amplitudes=(0.1,), mesh_phase='time')   # a time-driven STE has no lever
 
 
 def test_max_stable_dt_with_damping_matches_the_integrator():

@@ -56,7 +56,7 @@ def test_non_finite_state_stops_at_the_last_finite_state():
     plant.set_input(DriveInput(200.0, 1, 0.0))
     assert plant.advance(400)
     good_state, good_step = plant.state.copy(), plant.step
-    plant.dt = 1.5 * max_stable_dt(p)
+    plant.dt = 3.0 * max_stable_dt(p)    # the bound is conservative: go well past it
     assert not plant.advance(5000)
     assert plant.fault is not None and 'non-finite' in plant.fault
     assert np.array_equal(plant.state, good_state)
