@@ -22,13 +22,16 @@ import subprocess
 import sys
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Iterator
 
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-from ros_procs import STARTUP_TIMEOUT, Peer, stamp_ns, start_process  # noqa: E402
+from ros_procs import (STARTUP_TIMEOUT, Inbox, Peer, RosProcess, stamp_ns,  # noqa: E402
+                       start_process)
 
 from screwgear_ros.runs.bagread import read_run  # noqa: E402
 
@@ -42,24 +45,34 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / TICKS
 
 
-def run_node(workdir: Path, factor: float, record: bool) -> dict[str, float]:
-    """Start, drive, measure over WINDOW, stop with SIGINT."""
-    params = {**PARAMS, 'real_time_factor': factor}
-    if record:
-        params['record'] = str(workdir / 'bag')
-    node = start_process('table_sim', params=params, workdir=workdir / 'node')
+@contextmanager
+def driven_node(workdir: Path, name: str, params: dict) -> Iterator[tuple[RosProcess, Inbox]]:
+    """table_sim started with ``params`` and driven at 400 N·m; yields (node, /clock inbox).
+
+    The node is stopped with SIGINT on the way out unless the body already ended it.
+    """
+    node = start_process('table_sim', params={**PARAMS, **params}, workdir=workdir / name)
     try:
-        with Peer('bench_recording') as peer:
+        with Peer(f'bench_recording_{name}') as peer:
             clock = peer.subscribe('/clock', Clock, transform=stamp_ns, qos=10)
             torque = peer.publisher('cmd_torque', Float64, wait_matched=STARTUP_TIMEOUT)
             clock.wait_for(lambda t: t > 0, STARTUP_TIMEOUT)
             torque.publish(Float64(data=400.0))
-            time.sleep(1.0)
-            t0, sim0, cpu0 = time.monotonic(), clock.latest(), cpu_seconds(node.pid)
-            time.sleep(WINDOW)
-            t1, sim1, cpu1 = time.monotonic(), clock.latest(), cpu_seconds(node.pid)
+            yield node, clock
     finally:
-        node.stop(signal.SIGINT, timeout=30.0)
+        if node.alive():
+            node.stop(signal.SIGINT, timeout=60.0)
+        node.kill()
+
+
+def run_node(workdir: Path, factor: float, record: bool) -> dict[str, float]:
+    """Start, drive, measure over WINDOW, stop with SIGINT."""
+    params = {'real_time_factor': factor, **({'record': str(workdir / 'bag')} if record else {})}
+    with driven_node(workdir, 'node', params) as (node, clock):
+        time.sleep(1.0)
+        t0, sim0, cpu0 = time.monotonic(), clock.latest(), cpu_seconds(node.pid)
+        time.sleep(WINDOW)
+        t1, sim1, cpu1 = time.monotonic(), clock.latest(), cpu_seconds(node.pid)
     out, err = node.output()
     written = re.search(r'recording closed: (\d+) messages written, (\d+) dropped', out + err)
     return {'factor': (sim1 - sim0) * 1e-9 / (t1 - t0), 'cpu': (cpu1 - cpu0) / (t1 - t0),
@@ -68,39 +81,21 @@ def run_node(workdir: Path, factor: float, record: bool) -> dict[str, float]:
 
 
 def record_60s(workdir: Path) -> Path:
-    """A 60 s simulated run with reversals every 10 s, recorded by the node at factor 0."""
+    """A 60 s simulated run at 400 N·m against the table damping, recorded at factor 0."""
     bag = workdir / 'run60'
-    node = start_process('table_sim', params={**PARAMS, 'real_time_factor': 0.0,
-                                              'record': str(bag)}, workdir=workdir / 'n60')
-    try:
-        with Peer('bench_recording_60') as peer:
-            clock = peer.subscribe('/clock', Clock, transform=stamp_ns, qos=10)
-            torque = peer.publisher('cmd_torque', Float64, wait_matched=STARTUP_TIMEOUT)
-            clock.wait_for(lambda t: t > 0, STARTUP_TIMEOUT)
-            torque.publish(Float64(data=400.0))
-            clock.wait_for(lambda t: t >= 60e9, 600.0, '60 s of simulation')
-    finally:
-        node.stop(signal.SIGINT, timeout=60.0)
+    with driven_node(workdir, 'n60', {'real_time_factor': 0.0, 'record': str(bag)}) as (_, clock):
+        clock.wait_for(lambda t: t >= 60e9, 600.0, '60 s of simulation')
     return bag
 
 
 def kill_9_loss(workdir: Path) -> tuple[float, float]:
     """(last /clock seen, last readable joint_states time), s, after kill -9 at factor 1."""
     bag = workdir / 'killed'
-    node = start_process('table_sim', params={**PARAMS, 'record': str(bag)},
-                         workdir=workdir / 'nk')
-    try:
-        with Peer('bench_recording_kill') as peer:
-            clock = peer.subscribe('/clock', Clock, transform=stamp_ns, qos=10)
-            torque = peer.publisher('cmd_torque', Float64, wait_matched=STARTUP_TIMEOUT)
-            clock.wait_for(lambda t: t > 0, STARTUP_TIMEOUT)
-            torque.publish(Float64(data=400.0))
-            clock.wait_for(lambda t: t >= 4.3e9, 60.0)
-            node.popen.send_signal(signal.SIGKILL)
-            node.popen.wait()
-            seen = clock.latest() * 1e-9
-    finally:
-        node.kill()
+    with driven_node(workdir, 'nk', {'record': str(bag)}) as (node, clock):
+        clock.wait_for(lambda t: t >= 4.3e9, 60.0)
+        node.popen.send_signal(signal.SIGKILL)
+        node.popen.wait()
+        seen = clock.latest() * 1e-9
     run = read_run(bag, allow_truncated=True)
     return seen, float(run.joint_states.steps[-1] * run.dt)
 

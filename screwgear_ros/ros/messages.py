@@ -23,26 +23,23 @@ def stamp(time_ns: int) -> Time:
     return Time(sec=sec, nanosec=nanosec)
 
 
-def joint_states(out: Outputs, names: list[str], time_ns: int) -> JointState:
-    """Pinion 1, table, pinion 3: angle rad, speed rad/s, applied torque N·m."""
+def _joint_state(names: list[str], position: tuple[float, ...], velocity: tuple[float, ...],
+                 effort: tuple[float, ...], time_ns: int) -> JointState:
     msg = JointState()
     msg.header.stamp = stamp(time_ns)
     msg.name = names
-    msg.position = list(out.position)
-    msg.velocity = list(out.velocity)
-    msg.effort = list(out.effort)
+    msg.position, msg.velocity, msg.effort = list(position), list(velocity), list(effort)
     return msg
+
+
+def joint_states(out: Outputs, names: list[str], time_ns: int) -> JointState:
+    """Pinion 1, table, pinion 3: angle rad, speed rad/s, applied torque N·m."""
+    return _joint_state(names, out.position, out.velocity, out.effort, time_ns)
 
 
 def mesh_state(out: Outputs, time_ns: int) -> JointState:
     """mesh_1, mesh_3: δ in m, δ̇ in m/s, mesh force F in N."""
-    msg = JointState()
-    msg.header.stamp = stamp(time_ns)
-    msg.name = MESH_NAMES
-    msg.position = list(out.delta)
-    msg.velocity = list(out.delta_rate)
-    msg.effort = list(out.mesh_force)
-    return msg
+    return _joint_state(MESH_NAMES, out.delta, out.delta_rate, out.mesh_force, time_ns)
 
 
 def transmission_error(out: Outputs) -> Float64:
