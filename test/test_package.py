@@ -63,6 +63,15 @@ def test_launchers_where_ros2_run_looks(exe):
     assert subprocess.run(['sh', '-n', str(launcher)], check=False).returncode == 0
 
 
+@pytest.mark.parametrize('exe', ('check_run', 'replay_run', 'paper_report'))
+def test_a_launcher_runs_its_console_script(exe):
+    """What `ros2 run screwgear_ros <exe> --help` executes, run as ros2 run would."""
+    proc = subprocess.run([str(PREFIX / 'lib' / PACKAGE / exe), '--help'], capture_output=True,
+                          text=True, check=False, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith(f'usage: {exe}')
+
+
 def test_package_xml_format_3_ament_python_with_exec_depends():
     root = ET.parse(SOURCE / 'package.xml').getroot()
     assert root.tag == 'package' and root.get('format') == '3'
