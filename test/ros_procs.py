@@ -164,36 +164,29 @@ class Inbox:
                  what: str = 'a matching message') -> Any:
         """The first message (received before or after the call) that satisfies
         ``predicate``; AssertionError after ``timeout`` s."""
-        deadline = time.monotonic() + timeout
-        seen = 0
         with self._cond:
-            while True:
-                for msg in self.messages[seen:]:
-                    if predicate(msg):
-                        return msg
-                seen = len(self.messages)
-                left = deadline - time.monotonic()
-                if left <= 0.0:
-                    raise AssertionError(f'no {what} within {timeout} s '
-                                         f'({len(self.messages)} messages received)')
-                self._cond.wait(left)
+            return self._wait(0, predicate, timeout, what)
 
     def wait_next(self, predicate: Callable[[Any], bool] = lambda m: True,
                   timeout: float = 10.0, what: str = 'a new matching message') -> Any:
         """Like :meth:`wait_for`, but only messages received after the call count."""
         with self._cond:
-            start = len(self.messages)
+            return self._wait(len(self.messages), predicate, timeout, what)
+
+    def _wait(self, seen: int, predicate: Callable[[Any], bool], timeout: float,
+              what: str) -> Any:
+        """Scan messages from index ``seen`` on as they arrive; the lock is held."""
         deadline = time.monotonic() + timeout
-        with self._cond:
-            while True:
-                for msg in self.messages[start:]:
-                    if predicate(msg):
-                        return msg
-                start = len(self.messages)
-                left = deadline - time.monotonic()
-                if left <= 0.0:
-                    raise AssertionError(f'no {what} within {timeout} s')
-                self._cond.wait(left)
+        while True:
+            for msg in self.messages[seen:]:
+                if predicate(msg):
+                    return msg
+            seen = len(self.messages)
+            left = deadline - time.monotonic()
+            if left <= 0.0:
+                raise AssertionError(f'no {what} within {timeout} s '
+                                     f'({len(self.messages)} messages received)')
+            self._cond.wait(left)
 
 
 class Peer:
