@@ -9,15 +9,20 @@ the start of the run) and ``start_step`` (the integration step the run started a
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from importlib import metadata
 from typing import Any
 
 import yaml
 
-from .params import SimSettings, TableParams, split_parameters
+from .params import ParameterError, SimSettings, TableParams, split_parameters
 
 EXTRA_KEYS = ('package_version', 'initial_state', 'start_step')
+_REQUIRED = {f.name for f in fields(TableParams)} | set(EXTRA_KEYS)
+
+
+class RunParametersError(ValueError):
+    """A run_parameters document that cannot rebuild the model; says what is wrong."""
 
 
 def package_version() -> str:
@@ -49,13 +54,36 @@ def dump(run: RunParameters) -> str:
 
 
 def load(text: str) -> RunParameters:
-    """Parse :func:`dump`'s YAML back; validates like the node (ParameterError)."""
-    document = yaml.safe_load(text)
-    values = {k: v for k, v in document.items() if k not in EXTRA_KEYS}
-    params, settings = split_parameters(values)
-    state = document['initial_state']
-    return RunParameters(params, settings, tuple(float(v) for v in state),
-                         int(document['start_step']), str(document['package_version']))
+    """Parse :func:`dump`'s YAML back, strictly enough to trust a re-integration.
+
+    Every physical parameter must be present (a missing one is never filled with its
+    default) and valid as the node would judge it; any failure is a
+    :class:`RunParametersError` saying what is wrong.
+    """
+    try:
+        document = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise RunParametersError(f'run_parameters is not valid YAML: {exc}') from None
+    if not isinstance(document, dict):
+        raise RunParametersError('run_parameters is not a mapping of parameter names')
+    missing = sorted(_REQUIRED - set(document))
+    if missing:
+        raise RunParametersError(f'run_parameters lacks {missing}: the model cannot be '
+                                 'rebuilt from this bag')
+    try:
+        params, settings = split_parameters(
+            {k: v for k, v in document.items() if k not in EXTRA_KEYS})
+        run = RunParameters(params, settings,
+                            tuple(float(v) for v in document['initial_state']),
+                            int(document['start_step']), str(document['package_version']))
+    except (ParameterError, TypeError, ValueError) as exc:
+        raise RunParametersError(f'run_parameters refused: {exc}') from None
+    if len(run.initial_state) != 6 or run.start_step < 0:
+        raise RunParametersError(f'run_parameters initial_state must hold 6 values and '
+                                 f'start_step be >= 0, got {run.initial_state!r}, '
+                                 f'{run.start_step!r}')
+    return run
 
 
-__all__ = ['EXTRA_KEYS', 'RunParameters', 'dump', 'load', 'package_version']
+__all__ = ['EXTRA_KEYS', 'RunParameters', 'RunParametersError', 'dump', 'load',
+           'package_version']

@@ -22,8 +22,8 @@ from mcap.records import Channel, Footer, Message, Schema
 from mcap.stream_reader import StreamReader
 
 from ..commands import INPUT_TOPICS
+from ..run_parameters import RunParameters, RunParametersError, load
 from .bagformat import typestore
-from .runparams import RunParameters, RunParametersError, parse_run_parameters
 
 OUTPUT_TOPICS = {
     'joint_states': 'sensor_msgs/msg/JointState',
@@ -253,16 +253,13 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
             collectors[rel].add(step_of(log_time, topic), order,
                                 np.concatenate([msg.position[idx], msg.velocity[idx],
                                                 msg.effort[idx]]))
-        elif rel == 'transmission_error':
+        elif rel in ('transmission_error', 'active_path'):
             msg = store.deserialize_cdr(data, msgtype)
             collectors[rel].add(step_of(log_time, topic), order, msg.data)
         elif rel == 'mesh_state':
             msg = store.deserialize_cdr(data, msgtype)
             collectors[rel].add(step_of(log_time, topic), order,
                                 np.concatenate([msg.position, msg.velocity, msg.effort]))
-        elif rel == 'active_path':
-            msg = store.deserialize_cdr(data, msgtype)
-            collectors[rel].add(step_of(log_time, topic), order, msg.data)
         elif rel in INPUT_TOPICS and msgtype == INPUT_TOPICS[rel]:
             msg = store.deserialize_cdr(data, msgtype)
             value = [float(v) for v in msg.data] if rel == 'cmd_effort' else msg.data
@@ -312,7 +309,7 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
 
 def _parse(text: str, topic: str) -> RunParameters:
     try:
-        return parse_run_parameters(text)
+        return load(text)
     except RunParametersError as exc:
         raise BagError('no_parameters', f'{topic}: {exc}') from None
 
