@@ -19,6 +19,7 @@ fail a run).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -42,8 +43,8 @@ BLOCK_SECONDS = 0.25
 
 
 @dataclass(frozen=True)
-class SignalResult:
-    """Comparison of one recorded signal with the reference solution."""
+class SignalError:
+    """How far one recorded signal is from what it is judged against, in ``unit``."""
 
     name: str
     unit: str
@@ -51,12 +52,20 @@ class SignalResult:
     rms_error: float
     at_time: float          # simulation time of the largest error, s
     tolerance: float
-    estimate: float         # Richardson estimate of RK4's error, max over the run
-    samples: int
+    estimate: float = math.nan   # check_run: Richardson estimate of RK4's error, max over the run
 
     @property
     def ok(self) -> bool:
         return self.max_error <= self.tolerance
+
+
+def signal_error(name: str, unit: str, error: np.ndarray, times: np.ndarray, tolerance: float,
+                 estimate: float = math.nan) -> SignalError:
+    """Max (a non-finite error counts as infinite) and RMS of ``error`` sampled at ``times`` (s)."""
+    error = np.where(np.isfinite(error), error, np.inf)
+    worst = int(np.argmax(error))
+    return SignalError(name, unit, float(error[worst]), float(np.sqrt(np.mean(np.square(error)))),
+                       float(times[worst]), tolerance, estimate)
 
 
 @dataclass
@@ -68,7 +77,7 @@ class CheckReport:
     duration: float                  # simulated time covered, s
     events: int
     resets: int
-    signals: list[SignalResult] = field(default_factory=list)
+    signals: list[SignalError] = field(default_factory=list)
     replay_identical: bool = False   # in-process RK4 replay equals the recording bit for bit
     replay_max_diff: float = 0.0
     truncated: str | None = None
@@ -209,15 +218,11 @@ def check_run(run: RecordedRun,
     for (name, unit), (rec, ref, richardson, times) in zip(signal_names(run), columns):
         if len(rec) == 0:
             continue
-        err = np.abs(rec - ref)
-        err = np.where(np.isfinite(err), err, np.inf)
-        worst = int(np.argmax(err))
         estimate = float(np.max(np.abs(richardson)))
         scale = float(np.max(np.abs(ref)))
         tolerance = max(SAFETY * estimate, FLOOR_REL * scale, FLOOR_ABS[unit])
-        report.signals.append(SignalResult(
-            name, unit, float(err[worst]), float(np.sqrt(np.mean(np.square(err)))),
-            float(times[worst]), tolerance, estimate, len(rec)))
+        report.signals.append(signal_error(name, unit, np.abs(rec - ref), times, tolerance,
+                                           estimate))
     return report
 
 
@@ -253,5 +258,6 @@ def format_report(report: CheckReport) -> str:
     return '\n'.join(lines)
 
 
-__all__ = ['SAFETY', 'FLOOR_REL', 'FLOOR_ABS', 'SignalResult', 'CheckReport', 'signal_names',
+__all__ = ['SAFETY', 'FLOOR_REL', 'FLOOR_ABS', 'SignalError', 'signal_error', 'CheckReport',
+           'signal_names',
            'reference_outputs', 'check_run', 'format_report']

@@ -20,12 +20,13 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .bagread import Command, Event, ParameterChange, RecordedRun, Reset
-from .check import FLOOR_ABS, FLOOR_REL, signal_names
+from .bagread import Command, Event, ParameterChange, RecordedRun
+from .check import FLOOR_ABS, FLOOR_REL, SignalError, signal_error, signal_names
 from .replay import replay_in_process
 
 #: Tolerance = SAFETY × first-order bound of the measured timing jitter's effect.
 SAFETY = 2.0
+
 
 @dataclass(frozen=True)
 class EventTiming:
@@ -40,20 +41,6 @@ class EventTiming:
         return None if self.new_step is None else self.new_step - self.original_step
 
 
-@dataclass(frozen=True)
-class SignalDiff:
-    name: str
-    unit: str
-    max_diff: float
-    rms_diff: float
-    at_time: float
-    tolerance: float
-
-    @property
-    def ok(self) -> bool:
-        return self.max_diff <= self.tolerance
-
-
 @dataclass
 class Comparison:
     """Timing of every event and the trajectory difference per signal."""
@@ -63,7 +50,7 @@ class Comparison:
     jitter_ticks: float                       # largest |delay| in publish ticks
     samples: int                              # common output samples compared
     excluded: int = 0                         # samples left out near events
-    signals: list[SignalDiff] = field(default_factory=list)
+    signals: list[SignalError] = field(default_factory=list)
     identical: bool = False                   # same values at every common sample
 
     @property
@@ -193,13 +180,10 @@ def compare_runs(original: RecordedRun, new: RecordedRun) -> Comparison:
     for c, ((name, unit), x, y, b) in enumerate(zip(names, orig, repl, bound)):
         if len(x) == 0:
             continue
-        diff = np.abs(y - x)
-        worst = int(np.argmax(diff))
         floor = max(FLOOR_REL * float(np.max(np.abs(x))), FLOOR_ABS[unit])
         times = times_te if c == 9 else times_js
-        result.signals.append(SignalDiff(name, unit, float(diff[worst]),
-                                         float(np.sqrt(np.mean(diff ** 2))),
-                                         float(times[worst]), SAFETY * float(b) + floor))
+        result.signals.append(signal_error(name, unit, np.abs(y - x), times,
+                                           SAFETY * float(b) + floor))
     return result
 
 
@@ -219,7 +203,7 @@ def format_comparison(c: Comparison) -> str:
     lines.append(f'  {"signal":<26}{"unit":<7}{"max diff":>12}{"RMS diff":>12}'
                  f'{"at t [s]":>11}{"tolerance":>12}  verdict')
     for s in c.signals:
-        lines.append(f'  {s.name:<26}{s.unit:<7}{s.max_diff:>12.3e}{s.rms_diff:>12.3e}'
+        lines.append(f'  {s.name:<26}{s.unit:<7}{s.max_error:>12.3e}{s.rms_error:>12.3e}'
                      f'{s.at_time:>11.4f}{s.tolerance:>12.3e}  {"ok" if s.ok else "FAIL"}')
     if c.identical:
         lines.append('  the replay reproduces the original bit for bit')
@@ -227,5 +211,5 @@ def format_comparison(c: Comparison) -> str:
     return '\n'.join(lines)
 
 
-__all__ = ['SAFETY', 'EventTiming', 'SignalDiff', 'Comparison', 'match_events', 'shift_event',
+__all__ = ['SAFETY', 'EventTiming', 'Comparison', 'match_events', 'shift_event',
            'compare_runs', 'format_comparison']
