@@ -21,7 +21,8 @@ import numpy as np
 import yaml
 
 from ..commands import INPUT_TOPICS, InputRejected, apply_command
-from ..params import ParameterError, default_values, split_parameters
+from ..params import (ParameterError, SimSettings, TableParams, default_values,
+                      split_parameters)
 from ..plant import DriveInput, Outputs, Plant
 from .bagread import BagError, Command, Event, ParameterChange, RecordedRun, Reset
 
@@ -150,21 +151,22 @@ class Schedule:
         return int(round(1.0 / (float(self.start['publish_rate']) * self.dt)))
 
 
-def _values(parameters) -> dict[str, Any]:
-    values = {**parameters.params.as_dict(), **parameters.settings.as_dict()}
+def _values(params: TableParams, settings: SimSettings) -> dict[str, Any]:
+    """Every node parameter a replay sets, by ROS name (``NOT_REPLAYED`` aside)."""
+    values = {**params.as_dict(), **settings.as_dict()}
     return {k: v for k, v in values.items() if k not in NOT_REPLAYED}
 
 
 def schedule_from_run(run: RecordedRun) -> Schedule:
     """The recorded events of a run as replay actions: every input command as applied,
     every changed parameter (``NOT_REPLAYED`` aside) and every reset."""
-    previous = _values(run.parameters)
+    previous = _values(run.parameters.params, run.parameters.settings)
     schedule = Schedule(dict(previous), end_step=run.end_step)
     for _, event in run.events:
         if isinstance(event, Command):
             schedule.actions.append(Action(event.step, event.topic, event.value))
         elif isinstance(event, ParameterChange):
-            values = _values(event.parameters)
+            values = _values(event.parameters.params, event.parameters.settings)
             changed = {k: v for k, v in values.items() if previous.get(k) != v}
             previous = values
             if changed:
@@ -190,10 +192,9 @@ def load_scenario(path: str | Path) -> Schedule:
         params, settings = split_parameters({**default_values(), **overrides})
     except ParameterError as exc:
         raise ValueError(f'{path}: {exc}') from None
-    start = {k: v for k, v in {**params.as_dict(), **settings.as_dict()}.items()
-             if k not in NOT_REPLAYED}
     dt = settings.dt
-    schedule = Schedule(start, end_step=int(round(float(document['duration']) / dt)))
+    schedule = Schedule(_values(params, settings),
+                        end_step=int(round(float(document['duration']) / dt)))
     for entry in document.get('actions') or []:
         entry = dict(entry)
         step = int(round(float(entry.pop('time')) / dt))
