@@ -222,9 +222,9 @@ class Peer:
     def close(self) -> None:
         import rclpy
         self.executor.shutdown(timeout_sec=2.0)
+        self._thread.join(timeout=5.0)      # no thread inside rcl once the node goes
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
-        self._thread.join(timeout=5.0)
 
     # topics ------------------------------------------------------------------
 

@@ -19,16 +19,14 @@ at rest.
 
 from __future__ import annotations
 
-import signal
-import threading
-
 import rclpy
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Int8
+
+from ..ros.shutdown import spin_until, stop_on_signals
 
 LOG_PERIOD = 0.5   # s of simulation time between log lines
 MAX_GAP = 0.01     # s: a longer gap between joint states is not integrated
@@ -102,17 +100,12 @@ class DemoController(Node):
 
 def main(args: list[str] | None = None) -> int:
     """Run until SIGINT or SIGTERM; exit 0."""
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+    stop = stop_on_signals()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = None
     try:
         node = DemoController()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        while not stop.is_set():
-            executor.spin_once(timeout_sec=0.1)
+        spin_until(node, stop)
         node._pub_torque.publish(Float64(data=0.0))   # leave the table unforced
         return 0
     finally:

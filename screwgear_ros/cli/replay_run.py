@@ -45,6 +45,7 @@ from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64, Float64MultiArray, Int8
 from std_srvs.srv import Trigger
 
+from ..ros.shutdown import stop_on_signals
 from ..runs.bagread import BagError, read_run
 from ..runs.compare import compare_runs, format_comparison
 from ..runs.replay import Action, Schedule, load_scenario, schedule_from_run
@@ -89,12 +90,12 @@ class Replayer:
             pass
 
     def close(self) -> None:
-        """Stop spinning and shut the context down; the spin thread is joined so that no
-        thread is left inside rcl when the interpreter exits."""
+        """Stop spinning, join the spin thread, then destroy the node and shut the context
+        down: no thread is inside rcl when its node or context goes away."""
         self.executor.shutdown(timeout_sec=2.0)
+        self._thread.join(timeout=5.0)
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
-        self._thread.join(timeout=5.0)
 
     # ------------------------------------------------------------------ time
 
@@ -270,9 +271,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f'replay_run: {exc}', file=sys.stderr)
         return EXIT_ERROR
 
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+    stop = stop_on_signals()
     child: subprocess.Popen | None = None
     workdir = Path(tempfile.mkdtemp(prefix='replay_run_'))
     replayer: Replayer | None = None

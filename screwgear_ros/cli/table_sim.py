@@ -16,7 +16,6 @@ A thin shell over :class:`screwgear_ros.plant.Plant` (``shared/spec/interface.md
 
 from __future__ import annotations
 
-import signal
 import threading
 import time
 import traceback
@@ -28,7 +27,6 @@ import rclpy.logging
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import ParameterException
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
@@ -46,6 +44,7 @@ from ..plant import DriveInput, Outputs, Plant
 from ..ratelimit import RateLimiter
 from .. import run_parameters
 from ..ros import messages, parameters
+from ..ros.shutdown import spin_until, stop_on_signals
 from ..status import (MAX_PHASE_PER_STEP, Health, diagnostic_values, mesh_phase_per_step,
                       status_line)
 
@@ -320,9 +319,7 @@ def _msgtype(cls: type) -> str:
 
 def main(args: list[str] | None = None) -> int:
     """Run the node until SIGINT or SIGTERM; 0 on a clean stop, 2 on bad parameters."""
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+    stop = stop_on_signals()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node: TableSim | None = None
     try:
@@ -331,11 +328,8 @@ def main(args: list[str] | None = None) -> int:
         except (ValueError, OSError, ImportError, ParameterException) as error:
             rclpy.logging.get_logger('table_sim').fatal(f'cannot start: {error}')
             return 2
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
         node.start()
-        while not stop.is_set():
-            executor.spin_once(timeout_sec=0.1)
+        spin_until(node, stop)
         return 1 if node.failed else 0
     finally:
         if node is not None:
