@@ -47,10 +47,6 @@ class Outputs:
         """Total transmission error δ of the active path, m."""
         return self.delta[0] if self.active_path == 1 else self.delta[1]
 
-    def in_contact(self, backlash: float) -> tuple[bool, bool]:
-        """Whether mesh 1 and mesh 3 are in tooth contact (|δ| > b)."""
-        return abs(self.delta[0]) > backlash, abs(self.delta[1]) > backlash
-
 
 class Plant:
     """State, time and input of one simulated table; advances with compiled RK4."""

@@ -14,7 +14,6 @@ import subprocess
 import sys
 
 import numpy as np
-import pytest
 
 from screwgear_ros.integrator import advance, trajectory
 from screwgear_ros.model import equilibrium_state, pack

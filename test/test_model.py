@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from screwgear_ros.integrator import advance
-from screwgear_ros.model import (R1, R3, Z1, Z3, active_path, drive_torques, equilibrium_state,
+from screwgear_ros.model import (R1, Z1, active_path, drive_torques, equilibrium_state,
                                  mesh_force, mesh_state, mesh_stiffness, pack, rhs,
                                  static_transmission_error)
 from screwgear_ros.params import TableParams

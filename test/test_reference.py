@@ -13,7 +13,6 @@ import math
 import numpy as np
 import pytest
 
-from screwgear_ros.model import pack
 from screwgear_ros.params import TableParams, equivalent_mass
 from screwgear_ros.plant import DriveInput, Plant
 from screwgear_ros.reference import Segment, solve
