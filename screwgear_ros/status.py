@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 
 from .pacing import PacerStats
-from .params import MeshPhase, Mode, TableParams, natural_frequency
+from .model import Z1, Z3, ContactBranch, contact_branches, mesh_phase, pack
+from .params import TableParams, natural_frequency
 from .plant import Outputs
 
 #: Diagnostic levels (diagnostic_msgs/DiagnosticStatus).
@@ -23,50 +24,56 @@ OK, WARN, ERROR = 0, 1, 2
 MAX_PHASE_PER_STEP = 2.0 * math.pi / 20.0
 
 
+def mesh_phase_rates(params: TableParams, outputs: Outputs) -> tuple[float, float]:
+    """φ̇ of mesh 1 and mesh 3 at ``outputs``, rad/s, by the model's mesh phase
+    (:func:`screwgear_ros.model.mesh_phase`: z·ω in `angle` phase, ω_e in `time`)."""
+    p = pack(params).p
+    (th1, _, th3), (w1, _, w3) = outputs.position, outputs.velocity
+    return (mesh_phase(th1, w1, p[Z1], outputs.time, p)[1],
+            mesh_phase(th3, w3, p[Z3], outputs.time, p)[1])
+
+
 def mesh_phase_per_step(params: TableParams, outputs: Outputs, dt: float) -> float:
-    """Mesh phase advanced per integration step, rad: z·|ω| of the faster pinion
-    times dt (`angle` phase), or ω_e·dt (`time` phase)."""
-    if params.mesh_phase is MeshPhase.TIME:
-        return params.mesh_frequency * dt
-    w1, _, w3 = outputs.velocity
-    return max(params.teeth_pinion_1 * abs(w1), params.teeth_pinion_3 * abs(w3)) * dt
+    """Mesh phase advanced per integration step by the faster mesh, rad."""
+    r1, r3 = mesh_phase_rates(params, outputs)
+    return max(abs(r1), abs(r3)) * dt
 
 
 def mesh_frequency_ratio(params: TableParams, outputs: Outputs) -> float:
-    """Ω = ω_e/ω0 now: near 1 the STE excites the mesh at its natural frequency."""
-    if params.mesh_phase is MeshPhase.TIME:
-        w_e = params.mesh_frequency
-    else:
-        w_e = params.teeth_pinion_1 * abs(outputs.velocity[0])
-    return w_e / natural_frequency(params)
+    """Ω = ω_e/ω0 of mesh 1 now: near 1 the STE excites the mesh at its natural
+    frequency."""
+    return abs(mesh_phase_rates(params, outputs)[0]) / natural_frequency(params)
 
 
 class Contact(StrEnum):
-    """Where a mesh is: on a flank (in contact), in the backlash gap, or disengaged.
-    The values are what diagnostics show."""
+    """How a mesh is in contact, as diagnostics and markers show it: one member per
+    branch of the contact law (:class:`screwgear_ros.model.ContactBranch`, same names)."""
 
     FORWARD = 'forward flank'
     REVERSE = 'reverse flank'
+    FORWARD_LIFTING = 'lifting off the forward flank'
+    REVERSE_LIFTING = 'lifting off the reverse flank'
     GAP = 'in the gap'
+    LINEAR = 'in contact (no backlash)'
     DISENGAGED = 'disengaged'
+
+    @classmethod
+    def of(cls, branch: ContactBranch) -> Contact:
+        return cls[ContactBranch(branch).name]
 
     @property
     def touching(self) -> bool:
-        """The teeth touch (on either flank)."""
-        return self in (Contact.FORWARD, Contact.REVERSE)
+        """The teeth touch (a flank, lifting off one, or no backlash at all)."""
+        return self not in (Contact.GAP, Contact.DISENGAGED)
 
 
 def contact_states(params: TableParams, outputs: Outputs) -> tuple[Contact, Contact]:
-    """Contact of mesh 1 and mesh 3: on the forward or reverse flank, in the gap
-    (|δ| ≤ b) or, for mesh 3 in `conventional` mode, disengaged."""
-    def one(delta: float) -> Contact:
-        if delta > params.backlash:
-            return Contact.FORWARD
-        if delta < -params.backlash:
-            return Contact.REVERSE
-        return Contact.GAP
-    mesh_3 = Contact.DISENGAGED if params.mode is Mode.CONVENTIONAL else one(outputs.delta[1])
-    return one(outputs.delta[0]), mesh_3
+    """Contact of mesh 1 and mesh 3 at ``outputs``: the branches the model's contact law
+    is on there (:func:`screwgear_ros.model.contact_branches`)."""
+    m = pack(params)
+    branch_1, branch_3 = contact_branches(outputs.time, *outputs.position, *outputs.velocity,
+                                          m.p, m.ste_amp, m.ste_phase)
+    return Contact.of(branch_1), Contact.of(branch_3)
 
 
 def status_line(outputs: Outputs, achieved_factor: float) -> str:
@@ -156,6 +163,6 @@ def diagnostic_values(params: TableParams, outputs: Outputs,
     return level, message, values
 
 
-__all__ = ['OK', 'WARN', 'ERROR', 'MAX_PHASE_PER_STEP', 'mesh_phase_per_step',
+__all__ = ['OK', 'WARN', 'ERROR', 'MAX_PHASE_PER_STEP', 'mesh_phase_rates', 'mesh_phase_per_step',
            'mesh_frequency_ratio', 'Contact', 'contact_states', 'status_line', 'Health',
            'diagnostic_values']

@@ -19,6 +19,7 @@ from . import dop853, integrator, model, normalized
 from .events import Command
 from .params import MeshPhase, Mode, SimSettings, TableParams
 from .session import Session
+from .status import contact_states, mesh_frequency_ratio
 
 _MODULES = (model, integrator, normalized, dop853)
 
@@ -43,6 +44,8 @@ def warm() -> int:
                                           else 350.0), SimSettings())
             session.submit(Command('cmd_effort', [10.0]))
             session.tick()
+            contact_states(session.plant.params, session.outputs)     # diagnostics, markers
+            mesh_frequency_ratio(session.plant.params, session.outputs)
     normalized.response(normalized.NormalizedParams(), 1.0)
     dop853.warm()                    # check_run's reference solver
     return compiled_now()

@@ -127,23 +127,26 @@ def test_the_marks_turn_as_the_urdf_links_do():
 
 
 def test_contact_colours_follow_the_meshes():
-    from screwgear_ros.plant import Plant
+    from screwgear_ros.plant import DriveInput, Plant
     from screwgear_ros.ros.markers import table_markers
     from screwgear_ros.ros.messages import stamp
     params = TableParams()
     out = Plant(params, 5e-5).outputs()                     # preload: both on a flank
-    b = params.backlash
 
-    def colours(delta):
-        o = type(out)(**{**out.__dict__, 'delta': delta})
-        found = by_key(table_markers(params, JOINTS, o, stamp(0)).markers)
+    def colours(p, o):
+        found = by_key(table_markers(p, JOINTS, o, stamp(0)).markers)
         return [tuple(pytest.approx(c) for c in (m.color.r, m.color.g, m.color.b, m.color.a))
                 for m in (found[(MESHES, 0)], found[(MESHES, 1)])]
-    assert colours(out.delta) == [PALETTE['contact'], PALETTE['contact']]
-    assert colours((0.5 * b, -2 * b)) == [PALETTE['gap'], PALETTE['contact']]
-    conventional = table_markers(params.replace(mode='conventional'), JOINTS, out, stamp(0))
-    spot = by_key(conventional.markers)[(MESHES, 1)].color
-    assert (spot.r, spot.g, spot.b, spot.a) == pytest.approx(PALETTE['disengaged'])
+    assert colours(params, out) == [PALETTE['contact'], PALETTE['contact']]
+    # a conventional reversal: mesh 1 leaves its flank and crosses the backlash gap
+    conventional = params.replace(mode='conventional', preload_torque=0.0)
+    plant = Plant(conventional, 5e-5)
+    plant.set_input(DriveInput(200.0, 1, 0.0))
+    plant.advance(2000)
+    plant.set_input(DriveInput(200.0, -1, 0.0))
+    gap = next(o for o in (plant.advance_outputs(1) for _ in range(20000))
+               if abs(o.delta[0]) <= params.backlash)
+    assert colours(conventional, gap) == [PALETTE['gap'], PALETTE['disengaged']]
 
 
 @pytest.mark.parametrize('period, expected', [(3600.0, 1), (0.0, 'every tick')])

@@ -23,14 +23,39 @@ def outputs(delta=(1e-4, -1e-4), velocity=(0.0, 0.0, 0.0), time=1.0, path=1) -> 
                    delta_rate=(0.0, 0.0), mesh_force=(0.0, 0.0), active_path=path)
 
 
-def test_contact_states_follow_the_backlash_law():
-    b = P.backlash                                        # 75 µm
-    assert contact_states(P, outputs((b * 1.01, -b * 1.01))) == ('forward flank',
-                                                                 'reverse flank')
-    assert contact_states(P, outputs((b * 0.99, -b))) == ('in the gap', 'in the gap')
-    assert contact_states(P, outputs((-2 * b, 2 * b))) == ('reverse flank', 'forward flank')
-    conventional = P.replace(mode='conventional')
-    assert contact_states(conventional, outputs((b * 2, 0.0)))[1] == 'disengaged'
+def law(delta: float, force: float, b: float) -> str:
+    """model.md §2's contact law, restated on a recorded δ and F: the gap for |δ| ≤ b,
+    else the flank, lifting off it while the force is zero (it never pulls)."""
+    if b == 0.0:
+        return 'in contact (no backlash)'
+    if abs(delta) <= b:
+        return 'in the gap'
+    flank = 'forward flank' if delta > b else 'reverse flank'
+    return flank if force != 0.0 else f'lifting off the {flank}'
+
+
+@pytest.mark.parametrize('backlash', [P.backlash, 0.0])
+def test_contact_states_follow_the_backlash_law(backlash):
+    """Through conventional reversals (mesh 1 crosses the gap and hits both flanks) and
+    anti-backlash ones, every reported contact is the law's reading of δ and F."""
+    seen = set()
+    for mode in ('conventional', 'anti_backlash'):
+        p = P.replace(mode=mode, backlash=backlash, table_damping=8867.0,
+                      preload_torque=0.0 if mode == 'conventional' else P.preload_torque)
+        plant = Plant(p, DT)
+        for k in range(600):
+            plant.set_input(DriveInput(200.0, 1 if (k // 150) % 2 == 0 else -1, 0.0))
+            out = plant.advance_outputs(20)
+            mesh_1, mesh_3 = contact_states(p, out)
+            assert mesh_1 == law(out.delta[0], out.mesh_force[0], backlash)
+            if mode == 'conventional':
+                assert mesh_3 == 'disengaged' and not mesh_3.touching
+            else:
+                assert mesh_3 == law(out.delta[1], out.mesh_force[1], backlash)
+            seen.update((mesh_1, mesh_3))
+    expected = ({'forward flank', 'reverse flank', 'in the gap', 'disengaged'} if backlash
+                else {'in contact (no backlash)', 'disengaged'})
+    assert expected <= seen
 
 
 def test_the_preload_equilibrium_holds_both_flanks():
@@ -60,7 +85,9 @@ def test_a_healthy_run_is_ok_and_reports_counts():
     v = dict(values)
     assert level == OK and message == 'running'
     assert v['rejected_inputs'] == '3' and v['rejected_cmd_torque'] == '2'
-    assert v['mesh_1_contact'] == 'forward flank' and v['fault'] == ''
+    assert v['fault'] == ''
+    v = dict(diagnostic_values(P, Plant(P, DT).outputs(), health())[2])
+    assert v['mesh_1_contact'] == 'forward flank' and v['mesh_3_contact'] == 'reverse flank'
 
 
 def test_falling_behind_too_fast_a_mesh_and_faults_raise_the_level():
