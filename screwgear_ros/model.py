@@ -426,7 +426,9 @@ def stiffest_linearization(params: TableParams) -> np.ndarray:
     """System matrix A (6×6, dy/dt = A·y) of the equations of motion linearized at their
     stiffest: every mesh that can carry force in contact at K = k_eff + k_a, with the
     longest pinion lever r + z·Σ n·|ε_n| (`angle` phase, see
-    :func:`~screwgear_ros.params.ste_slope`), mesh and table damping included.
+    :func:`~screwgear_ros.params.ste_slope`), mesh and table damping included, and the
+    drive's torque–speed line on every pinion it can drive (its slope −T_s/ω_nl acts as
+    a damper on the driven pinion; :func:`drive_line`).
     Generalized mesh directions: δ1 = r1·θ1 − r2·θ2, δ3 = r3·θ3 − r2·θ2 (mesh 3 only
     in `anti_backlash`). Its eigenvalues bound the step an explicit method can take."""
     k = effective_stiffness(params) + params.mesh_stiffness_amplitude
@@ -434,10 +436,13 @@ def stiffest_linearization(params: TableParams) -> np.ndarray:
     lever_3 = params.radius_pinion_3 + ste_slope(params, '3')
     inertia = np.array([params.inertia_pinion_1, params.inertia_table, params.inertia_pinion_3])
     g = np.array([[lever_1, -params.radius_table, 0.0], [0.0, -params.radius_table, lever_3]])
+    drive = (params.drive_stall_torque / params.drive_no_load_speed
+             if params.drive_no_load_speed > 0.0 else 0.0)
+    driven = np.array([drive, 0.0, drive])
     if params.mode is Mode.CONVENTIONAL:
-        g = g[:1]
+        g, driven[2] = g[:1], 0.0
     stiffness = k * g.T @ g
-    damping = params.mesh_damping * g.T @ g + np.diag([0.0, params.table_damping, 0.0])
+    damping = params.mesh_damping * g.T @ g + np.diag(driven + [0.0, params.table_damping, 0.0])
     m_inv = np.diag(1.0 / inertia)
     return np.block([[np.zeros((3, 3)), np.eye(3)], [-m_inv @ stiffness, -m_inv @ damping]])
 

@@ -165,7 +165,8 @@ def test_max_stable_dt_is_rk4_imaginary_axis_limit_when_undamped(mode):
 
     |R(iy)|² = 1 − y⁶/72 + y⁸/576 for R(z) = 1 + z + z²/2 + z³/6 + z⁴/24: = 1 at y = 2√2.
     """
-    p = TableParams(mode=mode, mesh_damping=0.0, ste_amplitudes=(), ste_phases=())
+    p = TableParams(mode=mode, mesh_damping=0.0, ste_amplitudes=(), ste_phases=(),
+                    drive_no_load_speed=0.0)            # an ideal torque source: no damping
     expected = 2.0 * math.sqrt(2.0) / undamped_omega_max(p)
     assert P.max_stable_dt(p) == pytest.approx(expected, rel=1e-9)
     # For scale: the paper's stiffness allows ~1.9 ms, 38× the default 50 µs step.
@@ -180,10 +181,11 @@ def test_max_stable_dt_takes_the_ste_lever_of_angle_phase():
     """
     eps = (1.5384e-3, 2e-4)
     slope = 24 * (1 * eps[0] + 2 * eps[1])
-    p = TableParams(mesh_damping=0.0, ste_amplitudes=eps, ste_phases=(0.0, 0.3))
+    p = TableParams(mesh_damping=0.0, ste_amplitudes=eps, ste_phases=(0.0, 0.3),
+                    drive_no_load_speed=0.0)
     assert P.ste_slope(p, '1') == pytest.approx(slope, rel=1e-15)
     levered = TableParams(mesh_damping=0.0, ste_amplitudes=(), ste_phases=(),
-                          radius_pinion_1=0.078 + slope, radius_pinion_3=0.078 + slope)
+                          drive_no_load_speed=0.0, radius_pinion_1=0.078 + slope, radius_pinion_3=0.078 + slope)
     assert P.max_stable_dt(p) == pytest.approx(
         2.0 * math.sqrt(2.0) / undamped_omega_max(levered), rel=1e-9)
     timed = p.replace(mesh_phase='time')
@@ -199,25 +201,44 @@ def test_an_ste_slope_past_the_pinion_radius_is_refused():
     TableParams(ste_amplitudes=(0.1,), mesh_phase='time')   # a time-driven STE has no lever
 
 
-def test_max_stable_dt_with_damping_matches_the_integrator():
+@pytest.mark.parametrize('mode, drive', [('anti_backlash', False), ('conventional', False),
+                                         ('conventional', True), ('anti_backlash', True)])
+def test_max_stable_dt_with_damping_matches_the_integrator(mode, drive):
     """Just below the limit RK4 stays bounded, just above a perturbation grows without bound.
 
-    Linear regime (k_a = 0, no STE, b = 0) so the linearization max_stable_dt uses is exact.
+    Linear regime (k_a = 0, no STE, b = 0) so the linearization max_stable_dt uses is exact;
+    ``drive``: a strong drive line (its slope −T_s/ω_nl damps the driven pinion) with a
+    command above it, so the drive stays on the line. The perturbation is the difference
+    of a kicked and an unkicked run. In `anti_backlash` only one pinion is driven at a
+    time while the limit assumes both: there it must only be safe, in both directions.
     """
-    p = TableParams(mesh_stiffness_amplitude=0.0, ste_amplitudes=(), ste_phases=(),
-                    backlash=0.0, table_damping=8867.0)
+    p = TableParams(mode=mode, preload_torque=0.0 if mode == 'conventional' else 350.0,
+                    mesh_stiffness_amplitude=0.0, ste_amplitudes=(), ste_phases=(),
+                    backlash=0.0, table_damping=8867.0,
+                    drive_stall_torque=2e5 if drive else 1600.0,
+                    drive_no_load_speed=25.0 if drive else 0.0)
     limit = P.max_stable_dt(p)
-    # damping moves the limit a little past 2√2/ω (the stability region bulges there)
-    assert 2.8 < limit * undamped_omega_max(p) < 3.0
+    if not drive:     # damping moves the limit a little past 2√2/ω (the region bulges there)
+        assert 2.8 < limit * undamped_omega_max(p) < 3.0
+    else:             # the drive's damping (8000 N·m·s/rad on I = 0.033) sets the limit
+        assert limit < 0.9 * P.max_stable_dt(p.replace(drive_no_load_speed=0.0))
     m = pack(p)
-    growth = {}
-    for factor in (0.98, 1.02):
-        y = equilibrium_state(p)
-        y[3] += 1e-3                                   # kick pinion 1
-        advance(y, 0, 2000, factor * limit, m.p, m.ste_amp, m.ste_phase, 0.0, 1.0, 0.0)
-        growth[factor] = np.max(np.abs(y[3:]))
-    assert growth[0.98] < 1e-3
-    assert not np.isfinite(growth[1.02]) or growth[1.02] > 1e30
+    torque = 2.0 * p.drive_stall_torque if drive else 0.0
+
+    def growth(dt: float, direction: float) -> float:
+        runs = []
+        for kick in (0.0, 1e-3):
+            y = equilibrium_state(p)
+            y[3] += kick                                   # kick pinion 1
+            advance(y, 0, 2000, dt, m.p, m.ste_amp, m.ste_phase, torque, direction, 0.0)
+            runs.append(y)
+        return float(np.max(np.abs(runs[1][3:] - runs[0][3:])))
+    directions = (1.0, -1.0) if mode == 'anti_backlash' else (1.0,)
+    for direction in directions:
+        assert growth(0.98 * limit, direction) < 1e-3
+    if mode == 'conventional' or not drive:
+        above = growth(1.02 * limit, 1.0)
+        assert not np.isfinite(above) or above > 1.0      # the kick grew 1000-fold or more
 
 
 def test_check_step_and_split_parameters_refuse_unstable_dt():
