@@ -401,15 +401,15 @@ def outputs(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, 
             p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
             direction: float, load: float
             ) -> tuple[float, float, float, float, float, float, float, float, float]:
-    """What the node publishes about a state besides the state itself: the torques on
-    pinion 1, the table (net, = I2·θ̈2) and pinion 3 (N·m; on the pinions the preload
-    and the commanded drive torque, :func:`drive_torques`, not what the drive line
-    delivers), then δ (m), δ̇ (m/s) and the mesh force F (N) of mesh 1 and of mesh 3
-    (δ3 and δ̇3 also when pinion 3 is disengaged, with F3 = 0)."""
-    _, _, _, _, table, _, f1, f3, _, _, _ = motion(
+    """What the node publishes about a state besides the state itself: the torques
+    applied to pinion 1, the table (net, = I2·θ̈2) and pinion 3 (N·m; on the pinions the
+    preload and the drive torque the drive's torque–speed line delivers at this speed,
+    :func:`applied_torques`: the command itself below the line), then δ (m), δ̇ (m/s) and
+    the mesh force F (N) of mesh 1 and of mesh 3 (δ3 and δ̇3 also when pinion 3 is
+    disengaged, with F3 = 0)."""
+    _, _, _, t1, table, t3, f1, f3, _, _, _ = motion(
         t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque, direction, load,
         ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE)
-    t1, t3 = drive_torques(t, torque, direction, p)
     _, _, d1, dd1, _ = mesh_motion(th1, w1, p[R1], p[Z1], th2, w2, t, p, ste_amp, ste_phase)
     _, _, d3, dd3, _ = mesh_motion(th3, w3, p[R3], p[Z3], th2, w2, t, p, ste_amp, ste_phase)
     return t1, table, t3, d1, dd1, f1, d3, dd3, f3

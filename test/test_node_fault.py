@@ -41,7 +41,10 @@ def test_a_diverging_model_halts_integration_not_publishing(tmp_path):
     proc = start_process('table_sim', params={
         'mode': 'conventional', 'backlash': 0.0, 'mesh_phase': 'time',
         'mesh_stiffness_amplitude': 5.0e6, 'mesh_damping': 0.0,
-        'mesh_frequency': 2.0 * OMEGA_0, 'real_time_factor': 5.0, 'record': str(bag)})
+        'mesh_frequency': 2.0 * OMEGA_0, 'real_time_factor': 5.0, 'record': str(bag),
+        # an ideal torque source: the halted state's speeds are far past any drive line,
+        # where the torque applied to pinion 1 (its effort) would not be the command
+        'drive_no_load_speed': 0.0})
     peer = Peer('test_node_fault')
     try:
         js = peer.subscribe('/joint_states', JointState)
