@@ -15,13 +15,13 @@ from __future__ import annotations
 import sys
 import time
 
-from . import dop853, integrator, model, normalized
+from . import dop853, floquet, integrator, model, normalized
 from .events import Command
 from .params import MeshPhase, Mode, SimSettings, TableParams
 from .session import Session
 from .status import contact_states, mesh_frequency_ratio
 
-_MODULES = (model, integrator, normalized, dop853)
+_MODULES = (model, integrator, normalized, dop853, floquet)
 
 
 def kernels() -> list:
@@ -48,6 +48,7 @@ def warm() -> int:
             mesh_frequency_ratio(session.plant.params, session.outputs)
     normalized.response(normalized.NormalizedParams(), 1.0)
     dop853.warm()                    # check_run's reference solver
+    floquet.monodromy(0.05, 0.1, 2.0, steps=64)    # the report's Floquet maps
     return compiled_now()
 
 
