@@ -10,6 +10,14 @@
 * how much simulation a kill -9 loses (last /clock seen vs last readable sample).
 
 Timings are noisy on a shared 2-core machine: compare the ratios, run twice.
+
+    python benchmarks/bench_recording.py --speed [--repeat N] [--window S]
+
+measures only issue 12's two recording figures the way ``bench_speed.py`` does (its
+helpers: the installed table_sim over real DDS, observed from this process), each
+beside its anchor from the same run, the scenarios repeated and interleaved: flat out
+(dt 50 µs, 1 kHz) recording against not recording (cost in % of the real-time factor),
+and at factor 1, dt 20 µs the CPU share recording adds (% of a core).
 """
 
 from __future__ import annotations
@@ -100,7 +108,47 @@ def kill_9_loss(workdir: Path) -> tuple[float, float]:
     return seen, float(run.joint_states.steps[-1] * run.dt)
 
 
+def speed(repeat: int, window: float) -> None:
+    """Issue 12's recording figures only (module docstring), bench_speed's way."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import bench_speed as bs
+    scenarios = {
+        'table_flat': lambda d: bs.start_table(d, 50e-6, 0.0, False),
+        'table_flat_rec': lambda d: bs.start_table(d, 50e-6, 0.0, True),
+        'table_f1': lambda d: bs.start_table(d, 20e-6, 1.0, False),
+        'table_f1_rec': lambda d: bs.start_table(d, 20e-6, 1.0, True),
+    }
+    print(f'recording figures, {repeat} repeat(s) interleaved, {window:g} s windows, load '
+          f'average {os.getloadavg()[0]:.2f}', flush=True)
+    seen: dict[str, list] = {k: [] for k in scenarios}
+    for r in range(repeat):
+        for name, start in scenarios.items():
+            o = bs.watched(start, window, 2.0)
+            seen[name].append(o)
+            print(f'  [{r + 1}/{repeat}] {name:<15s} factor {o.factor():6.3f}  CPU '
+                  f'{o.cpu:6.1%}', flush=True)
+    rows = [bs.Figure('flat out while recording: real-time factor', '',
+                      [o.factor() for o in seen['table_flat_rec']], 'not recording',
+                      [o.factor() for o in seen['table_flat']], 'cost', 'cost <= 10 %',
+                      ('<=', 10.0)),
+            bs.Figure('factor 1, dt 20 µs, recording: CPU', '% core',
+                      [o.cpu * 100 for o in seen['table_f1_rec']], 'not recording',
+                      [o.cpu * 100 for o in seen['table_f1']], 'difference',
+                      '<= +5 % core', ('<=', 5.0))]
+    print(f'load average at the end {os.getloadavg()[0]:.2f}')
+    bs.print_table(rows)
+
+
 def main() -> None:
+    if '--speed' in sys.argv:
+        import argparse
+        parser = argparse.ArgumentParser(description='issue 12\'s recording figures')
+        parser.add_argument('--speed', action='store_true')
+        parser.add_argument('--repeat', type=int, default=3)
+        parser.add_argument('--window', type=float, default=10.0)
+        args = parser.parse_args()
+        speed(args.repeat, args.window)
+        return
     with tempfile.TemporaryDirectory(prefix='bench_recording_') as tmp:
         tmp_path = Path(tmp)
         print(f'table_sim, dt = 50 µs, 1 kHz publishing, 400 N·m drive; {WINDOW:g} s windows')

@@ -210,6 +210,56 @@ def test_write_never_blocks_on_a_stalled_writer(tmp_path: Path) -> None:
     assert status.get('truncated') is None
 
 
+def test_write_many_keeps_order_and_counts_whole_batches(tmp_path: Path) -> None:
+    """Batches and single writes interleaved come back from the file in the order they
+    were handed over (mcap's own reader, file order); a batch the bounded queue cannot
+    take is dropped whole and counted; one undeclared topic queues none of a batch."""
+    release = threading.Event()
+
+    def held(msg: object) -> bytes:
+        release.wait()
+        return serialize_message(msg)
+
+    topics = TOPICS[:2]
+    names = [t.name for t in topics]
+    recorder = RunRecorder(tmp_path / 'bag', topics, held, queue_size=10)
+    with pytest.raises(ValueError, match='not declared'):
+        recorder.write_many([(names[1], 0, Float64(data=-1.0)), ('/nope', 0, Empty())])
+    handed: list[tuple[str, int, float]] = []
+    for k in range(12):                 # batches of 3, single writes between them
+        if k % 2:
+            recorder.write(names[1], k, Float64(data=float(k)))
+            handed.append((names[1], k, float(k)))
+        else:
+            batch = [(names[1], k, Float64(data=float(k) + 0.5)),
+                     (names[0], k, JointState(name=['table'], position=[float(k)])),
+                     (names[1], k, Float64(data=float(k) + 0.25))]
+            recorder.write_many(batch)
+            handed.extend((topic, t, msg.data if topic == names[1] else msg.position[0])
+                          for topic, t, msg in batch)
+    release.set()
+    recorder.close()
+    mcap_file, = (tmp_path / 'bag').glob('*.mcap')
+    with open(mcap_file, 'rb') as stream:
+        read = [(channel.topic, message.log_time,
+                 obj.data if channel.topic == names[1] else obj.position[0])
+                for _, channel, message, obj in make_reader(
+                    stream, decoder_factories=[DecoderFactory()]).iter_decoded_messages(
+                        log_time_order=False)]
+    assert recorder.error is None
+    assert recorder.written == len(read) and recorder.written + recorder.dropped == len(handed)
+    # The writer is held on the first message until every write was made: at most the
+    # bound (10 messages) was accepted, at least the first batch and the write after it.
+    assert 4 <= recorder.written <= 10
+    # What was written is what was handed over, in order, batches never split.
+    position = {m: k for k, m in enumerate(handed)}
+    at = [position[m] for m in read]
+    assert at == sorted(at)
+    batches = [handed[k:k + 3] for k in range(0, len(handed), 4)]
+    for batch in batches:
+        assert sum(m in read for m in batch) in (0, 3)
+
+
 def test_a_write_racing_close_is_written_or_counted(tmp_path: Path) -> None:
     """The race: write() has checked that the recorder is open, close() then runs to the
     end, and only then does write() queue its message, behind the writer's stop mark.

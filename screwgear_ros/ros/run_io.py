@@ -157,13 +157,18 @@ class RunIO:
         t_ns = sim_time_ns(out.step, dt)
         self.last_joint_states = self._joint_states.encode(t_ns, out.position, out.velocity,
                                                            out.effort)
+        tick = [('joint_states', self.last_joint_states),
+                ('mesh_state', self._mesh_state.encode(t_ns, out.delta, out.delta_rate,
+                                                       out.mesh_force)),
+                ('transmission_error', self._float64.encode(t_ns, (out.transmission_error,)))]
         if 'clock' in self.topics:
-            self.send('clock', t_ns, self._clock.encode(t_ns))
-        self.send('joint_states', t_ns, self.last_joint_states)
-        self.send('mesh_state', t_ns, self._mesh_state.encode(t_ns, out.delta, out.delta_rate,
-                                                              out.mesh_force))
-        self.send('transmission_error', t_ns, self._float64.encode(t_ns,
-                                                                   (out.transmission_error,)))
+            tick.insert(0, ('clock', self._clock.encode(t_ns)))
+        for key, msg in tick:
+            publisher = self._publishers.get(key)
+            if publisher is not None:
+                publisher.publish(msg)
+        if self.recorder is not None:     # the tick's messages with one queue put
+            self.recorder.write_many([(self.topics[key], t_ns, msg) for key, msg in tick])
 
     def send(self, key: str, t_ns: int, msg: Any) -> None:
         """Publish ``msg`` on the topic ``key`` and record it at ``t_ns``."""

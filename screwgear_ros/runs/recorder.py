@@ -5,6 +5,14 @@ queue and writes them on its own writer thread (serialization included), so a sl
 disk never stalls the integrator: when the queue is full a message is dropped and
 counted, never waited for.
 
+What recording costs the node is mostly how often the two threads meet, not the MCAP
+writing: a queue put that wakes the writer, and the writer taking the interpreter
+lock from the pacing thread. So :meth:`RunRecorder.write_many` queues a tick's
+messages with one put, and the writer thread, once it has woken, writes everything
+queued and then sleeps ``batch_period`` (10 ms) before it looks again: it runs at most
+about 100 times a second whatever the message rate (``benchmarks/bench_recording.py
+--speed`` measures it).
+
 The bag is what ``ros2 bag record -s mcap`` on ROS 2 Jazzy writes: a directory with
 ``metadata.yaml`` and one ``<name>_0.mcap`` (profile ``ros2``, ``ros2msg`` schemas
 with the Jazzy definitions, CDR messages, QoS profiles on every channel). Log time
@@ -45,6 +53,8 @@ QUEUE_SIZE = 200_000
 CHUNK_SIZE = 256 * 1024
 #: Default longest wall time between flushes to the operating system, s.
 FLUSH_PERIOD = 1.0
+#: Default wall time the writer thread sleeps after writing what was queued, s.
+BATCH_PERIOD = 0.01
 
 _STOP = object()
 
@@ -63,14 +73,18 @@ class RunRecorder:
 
     ``serialize(msg) -> bytes`` turns a message into CDR (the node passes
     ``rclpy.serialization.serialize_message``); it runs on the writer thread, so a
-    message handed to :meth:`write` belongs to the recorder from then on and must
-    not be modified afterwards.
+    message handed to :meth:`write` or :meth:`write_many` belongs to the recorder
+    from then on and must not be modified afterwards.
+
+    The queue holds batches (tuples of ``(topic, log time, message)``, one per
+    :meth:`write` or :meth:`write_many`); its bound ``queue_size`` counts messages
+    accepted and not yet written.
     """
 
     def __init__(self, path: str | os.PathLike[str], topics: Sequence[TopicSpec],
                  serialize: Callable[[Any], bytes], *, queue_size: int = QUEUE_SIZE,
                  chunk_size: int = CHUNK_SIZE, flush_period: float = FLUSH_PERIOD,
-                 compression: bool = True) -> None:
+                 batch_period: float = BATCH_PERIOD, compression: bool = True) -> None:
         self.path = Path(path)
         if self.path.exists() and (not self.path.is_dir() or any(self.path.iterdir())):
             raise FileExistsError(f'{self.path} exists and is not an empty directory; '
@@ -81,10 +95,15 @@ class RunRecorder:
         self._serialize = serialize
         self._queue_size = int(queue_size)
         self._flush_period = float(flush_period)
+        self._batch_period = float(batch_period)
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self._drop_lock = threading.Lock()
         self._dropped = 0
         self._written = 0
+        # Messages queued = accepted − handled; each counter has one writing side
+        # (accepted: write()/write_many() under _close_lock; handled: the writer thread).
+        self._accepted = 0
+        self._handled = 0
         self._error: str | None = None
         self._closed = False              # set once, under _close_lock
         self._close_lock = threading.Lock()   # orders write()'s check-and-put against close()
@@ -146,15 +165,39 @@ class RunRecorder:
         Thread-safe. A full queue or a closed recorder drops the message and counts
         it in :attr:`dropped`. An unknown topic is a programming error (ValueError).
         """
-        channel = self._channels.get(topic)
-        if channel is None:
-            raise ValueError(f'topic {topic!r} was not declared to the recorder '
-                             f'(declared: {", ".join(self._channels)})')
+        if topic not in self._channels:
+            self._undeclared(topic)
+        self._put(((topic, sim_time_ns, msg),))
+
+    def write_many(self, messages: Sequence[tuple[str, int, Any]]) -> None:
+        """Queue ``(topic, sim_time_ns, msg)`` messages, in this order, with one put;
+        never blocks.
+
+        What a tick records at once (the node's outputs of one step): one queue
+        operation instead of one per message. Thread-safe. If the queue cannot take
+        them all, all are dropped and counted (a tick is recorded whole or not at all).
+        An unknown topic is a ValueError and queues none of them.
+        """
+        batch = tuple(messages)
+        channels = self._channels
+        for topic, _, _ in batch:
+            if topic not in channels:
+                self._undeclared(topic)
+        if batch:
+            self._put(batch)
+
+    def _undeclared(self, topic: str) -> None:
+        raise ValueError(f'topic {topic!r} was not declared to the recorder '
+                         f'(declared: {", ".join(self._channels)})')
+
+    def _put(self, batch: tuple[tuple[str, int, Any], ...]) -> None:
+        n = len(batch)
         with self._close_lock:    # so that no message slips in behind close()'s stop mark
-            if not self._closed and self._queue.qsize() < self._queue_size:
-                self._queue.put((channel, int(sim_time_ns), msg))
+            if not self._closed and self._accepted - self._handled + n <= self._queue_size:
+                self._accepted += n
+                self._queue.put(batch)
                 return
-        self._count_drop(1)
+        self._count_drop(n)
 
     def close(self, timeout: float = 5.0) -> None:
         """Drain the queue and finalize the bag (summary, index, metadata.yaml).
@@ -180,20 +223,23 @@ class RunRecorder:
             self._dropped += n
 
     def _run(self) -> None:
+        get, get_nowait, empty = self._queue.get, self._queue.get_nowait, queue.Empty
         next_flush = 0.0          # the first message is flushed at once
-        dirty = False
-        while True:
+        dirty = stop = False
+        while not stop:
+            # Wait for the first batch, then take everything queued behind it.
+            batches: list[Any] = []
             try:
-                item = self._queue.get(timeout=self._flush_period)
-            except queue.Empty:
-                item = None
-            if item is _STOP:
-                break
-            if item is not None:
-                if self._abandon or self._error is not None:
-                    self._count_drop(1)
-                    continue
-                self._write_one(*item)
+                batches.append(get(timeout=self._flush_period))
+                while True:
+                    batches.append(get_nowait())
+            except empty:
+                pass
+            for batch in batches:
+                if batch is _STOP:            # close() puts it last: nothing follows
+                    stop = True
+                    break
+                self._write_batch(batch)
                 dirty = True
             now = time.monotonic()
             if dirty and now >= next_flush and self._error is None:
@@ -203,24 +249,39 @@ class RunRecorder:
                     self._fail(exc)
                 dirty = False
                 next_flush = now + self._flush_period
+            if batches and not stop:
+                time.sleep(self._batch_period)    # let the next batches gather
         self._finish()
 
-    def _write_one(self, channel: tuple[int, int], log_time: int, msg: Any) -> None:
-        index, channel_id = channel
-        try:
-            data = self._serialize(msg)
-            self._mcap.add_message(channel_id, log_time=log_time, data=data,
-                                   publish_time=log_time, sequence=self._sequence[index])
-        except Exception as exc:  # noqa: BLE001 - one bad message must not end the run
-            self._count_drop(1)
-            self._fail(exc)
-            return
-        self._sequence[index] += 1
-        self._counts[index] += 1
-        self._written += 1
-        if self._start_ns is None or log_time < self._start_ns:
-            self._start_ns = log_time
-        self._end_ns = max(self._end_ns, log_time)
+    def _write_batch(self, batch: tuple[tuple[str, int, Any], ...]) -> None:
+        """Write one batch's messages in order (or count them dropped after an error
+        or when close() gave up waiting)."""
+        channels, counts, sequence = self._channels, self._counts, self._sequence
+        serialize, add_message = self._serialize, self._mcap.add_message
+        start, end, written = self._start_ns, self._end_ns, 0
+        for topic, log_time, msg in batch:
+            if self._abandon or self._error is not None:
+                self._count_drop(1)
+                continue
+            index, channel_id = channels[topic]
+            log_time = int(log_time)
+            try:
+                add_message(channel_id, log_time=log_time, data=serialize(msg),
+                            publish_time=log_time, sequence=sequence[index])
+            except Exception as exc:  # noqa: BLE001 - one bad message must not end the run
+                self._count_drop(1)
+                self._fail(exc)
+                continue
+            sequence[index] += 1
+            counts[index] += 1
+            written += 1
+            if start is None or log_time < start:
+                start = log_time
+            if log_time > end:
+                end = log_time
+        self._start_ns, self._end_ns = start, end
+        self._written += written
+        self._handled += len(batch)
 
     def _fail(self, exc: BaseException) -> None:
         if self._error is None:
@@ -234,7 +295,7 @@ class RunRecorder:
             except queue.Empty:
                 break
             if item is not _STOP:
-                self._count_drop(1)
+                self._count_drop(len(item))
         try:
             self._mcap.add_metadata('rosbag2',
                                     {'serialized_metadata': self._serialized_metadata()})
@@ -259,4 +320,5 @@ class RunRecorder:
         tmp.replace(self.path / 'metadata.yaml')
 
 
-__all__ = ['TopicSpec', 'RunRecorder', 'QUEUE_SIZE', 'CHUNK_SIZE', 'FLUSH_PERIOD']
+__all__ = ['TopicSpec', 'RunRecorder', 'QUEUE_SIZE', 'CHUNK_SIZE', 'FLUSH_PERIOD',
+           'BATCH_PERIOD']
