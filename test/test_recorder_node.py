@@ -10,6 +10,7 @@ from __future__ import annotations
 import shutil
 import signal
 import subprocess
+import time
 from pathlib import Path
 
 import pytest
@@ -17,6 +18,7 @@ import yaml
 from mcap.reader import make_reader
 from rosbags.rosbag2 import Reader
 from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
@@ -24,6 +26,7 @@ from screwgear_ros.runs.bagread import read_run
 from screwgear_ros.runs.recorder import FLUSH_PERIOD
 
 PARAMS = {'table_damping': 8867.0, 'publish_rate': 200.0}
+PRELOAD = 350.0                  # N·m on pinion 1 with no command (the default preload)
 
 
 def check_run(*args: object) -> subprocess.CompletedProcess:
@@ -32,14 +35,33 @@ def check_run(*args: object) -> subprocess.CompletedProcess:
 
 
 def drive(seconds: float) -> int:
-    """Command 400 N·m and wait until the node's simulation passes ``seconds``;
-    the last /clock seen, ns."""
+    """Command 400 N·m and wait until the node's simulation has run ``seconds`` past
+    the command; the last /clock seen, ns.
+
+    The command is sent again every 0.5 s until joint_states shows it applied: a
+    publisher that sees the node's subscription may still be unknown to it (discovery
+    is not symmetric), and a volatile reader drops what came before it matched. On a
+    busy machine discovery can take seconds while the node already runs, so the time
+    is counted from the command, not from the start.
+    """
     with Peer('recorder_test') as peer:
         clock = peer.subscribe('/clock', Clock, transform=stamp_ns)
+        efforts = peer.subscribe('/joint_states', JointState, transform=lambda m: m.effort[0])
         torque = peer.publisher('cmd_torque', Float64, wait_matched=STARTUP_TIMEOUT)
         clock.wait_for(lambda t: t > 0, STARTUP_TIMEOUT, 'the node to run')
-        torque.publish(Float64(data=400.0))
-        clock.wait_for(lambda t: t >= seconds * 1e9, 60.0, f'{seconds} s of simulation')
+        deadline = time.monotonic() + STARTUP_TIMEOUT
+        while True:
+            torque.publish(Float64(data=400.0))
+            try:
+                efforts.wait_next(lambda e: e > PRELOAD + 1.0, 0.5, 'the command applied')
+                break
+            except AssertionError:
+                if time.monotonic() > deadline:
+                    raise
+        applied = clock.latest()
+        print(f"command applied at t = {applied * 1e-9:.3f} s of simulation")
+        clock.wait_for(lambda t: t >= applied + seconds * 1e9, 60.0,
+                       f'{seconds} s of simulation after the command')
         return clock.latest()
 
 
