@@ -34,14 +34,20 @@ from __future__ import annotations
 import atexit
 import os
 import queue
+import struct
 import threading
 import time
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import yaml
-from mcap.writer import CompressionType, Writer
+import zstandard
+from mcap.data_stream import RecordBuilder
+from mcap.opcode import Opcode
+from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, Metadata,
+                          MetadataIndex, McapRecord, Schema, Statistics, SummaryOffset)
 
 from .. import __version__
 from .bagformat import (MCAP_PROFILE, MESSAGE_ENCODING, SCHEMA_ENCODING, message_definition,
@@ -57,6 +63,174 @@ FLUSH_PERIOD = 1.0
 BATCH_PERIOD = 0.01
 
 _STOP = object()
+
+_MAGIC = b'\x89MCAP0\r\n'
+# A Message record's opcode, length and fixed fields: channel id, sequence, log time,
+# publish time (MCAP specification, little endian); its data follows.
+_MESSAGE = struct.Struct('<BQHIQQ')
+_MESSAGE_FIELDS = 2 + 4 + 8 + 8
+_MESSAGE_INDEX = struct.Struct('<BQHI')     # opcode, length, channel id, bytes of entries
+_FOOTER_START = struct.Struct('<BQQQ')      # opcode, length, summary start, offsets start
+
+
+class _McapWriter:
+    """The MCAP file of a recording: a Header, the schemas and channels, then messages
+    in compressed chunks, each followed by its message indexes; at the end the summary
+    (schemas, channels, statistics, chunk and metadata indexes, summary offsets) and the
+    footer, as the MCAP specification lays them out.
+
+    Why not ``mcap.writer.Writer``: it builds a record object and makes about twenty
+    Python calls per message, and the writer thread holds the interpreter lock for all
+    of them, which the node's pacing thread then waits for. Here a message is one
+    ``struct`` pack appended to the open chunk and two index entries; the rare records
+    are the ``mcap`` library's own record classes.
+    """
+
+    def __init__(self, stream: Any, chunk_size: int, compression: bool) -> None:
+        self._stream = stream
+        self._chunk_size = chunk_size
+        self._compress = zstandard.ZstdCompressor().compress if compression else None
+        self._schemas: list[Schema] = []
+        self._channels: list[Channel] = []
+        self._chunk = bytearray()
+        self._index: dict[int, list[int]] = {}     # channel id → log time, offset, ...
+        self._chunk_start = self._chunk_end = 0
+        self._chunk_messages = 0
+        self._chunk_indexes: list[ChunkIndex] = []
+        self._metadata_indexes: list[MetadataIndex] = []
+        self._counts: dict[int, int] = {}
+        self._messages = 0
+        self._start = self._end = 0
+
+    def _record(self, record: McapRecord) -> tuple[int, int]:
+        """Write a record to the file; its offset and length."""
+        builder = RecordBuilder()
+        record.write(builder)
+        data = builder.end()
+        offset = self._stream.tell()
+        self._stream.write(data)
+        return offset, len(data)
+
+    def start(self, profile: str, library: str) -> None:
+        self._stream.write(_MAGIC)
+        self._record(Header(profile=profile, library=library))
+
+    def add_metadata(self, name: str, data: dict[str, str]) -> None:
+        self._finish_chunk()
+        offset, length = self._record(Metadata(name=name, metadata=data))
+        self._metadata_indexes.append(MetadataIndex(offset=offset, length=length, name=name))
+
+    def register_schema(self, name: str, encoding: str, data: bytes) -> int:
+        schema = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
+        self._schemas.append(schema)
+        self._record(schema)
+        return schema.id
+
+    def register_channel(self, topic: str, message_encoding: str, schema_id: int,
+                         metadata: dict[str, str]) -> int:
+        channel = Channel(id=len(self._channels) + 1, topic=topic,
+                          message_encoding=message_encoding, schema_id=schema_id,
+                          metadata=metadata)
+        self._channels.append(channel)
+        self._counts[channel.id] = 0
+        self._index[channel.id] = []
+        self._record(channel)
+        return channel.id
+
+    def add(self, channel_id: int, sequence: int, log_time: int, data: bytes) -> None:
+        """One message (publish time = log time) into the open chunk."""
+        chunk = self._chunk
+        offset = len(chunk)
+        if not self._chunk_messages or log_time < self._chunk_start:
+            self._chunk_start = log_time
+        if log_time > self._chunk_end or not self._chunk_messages:
+            self._chunk_end = log_time
+        chunk += _MESSAGE.pack(Opcode.MESSAGE, _MESSAGE_FIELDS + len(data), channel_id,
+                               sequence, log_time, log_time)
+        chunk += data
+        index = self._index[channel_id]
+        index.append(log_time)
+        index.append(offset)
+        self._chunk_messages += 1
+        if len(chunk) >= self._chunk_size:
+            self._finish_chunk()
+
+    def _finish_chunk(self) -> None:
+        """Write the open chunk and its message indexes (nothing if it is empty)."""
+        if not self._chunk_messages:
+            return
+        records = bytes(self._chunk)
+        data = self._compress(records) if self._compress is not None else records
+        chunk = Chunk(compression='zstd' if self._compress is not None else '', data=data,
+                      message_start_time=self._chunk_start,
+                      message_end_time=self._chunk_end,
+                      uncompressed_crc=zlib.crc32(records), uncompressed_size=len(records))
+        chunk_offset, chunk_length = self._record(chunk)
+        offsets: dict[int, int] = {}
+        index_start = self._stream.tell()
+        for channel_id, entries in self._index.items():
+            if entries:
+                offsets[channel_id] = self._stream.tell()
+                n = len(entries)
+                self._stream.write(_MESSAGE_INDEX.pack(Opcode.MESSAGE_INDEX, 6 + 8 * n,
+                                                       channel_id, 8 * n))
+                self._stream.write(struct.pack(f'<{n}Q', *entries))
+                self._counts[channel_id] += n // 2
+                entries.clear()
+        self._chunk_indexes.append(ChunkIndex(
+            message_start_time=self._chunk_start, message_end_time=self._chunk_end,
+            chunk_start_offset=chunk_offset, chunk_length=chunk_length,
+            message_index_offsets=offsets, message_index_length=self._stream.tell() - index_start,
+            compression=chunk.compression, compressed_size=len(data),
+            uncompressed_size=len(records)))
+        if not self._messages or self._chunk_start < self._start:
+            self._start = self._chunk_start
+        if not self._messages or self._chunk_end > self._end:
+            self._end = self._chunk_end
+        self._messages += self._chunk_messages
+        self._chunk_messages = 0
+        self._chunk.clear()
+
+    def flush(self) -> None:
+        """Write the open chunk and hand everything to the operating system."""
+        self._finish_chunk()
+        self._stream.flush()
+
+    def finish(self) -> None:
+        """The last chunk, the data section's end, the summary and the footer."""
+        self._finish_chunk()
+        self._record(DataEnd(data_section_crc=0))
+        summary_start = self._stream.tell()
+        builder = RecordBuilder()
+        offsets: list[SummaryOffset] = []
+
+        def group(opcode: Opcode, records: Sequence[McapRecord]) -> None:
+            start = builder.count
+            for record in records:
+                record.write(builder)
+            offsets.append(SummaryOffset(group_opcode=opcode, group_start=summary_start + start,
+                                         group_length=builder.count - start))
+
+        group(Opcode.SCHEMA, self._schemas)
+        group(Opcode.CHANNEL, self._channels)
+        group(Opcode.STATISTICS, [Statistics(
+            message_count=self._messages, schema_count=len(self._schemas),
+            channel_count=len(self._channels), attachment_count=0,
+            metadata_count=len(self._metadata_indexes), chunk_count=len(self._chunk_indexes),
+            message_start_time=self._start, message_end_time=self._end,
+            channel_message_counts=dict(self._counts))])
+        group(Opcode.CHUNK_INDEX, self._chunk_indexes)
+        group(Opcode.METADATA_INDEX, self._metadata_indexes)
+        offsets_start = summary_start + builder.count
+        for offset in offsets:
+            offset.write(builder)
+        summary = builder.end()
+        crc = zlib.crc32(_FOOTER_START.pack(Opcode.FOOTER, 20, summary_start, offsets_start),
+                         zlib.crc32(summary))
+        self._stream.write(summary)
+        self._record(Footer(summary_start=summary_start, summary_offset_start=offsets_start,
+                            summary_crc=crc))
+        self._stream.write(_MAGIC)
 
 
 @dataclass(frozen=True)
@@ -120,9 +294,7 @@ class RunRecorder:
         self._write_metadata_yaml()
 
         self._file = open(self.path / self._mcap_name, 'xb')
-        self._mcap = Writer(self._file, chunk_size=int(chunk_size),
-                            compression=CompressionType.ZSTD if compression
-                            else CompressionType.NONE)
+        self._mcap = _McapWriter(self._file, int(chunk_size), compression)
         self._mcap.start(profile=MCAP_PROFILE, library=f'screwgear_ros-{__version__}')
         self._mcap.add_metadata('rosbag2', {'serialized_metadata': self._serialized_metadata()})
         schemas: dict[str, int] = {}
@@ -257,7 +429,7 @@ class RunRecorder:
         """Write one batch's messages in order (or count them dropped after an error
         or when close() gave up waiting)."""
         channels, counts, sequence = self._channels, self._counts, self._sequence
-        serialize, add_message = self._serialize, self._mcap.add_message
+        serialize, add = self._serialize, self._mcap.add
         start, end, written = self._start_ns, self._end_ns, 0
         for topic, log_time, msg in batch:
             if self._abandon or self._error is not None:
@@ -266,8 +438,7 @@ class RunRecorder:
             index, channel_id = channels[topic]
             log_time = int(log_time)
             try:
-                add_message(channel_id, log_time=log_time, data=serialize(msg),
-                            publish_time=log_time, sequence=sequence[index])
+                add(channel_id, sequence[index], log_time, serialize(msg))
             except Exception as exc:  # noqa: BLE001 - one bad message must not end the run
                 self._count_drop(1)
                 self._fail(exc)
