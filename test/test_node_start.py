@@ -11,6 +11,7 @@ install time, while ``compiled_now`` (which the node calls) imports none of them
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -37,15 +38,19 @@ print(loaded)
 '''
 
 
-def _run(code: str) -> str:
+def _run(code: str, **env: str) -> str:
     proc = subprocess.run([sys.executable, '-P', '-c', code], capture_output=True, text=True,
-                          check=False, timeout=120)
+                          check=False, timeout=120, env={**os.environ, **env})
     assert proc.returncode == 0, proc.stderr[-3000:]
     return proc.stdout.strip().splitlines()[-1]
 
 
 def test_the_start_up_to_the_first_joint_states_loads_no_tool_module():
     assert _run(START.format(tools=TOOLS_ONLY)) == '[]'
+
+
+def test_the_start_without_jit_loads_no_tool_module_either():
+    assert _run(START.format(tools=TOOLS_ONLY), NUMBA_DISABLE_JIT='1') == '[]'
 
 
 def test_warmup_finds_every_kernel_module_and_compiled_now_imports_none():
@@ -57,7 +62,7 @@ def test_warmup_finds_every_kernel_module_and_compiled_now_imports_none():
             '            if m not in sys.modules]\n'
             'every = {k.py_func.__module__ for k in warmup.kernels()}\n'
             'print(json.dumps([sorted(before), unloaded, sorted(every)]))\n')
-    before, unloaded, every = json.loads(_run(code))
+    before, unloaded, every = json.loads(_run(code, NUMBA_DISABLE_JIT='0'))
     assert before == ['screwgear_ros.integrator', 'screwgear_ros.model']
     assert unloaded == ['screwgear_ros.dop853', 'screwgear_ros.normalized']
     assert every == sorted(f'screwgear_ros.{m}'
