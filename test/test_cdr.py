@@ -34,7 +34,10 @@ def _time(t_ns: int):
 
 def test_joint_state_encodings_decode_to_the_values_in_rclpy_and_match_rosbags():
     rng = random.Random(7)
-    for names in (NAMES, ['a', 'longer_joint_name', 'x'], ['mesh_1', 'mesh_3']):
+    # every string padding (lengths 1..4 mod 4), no joint (empty sequences are not
+    # aligned to 8), a name whose UTF-8 is longer than its characters
+    for names in (NAMES, ['a', 'longer_joint_name', 'x'], ['mesh_1', 'mesh_3'],
+                  ['ab', 'abc', 'abcd', 'abcde'], [], ['zahnrad_ä', 'ü']):
         template = joint_state_template(names)
         n = len(names)
         for _ in range(200):
@@ -60,6 +63,8 @@ def test_float64_and_clock_encodings():
     for _ in range(200):
         value, t_ns = _values(rng, 1)[0], rng.randrange(0, 10 ** 13)
         assert deserialize_message(f64.encode(0, [value]), Float64).data == value
+        assert f64.encode(0, [value]) == bytes(STORE.serialize_cdr(
+            T['std_msgs/msg/Float64'](data=value), 'std_msgs/msg/Float64'))
         stamp = deserialize_message(clock.encode(t_ns), Clock).clock
         assert stamp.sec * 10 ** 9 + stamp.nanosec == t_ns
         assert clock.encode(t_ns) == bytes(STORE.serialize_cdr(

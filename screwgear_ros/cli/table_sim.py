@@ -73,18 +73,13 @@ class TableSim(Node):
         self._stop = stop
         self._values = parameters.declare(self, self.get_logger().info)
         params, settings = split_parameters(self._values)   # ParameterError: refuse to start
-        started = time.perf_counter()
-        self.session = Session(params, settings)
-        self.session.plant.advance(0)    # load (or compile) the integrator now, not in tick 1
-        if compiled_now():
-            self.get_logger().info(
-                f'compiled the numba model in {time.perf_counter() - started:.1f} s: its cache '
-                'was missing (python3 -m screwgear_ros.warmup after an install avoids this)')
         self._gate = AnswerGate()
         self._warnings = RateLimiter(1.0)          # rejected inputs, per topic
         self._reversals = RateLimiter(STATUS_PERIOD)   # one reversal line per status period
         self.failed = False
 
+        # Endpoints before the session: DDS discovers them on its own threads while the
+        # session loads its compiled kernels (no callback runs before main() spins).
         publishers = {key: self.create_publisher(
             kind, topic, LATCHED if key in LATCHED_OUTPUTS else 10)
             for key, (topic, kind) in OUTPUT_TYPES.items()
@@ -98,6 +93,13 @@ class TableSim(Node):
         self.create_subscription(Empty, '~/tick', self._on_tick, 10)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        started = time.perf_counter()
+        self.session = Session(params, settings)
+        self.session.plant.advance(0)    # load (or compile) the integrator now, not in tick 1
+        if compiled_now():
+            self.get_logger().info(
+                f'compiled the numba model in {time.perf_counter() - started:.1f} s: its cache '
+                'was missing (python3 -m screwgear_ros.warmup after an install avoids this)')
         self._fqn = self.get_fully_qualified_name()
         topics = {key: pub.topic_name for key, pub in publishers.items()}
         topics.update({topic: sub.topic_name for topic, sub in subs.items()})

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import os
 import time
-from typing import Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
@@ -31,13 +31,16 @@ from .. import run_parameters
 from ..events import Command, ParameterChange
 from ..pacing import sim_time_ns
 from ..plant import Outputs
-from ..runs.bagformat import typestore
-from ..runs.recorder import RunRecorder, TopicSpec
 from ..session import Session, Tick
 from . import cdr, messages
 from .markers import table_markers
 from .messages import INPUT_TYPES, LATCHED_OUTPUTS, OUTPUT_TYPES, PRIVATE_TYPES, type_name
 from .urdf import robot_description
+
+if TYPE_CHECKING:
+    from ..runs.recorder import RunRecorder, TopicSpec
+# screwgear_ros.runs (the MCAP writer, rosbags' typestore) is imported where a recording
+# needs it, not at the node's start: a node that does not record never loads it.
 
 #: Wall time between two table_markers, s (about 30 Hz).
 MARKER_PERIOD = 1.0 / 30.0
@@ -77,6 +80,7 @@ def serialize(msg: Any) -> bytes:
     data = serialize_message(msg)
     if isinstance(msg, JointState) and not (len(msg.position) and len(msg.velocity)
                                             and len(msg.effort)):
+        from ..runs.bagformat import typestore
         store = typestore()
         msgdef = store.get_msgdef(_JOINT_STATE)
         decode = msgdef.deserialize_cdr_le if data[1] else msgdef.deserialize_cdr_be
@@ -110,11 +114,13 @@ class RunIO:
 
     def topic_specs(self) -> list[TopicSpec]:
         """The recorded topics, with types and the latched one."""
+        from ..runs.recorder import TopicSpec
         return [TopicSpec(name, type_name(_message_class(key)), key in LATCHED_OUTPUTS)
                 for key, name in self.topics.items()]
 
     def open_recorder(self, path: str | os.PathLike[str], **options: Any) -> RunRecorder:
         """Record from now on to a new rosbag2 directory (FileExistsError if taken)."""
+        from ..runs.recorder import RunRecorder
         self.recorder = RunRecorder(path, self.topic_specs(), serialize, **options)
         return self.recorder
 

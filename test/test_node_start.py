@@ -1,0 +1,70 @@
+"""The node's start loads only what its first joint_states needs (issue 12's fast start).
+
+In a fresh interpreter, table_sim is constructed on real rclpy and its run started up to
+the first outputs (``RunIO.start``: the URDF, the active path, joint_states); then the
+modules only the tools need must still be unimported: check_run's DOP853 and the
+SciPy integrators, rosbags' typestore, the MCAP writer, matplotlib, the normalized
+model. And ``warmup.kernels()`` still finds every kernel module it compiles at
+install time, while ``compiled_now`` (which the node calls) imports none of them.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+#: Loaded by the tools (check_run, plot_run, recording), never by a start that does not
+#: record.
+TOOLS_ONLY = ('scipy.integrate', 'scipy.optimize', 'rosbags', 'mcap', 'matplotlib',
+              'screwgear_ros.runs', 'screwgear_ros.dop853', 'screwgear_ros.normalized',
+              'screwgear_ros.reference', 'screwgear_ros.floquet')
+
+START = '''
+import sys, threading
+import rclpy
+from rclpy.signals import SignalHandlerOptions
+from screwgear_ros.cli.table_sim import TableSim
+rclpy.init(args=['--ros-args', '-r', '__ns:=/start_test'],
+           signal_handler_options=SignalHandlerOptions.NO)
+node = TableSim(threading.Event())
+node.io.start(node.session)
+assert node.io.last_joint_states is not None
+loaded = sorted(m for m in sys.modules if any(m == t or m.startswith(t + '.') for t in {tools!r}))
+node.destroy_node()
+rclpy.try_shutdown()
+print(loaded)
+'''
+
+
+def _run(code: str, **env: str) -> str:
+    proc = subprocess.run([sys.executable, '-P', '-c', code], capture_output=True, text=True,
+                          check=False, timeout=120, env={**os.environ, **env})
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return proc.stdout.strip().splitlines()[-1]
+
+
+def test_the_start_up_to_the_first_joint_states_loads_no_tool_module():
+    assert _run(START.format(tools=TOOLS_ONLY)) == '[]'
+
+
+def test_the_start_without_jit_loads_no_tool_module_either():
+    assert _run(START.format(tools=TOOLS_ONLY), NUMBA_DISABLE_JIT='1') == '[]'
+
+
+def test_warmup_finds_every_kernel_module_and_compiled_now_imports_none():
+    code = ('import json, sys\n'
+            'from screwgear_ros import warmup\n'
+            'warmup.compiled_now()\n'
+            'before = {k.py_func.__module__ for k in warmup.kernels(imported_only=True)}\n'
+            'unloaded = [m for m in ("screwgear_ros.dop853", "screwgear_ros.normalized",\n'
+            '                        "screwgear_ros.floquet") if m not in sys.modules]\n'
+            'every = {k.py_func.__module__ for k in warmup.kernels()}\n'
+            'print(json.dumps([sorted(before), unloaded, sorted(every)]))\n')
+    before, unloaded, every = json.loads(_run(code, NUMBA_DISABLE_JIT='0'))
+    assert before == ['screwgear_ros.integrator', 'screwgear_ros.model']
+    assert unloaded == ['screwgear_ros.dop853', 'screwgear_ros.normalized',
+                        'screwgear_ros.floquet']
+    assert every == sorted(f'screwgear_ros.{m}'
+                           for m in ('model', 'integrator', 'normalized', 'dop853', 'floquet'))
