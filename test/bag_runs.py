@@ -16,6 +16,7 @@ import yaml
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
 
+from screwgear_ros.events import ParameterChange
 from screwgear_ros.ros.run_io import RunIO, topic_names
 from screwgear_ros.runs import RunRecorder, TopicSpec
 from screwgear_ros.runs.replay import Schedule
@@ -23,10 +24,12 @@ from screwgear_ros.session import Session
 
 
 def record_session(path: str | Path, schedule: Schedule, namespace: str = '',
-                   **recorder_options: Any) -> RunRecorder:
+                   prepare: bool = False, **recorder_options: Any) -> RunRecorder:
     """Run ``schedule`` in-process, recording to ``path`` as the node would; each event
     is submitted once the outputs of its step are out (it takes effect at the next
-    tick's first step). Returns the closed recorder (for its counters)."""
+    tick's first step). ``prepare``: render each parameter change's texts before it is
+    submitted, as the node's executor does (RunIO.prepare). Returns the closed recorder
+    (for its counters)."""
     session = Session(schedule.params, schedule.settings)
     io = RunIO(topic_names(namespace, clock=schedule.settings.publish_clock),
                schedule.settings.joint_names)
@@ -34,6 +37,8 @@ def record_session(path: str | Path, schedule: Schedule, namespace: str = '',
     io.start(session)
     while session.step < schedule.end_step:
         for event in schedule.due(session.step):
+            if prepare and isinstance(event, ParameterChange):
+                io.prepare(session, event.params, event.settings)
             session.submit(event)
         io.tick(session, session.tick())
     recorder.close()

@@ -20,7 +20,9 @@ Who owns what: ``_values`` (the parameter values in force on the ROS side) belon
 the executor thread: main() spins a SingleThreadedExecutor, so the parameter
 callbacks never run concurrently. The session's queue is guarded by its own lock;
 the session, the RunIO, the pacer, the rate limiter and the health record belong
-to the pacing thread. ``_gate`` is thread-safe. Nothing is ever set to None.
+to the pacing thread, except ``RunIO.prepare``, which the parameter callback calls to
+render a change's YAML and URDF off the pacing thread (it hands them over under its
+own lock). ``_gate`` is thread-safe. Nothing is ever set to None.
 """
 
 from __future__ import annotations
@@ -165,6 +167,7 @@ class TableSim(Node):
         except ParameterError as error:
             return SetParametersResult(successful=False, reason=str(error))
         self._values = candidate
+        self.io.prepare(self.session, params, settings)   # its YAML and URDF, here
         self.session.submit(ParameterChange(params, settings))
         return SetParametersResult(successful=True)
 

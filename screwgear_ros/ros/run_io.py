@@ -13,13 +13,17 @@ URDF on ``robot_description`` (at the start, and again when a parameter change a
 it) and ``table_markers`` at most every ``marker_period`` s of wall time (about 30 Hz
 whatever the simulation rate), so the tick's own cost stays small.
 
-Threads: every method but :meth:`topic_specs` and :meth:`open_recorder` runs on the
-one thread that ticks the session (the node's pacing thread).
+Threads: :meth:`prepare` runs on the node's executor thread (it renders a parameter
+change's run_parameters YAML and URDF before the change is submitted, and hands them
+over under ``_rendered_lock``); :meth:`topic_specs` and :meth:`open_recorder` run before
+the session ticks; every other method runs on the one thread that ticks the session
+(the node's pacing thread).
 """
 
 from __future__ import annotations
 
 import os
+import threading
 import time
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
@@ -30,6 +34,7 @@ from std_msgs.msg import Empty, String
 from .. import run_parameters
 from ..events import Command, ParameterChange
 from ..pacing import sim_time_ns
+from ..params import SimSettings, TableParams
 from ..plant import Outputs
 from ..session import Session, Tick
 from . import cdr, messages
@@ -111,6 +116,10 @@ class RunIO:
         self.marker_period = MARKER_PERIOD if marker_period is None else marker_period
         self._next_markers = 0.0              # time.monotonic() of the next table_markers
         self.description = ''                 # robot_description last published
+        # (params, settings) → (run_parameters YAML, URDF), rendered by prepare() on the
+        # executor thread before it submits the change; taken by the pacing thread.
+        self._rendered: dict[tuple[Any, Any], tuple[str, str]] = {}
+        self._rendered_lock = threading.Lock()
 
     def topic_specs(self) -> list[TopicSpec]:
         """The recorded topics, with types and the latched one."""
@@ -124,13 +133,41 @@ class RunIO:
         self.recorder = RunRecorder(path, self.topic_specs(), serialize, **options)
         return self.recorder
 
+    def render(self, session: Session, params: TableParams,
+               settings: SimSettings) -> tuple[str, str]:
+        """What a run with these parameters records and publishes about itself: the
+        run_parameters YAML ('' when not recording) and the URDF ('' without
+        robot_description). Any thread: it reads only the session's constants."""
+        text = '' if self.recorder is None else run_parameters.dump(
+            run_parameters.RunParameters(params, settings, session.initial_state,
+                                         session.start_step))
+        urdf = '' if 'robot_description' not in self.topics else robot_description(
+            params, settings, self.topics['joint_commands'], self.topics['joint_states'])
+        return text, urdf
+
+    def prepare(self, session: Session, params: TableParams, settings: SimSettings) -> None:
+        """Executor thread, before it submits a parameter change: render its texts
+        (:meth:`render`, a few ms of YAML and XML) there, so that the pacing thread only
+        takes them when the change takes effect (issue 12: no parameter bookkeeping on
+        the real-time thread)."""
+        rendered = self.render(session, params, settings)
+        with self._rendered_lock:
+            self._rendered[(params, settings)] = rendered
+
+    def _texts(self, session: Session) -> tuple[str, str]:
+        """The texts of the parameters in force: prepared, or rendered now (the start,
+        in-process sessions)."""
+        key = (session.plant.params, session.settings)
+        with self._rendered_lock:
+            rendered = self._rendered.pop(key, None)
+        return rendered if rendered is not None else self.render(session, *key)
+
     # ------------------------------------------------------------------ per tick
 
     def start(self, session: Session) -> None:
         """The start of a run: its parameters, the URDF, the active path and the first
         outputs."""
-        self._record_parameters(session, session.step)
-        self._describe(session, session.step)
+        self._parameters(session, session.step)
         self._publish_path(session.outputs.active_path, session.step, session.plant.dt)
         self.outputs(session.outputs, session.plant.dt)
         self._markers(session)
@@ -141,8 +178,7 @@ class RunIO:
         t_ns = sim_time_ns(tick.start, dt)
         for event in tick.applied:
             if isinstance(event, ParameterChange):
-                self._record_parameters(session, tick.start)
-                self._describe(session, tick.start)
+                self._parameters(session, tick.start)
                 if list(session.settings.joint_names) != self.joint_names:
                     self.joint_names = list(session.settings.joint_names)
                     self._joint_states = cdr.joint_state_template(self.joint_names)
@@ -197,16 +233,16 @@ class RunIO:
         self._path = path
         self.send('active_path', sim_time_ns(step, dt), messages.active_path(path))
 
-    def _describe(self, session: Session, step: int) -> None:
-        """Publish and record the URDF of the parameters in force, if it changed."""
-        if 'robot_description' not in self.topics:
-            return
-        text = robot_description(session.plant.params, session.settings,
-                                 self.topics['joint_commands'], self.topics['joint_states'])
-        if text != self.description:
-            self.description = text
-            self.send('robot_description', sim_time_ns(step, session.plant.dt),
-                      messages.robot_description(text))
+    def _parameters(self, session: Session, step: int) -> None:
+        """Record the parameters in force at ``step``; publish and record their URDF if
+        it changed."""
+        text, urdf = self._texts(session)
+        t_ns = sim_time_ns(step, session.plant.dt)
+        if self.recorder is not None:
+            self.record('run_parameters', t_ns, String(data=text))
+        if urdf and urdf != self.description:
+            self.description = urdf
+            self.send('robot_description', t_ns, messages.robot_description(urdf))
 
     def _markers(self, session: Session) -> None:
         """table_markers of the last outputs, once ``marker_period`` of wall time passed."""
@@ -221,13 +257,6 @@ class RunIO:
         t_ns = sim_time_ns(out.step, session.plant.dt)
         self.send('table_markers', t_ns, table_markers(session.plant.params, self.joint_names,
                                                        out, messages.stamp(t_ns)))
-
-    def _record_parameters(self, session: Session, step: int) -> None:
-        if self.recorder is not None:
-            text = run_parameters.dump(run_parameters.RunParameters(
-                session.plant.params, session.settings, session.initial_state,
-                session.start_step))
-            self.record('run_parameters', sim_time_ns(step, session.plant.dt), String(data=text))
 
 
 __all__ = ['topic_names', 'serialize', 'RunIO']
