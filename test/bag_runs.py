@@ -12,11 +12,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Callable
 
+import numpy as np
 import yaml
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
 
-from screwgear_ros.events import ParameterChange
+from screwgear_ros.events import Command, ParameterChange
+from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.ros.run_io import RunIO, topic_names
 from screwgear_ros.runs import RunRecorder, TopicSpec
 from screwgear_ros.runs.replay import Schedule
@@ -43,6 +45,23 @@ def record_session(path: str | Path, schedule: Schedule, namespace: str = '',
         io.tick(session, session.tick())
     recorder.close()
     return recorder
+
+
+def reversal_run(params: TableParams, settings: SimSettings, torque: float, reversal: int,
+                 end: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """RK4 as the node runs it: a session driven forward with ``torque`` from step 0 and
+    reversed (cmd_direction −1) at step ``reversal``, ticking until step ``end``:
+    (initial state, the state after every tick, contact changes located)."""
+    session = Session(params, settings)
+    y0 = session.plant.state.copy()
+    session.submit(Command('cmd_torque', torque))
+    out = []
+    while session.step < end:
+        if session.step == reversal:
+            session.submit(Command('cmd_direction', -1))
+        assert session.tick().fault is None
+        out.append(session.plant.state.copy())
+    return y0, np.array(out), session.plant.contact_changes
 
 
 Edit = Callable[[str, str, int, bytes], 'tuple[int, bytes] | None']
@@ -80,4 +99,4 @@ def copy_bag(src: Path, dst: Path, edit: Edit | None = None) -> int:
     return recorder.written
 
 
-__all__ = ['record_session', 'copy_bag']
+__all__ = ['record_session', 'reversal_run', 'copy_bag']

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from bag_runs import reversal_run
 from screwgear_ros import run_parameters
-from screwgear_ros.events import Command
 from screwgear_ros.model import (B, C, R1, R3, TS, WNL, Z1, Z3, ContactBranch, DrivePiece,
                                  active_speed, contact_branches, drive_piece, equilibrium_state,
                                  mesh_motion, motion, pack, rhs_vector)
@@ -57,18 +57,9 @@ def _params(name: str) -> TableParams:
 def _session_run(p: TableParams, dt: float, locate: bool) -> tuple[np.ndarray, np.ndarray, int]:
     """(initial state, states at every SAMPLE, contact changes located)."""
     stride = int(round(SAMPLE / dt))
-    session = Session(p, SimSettings(dt=dt, publish_rate=1.0 / (stride * dt),
-                                     contact_location=locate, command_timeout=0.0))
-    y0 = session.plant.state.copy()
-    session.submit(Command('cmd_torque', TORQUE))
-    reversal, end = int(round(REVERSAL / dt)), int(round(END / dt))
-    out = []
-    while session.step < end:
-        if session.step == reversal:
-            session.submit(Command('cmd_direction', -1))
-        assert session.tick().fault is None
-        out.append(session.plant.state.copy())
-    return y0, np.array(out), session.plant.contact_changes
+    settings = SimSettings(dt=dt, publish_rate=1.0 / (stride * dt), contact_location=locate,
+                           command_timeout=0.0)
+    return reversal_run(p, settings, TORQUE, int(round(REVERSAL / dt)), int(round(END / dt)))
 
 
 # ------------------------------------------------------------------ the reference

@@ -15,11 +15,11 @@ import math
 import numpy as np
 import pytest
 
+from bag_runs import reversal_run
 from screwgear_ros.events import Command
 from screwgear_ros.params import SimSettings, TableParams, equivalent_mass
 from screwgear_ros.plant import DriveInput, Plant
 from screwgear_ros.reference import ReferenceFailure, Segment, solve
-from screwgear_ros.session import Session
 
 PAPER_TABLE_DAMPING = 8867.0   # N·m·s/rad: 400 N·m drives the table at 0.337 rad/s
 
@@ -128,16 +128,9 @@ def _plant_run(p: TableParams, dt: float, torque: float, reversal: int, end: int
                stride: int) -> tuple[np.ndarray, np.ndarray]:
     """RK4 as the node runs it (a session ticking ``stride`` steps): forward drive,
     reversal at step ``reversal``; (initial state, samples)."""
-    session = Session(p, SimSettings(dt=dt, publish_rate=1.0 / (stride * dt)))
-    y0 = session.plant.state.copy()
-    session.submit(Command('cmd_torque', torque))
-    out = []
-    while session.step < end:
-        if session.step == reversal:
-            session.submit(Command('cmd_direction', -1))
-        assert session.tick().fault is None
-        out.append(session.plant.state.copy())
-    return y0, np.array(out)
+    y0, out, _ = reversal_run(p, SimSettings(dt=dt, publish_rate=1.0 / (stride * dt)), torque,
+                              reversal, end)
+    return y0, out
 
 
 def test_rk4_at_default_step_against_reference_on_the_papers_case():
