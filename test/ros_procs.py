@@ -203,15 +203,17 @@ class Peer:
         self.node = rclpy.create_node(name, namespace=namespace or None, context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
+        self._stop = threading.Event()
         self._thread = threading.Thread(target=self._spin, daemon=True, name=f'{name} spin')
         self._thread.start()
 
     def _spin(self) -> None:
-        from rclpy.executors import ExternalShutdownException
-        try:
-            self.executor.spin()
-        except ExternalShutdownException:
-            pass
+        """Serve callbacks until close() asks to stop. Never shut the executor down under
+        a spinning thread: rclpy then destroys guard conditions the spin still uses
+        (AttributeError: 'NoneType' object has no attribute 'trigger', seen on a busy
+        machine), so close() stops this loop first."""
+        while not self._stop.is_set():
+            self.executor.spin_once(timeout_sec=0.05)
 
     def __enter__(self) -> 'Peer':
         return self
@@ -220,9 +222,13 @@ class Peer:
         self.close()
 
     def close(self) -> None:
+        """Stop spinning, then the executor, the node and the context, in that order."""
         import rclpy
-        self.executor.shutdown(timeout_sec=2.0)
-        self._thread.join(timeout=5.0)      # no thread inside rcl once the node goes
+        self._stop.set()
+        self._thread.join(timeout=30.0)     # no thread inside rcl once the node goes
+        if self._thread.is_alive():
+            raise RuntimeError(f'{self._thread.name}: a callback did not return within 30 s')
+        self.executor.shutdown()
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 

@@ -172,21 +172,23 @@ class Replayer:
         self.reset = self.node.create_client(Trigger, f'{node_name}/reset')
         self.executor = rclpy.executors.SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
+        self._stop = threading.Event()
         self._thread = threading.Thread(target=self._spin, daemon=True, name='replay_run spin')
         self._thread.start()
 
     def _spin(self) -> None:
-        try:
-            self.executor.spin()
-        except (rclpy.executors.ExternalShutdownException,
-                rclpy.executors.ShutdownException):
-            pass
+        """Serve callbacks until close() sets ``_stop`` (checked every 50 ms)."""
+        while not self._stop.is_set():
+            self.executor.spin_once(timeout_sec=0.05)
 
     def close(self) -> None:
-        """Stop spinning, join the spin thread, then destroy the node and shut the context
-        down: no thread is inside rcl when its node or context goes away."""
-        self.executor.shutdown(timeout_sec=2.0)
-        self._thread.join(timeout=5.0)
+        """Stop the spin loop and join its thread, then shut the executor down, destroy
+        the node and shut the context down: no thread is inside rcl when its executor,
+        node or context goes away (shutting an executor down under a spinning thread
+        destroys guard conditions the spin still uses)."""
+        self._stop.set()
+        self._thread.join(timeout=30.0)
+        self.executor.shutdown()
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 
