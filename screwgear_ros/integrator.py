@@ -32,8 +32,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+import math
+
 from . import rk
-from .model import ContactBranch, DrivePiece, active_speed, contact_branches, drive_piece, motion
+from .model import (ContactBranch, DrivePiece, active_speed, contact_branches, drive_piece,
+                    motion, outputs)
 
 #: Changes located within one step before the step is finished by the plain law (a mesh
 #: chattering on its boundary; never reached by a sane run).
@@ -155,6 +158,50 @@ def advance(state: np.ndarray, step0: int, n: int, dt: float, p: np.ndarray,
     return located
 
 
+#: Length of :func:`advance_observed`'s ``out``: the state (6), then
+#: :func:`screwgear_ros.model.outputs` of it (9), in their orders.
+OBSERVED = 15
+
+
+@njit(cache=True, error_model="numpy")
+def observe(state: np.ndarray, out: np.ndarray, t: float, p: np.ndarray, ste_amp: np.ndarray,
+            ste_phase: np.ndarray, torque: float, direction: float, load: float) -> None:
+    """``out`` (float64[OBSERVED]) = the state, then :func:`~screwgear_ros.model.outputs`
+    of it at time t (s)."""
+    th1, th2, th3, w1, w2, w3 = state[0], state[1], state[2], state[3], state[4], state[5]
+    o = outputs(t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque, direction, load)
+    out[0], out[1], out[2], out[3], out[4], out[5] = th1, th2, th3, w1, w2, w3
+    for k in range(9):
+        out[6 + k] = o[k]
+
+
+@njit(cache=True, error_model="numpy")
+def advance_observed(state: np.ndarray, backup: np.ndarray, out: np.ndarray, step0: int,
+                     n: int, dt: float, p: np.ndarray, ste_amp: np.ndarray,
+                     ste_phase: np.ndarray, torque: float, direction: float, load: float,
+                     locate: bool = True) -> int:
+    """One tick in one call: :func:`advance` n steps, keep the state finite, observe it.
+
+    If any state value is non-finite after the n steps, ``state`` is put back to what
+    it was before the call (kept in ``backup``) and -1 is returned; else the number of
+    changes located. ``out`` is then :func:`observe` of ``state`` at its step (step0 + n,
+    or step0 after a fault).
+    """
+    for i in range(6):
+        backup[i] = state[i]
+    located = advance(state, step0, n, dt, p, ste_amp, ste_phase, torque, direction, load,
+                      locate)
+    end = step0 + n
+    for i in range(6):
+        if not math.isfinite(state[i]):
+            for j in range(6):
+                state[j] = backup[j]
+            located, end = -1, step0
+            break
+    observe(state, out, end * dt, p, ste_amp, ste_phase, torque, direction, load)
+    return located
+
+
 @njit(cache=True, error_model="numpy")
 def trajectory(state: np.ndarray, step0: int, dt: float, stride: int, out: np.ndarray,
                p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
@@ -172,4 +219,4 @@ def trajectory(state: np.ndarray, step0: int, dt: float, stride: int, out: np.nd
     return located
 
 
-__all__ = ['MAX_CHANGES', 'advance', 'trajectory']
+__all__ = ['MAX_CHANGES', 'OBSERVED', 'advance', 'advance_observed', 'observe', 'trajectory']

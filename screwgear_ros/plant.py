@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .integrator import advance
-from .model import PackedModel, active_path, equilibrium_state, outputs, pack
+from .integrator import OBSERVED, advance_observed, observe
+from .model import PackedModel, active_path, equilibrium_state, pack
 from .params import TableParams, check_step
 
 
@@ -65,8 +65,10 @@ class Plant:
         self.input = DriveInput()
         self.state = (equilibrium_state(params) if initial_state is None
                       else np.array(initial_state, dtype=np.float64))
-        self._last_finite = self.state.copy()
         self.fault: str | None = None
+        # Scratch of the compiled calls: the state before a tick, the outputs after it.
+        self._backup = np.empty(6)
+        self._observed = np.empty(OBSERVED)
 
     @property
     def params(self) -> TableParams:
@@ -102,13 +104,12 @@ class Plant:
         """Integrate n steps; False (state kept at the last finite one) on a fault."""
         if self.fault is not None:
             return False
-        self._last_finite[:] = self.state
         m = self._model
-        changes = advance(self.state, self.step, n, self.dt, m.p, m.ste_amp, m.ste_phase,
-                          self.input.torque, float(self.input.direction), self.input.load,
-                          self.contact_location)
-        if not np.all(np.isfinite(self.state)):
-            self.state[:] = self._last_finite
+        changes = advance_observed(self.state, self._backup, self._observed, self.step, n,
+                                   self.dt, m.p, m.ste_amp, m.ste_phase, self.input.torque,
+                                   float(self.input.direction), self.input.load,
+                                   self.contact_location)
+        if changes < 0:
             self.fault = (f'state became non-finite between t = {self.time:.6f} s and '
                           f'{(self.step + n) * self.dt:.6f} s; integration stopped at the '
                           'last finite state (the parameters make the model itself unstable, '
@@ -118,19 +119,25 @@ class Plant:
         self.contact_changes += changes
         return True
 
+    def advance_outputs(self, n: int) -> Outputs:
+        """:meth:`advance` n steps, then :meth:`outputs`, in one compiled call
+        (:func:`screwgear_ros.integrator.advance_observed` computes the outputs of the
+        state it leaves): what a tick does."""
+        return self._unpack() if self.advance(n) else self.outputs()
+
     def outputs(self) -> Outputs:
-        """Joint and mesh quantities of the current state."""
+        """Joint and mesh quantities of the current state (and input)."""
         m = self._model
-        th1, th2, th3, w1, w2, w3 = (float(v) for v in self.state)
-        t = self.time
-        t1, table, t3, d1, dd1, f1, d3, dd3, f3 = outputs(
-            t, th1, th2, th3, w1, w2, w3, m.p, m.ste_amp, m.ste_phase, self.input.torque,
-            float(self.input.direction), self.input.load)
-        return Outputs(
-            time=t, step=self.step, position=(th1, th2, th3), velocity=(w1, w2, w3),
-            effort=(t1, table, t3), delta=(d1, d3), delta_rate=(dd1, dd3),
-            mesh_force=(f1, f3), active_path=active_path(self._params.mode,
-                                                         self.input.direction))
+        observe(self.state, self._observed, self.time, m.p, m.ste_amp, m.ste_phase,
+                self.input.torque, float(self.input.direction), self.input.load)
+        return self._unpack()
+
+    def _unpack(self) -> Outputs:
+        th1, th2, th3, w1, w2, w3, t1, table, t3, d1, dd1, f1, d3, dd3, f3 = \
+            self._observed.tolist()
+        return Outputs(self.time, self.step, (th1, th2, th3), (w1, w2, w3), (t1, table, t3),
+                       (d1, d3), (dd1, dd3), (f1, f3),
+                       active_path(self._params.mode, self.input.direction))
 
 
 __all__ = ['DriveInput', 'Outputs', 'Plant']

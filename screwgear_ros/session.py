@@ -77,7 +77,7 @@ class Session:
                  initial_state: np.ndarray | None = None, start_step: int = 0) -> None:
         self.plant = Plant(params, settings.dt, initial_state, settings.contact_location)
         self.plant.step = int(start_step)
-        self.settings = settings
+        self._use(settings)
         self.start_step = int(start_step)
         self.initial_state = tuple(float(v) for v in self.plant.state)
         self.rejected = {topic: 0 for topic in INPUT_TOPICS}
@@ -86,6 +86,14 @@ class Session:
         self._lock = threading.Lock()          # guards _pending only
         self._pending: list[Event] = []
         self.outputs: Outputs = self.plant.outputs()
+
+    def _use(self, settings: SimSettings) -> None:
+        """Settings in force from now on, and what ``tick`` derives from them (once per
+        change, not per tick): steps per tick, command_timeout in steps (None = off)."""
+        self.settings = settings
+        self._steps = settings.steps_per_publish
+        self._timeout_steps = (round(settings.command_timeout / settings.dt)
+                               if settings.command_timeout > 0.0 else None)
 
     @property
     def step(self) -> int:
@@ -119,7 +127,7 @@ class Session:
                     continue
             elif isinstance(event, ParameterChange):
                 plant.set_params(event.params)
-                self.settings = event.settings
+                self._use(event.settings)
                 drive, notice = limit_input(plant.input, event.params)
                 if notice is not None:
                     plant.set_input(drive)
@@ -129,10 +137,10 @@ class Session:
             else:
                 raise TypeError(f'not a session event: {event!r}')
             applied.append(replace(event, step=start))
-        self._time_out(start, applied, notices)
+        if applied or self._timeout_steps is not None:
+            self._time_out(start, applied, notices)
         was_faulted = plant.fault is not None
-        plant.advance(self.settings.steps_per_publish)
-        self.outputs = plant.outputs()
+        self.outputs = plant.advance_outputs(self._steps)
         return Tick(start, tuple(applied), tuple(rejected), tuple(notices), plant.input,
                     plant.params, self.outputs, before.active_path, previous_direction,
                     plant.fault, plant.fault is not None and not was_faulted)
@@ -143,17 +151,17 @@ class Session:
         if any(isinstance(e, Command) for e in applied):
             self._last_command, self.timed_out = start, False
             return
-        timeout = self.settings.command_timeout
-        if (self.timed_out or timeout <= 0.0
-                or start - self._last_command < round(timeout / self.settings.dt)):
+        if (self.timed_out or self._timeout_steps is None
+                or start - self._last_command < self._timeout_steps):
             return
         self.timed_out = True
         drive = self.plant.input
         if drive.torque or drive.load:
             self.plant.set_input(replace(drive, torque=0.0, load=0.0))
-            notices.append(f'no command for {timeout:g} s of simulation time '
-                           f'(command_timeout): drive torque ({drive.torque:g} N·m) and '
-                           f'load ({drive.load:g} N·m) set to zero until the next command')
+            notices.append(f'no command for {self.settings.command_timeout:g} s of '
+                           'simulation time (command_timeout): drive torque '
+                           f'({drive.torque:g} N·m) and load ({drive.load:g} N·m) set to '
+                           'zero until the next command')
 
 
 __all__ = ['Session', 'Tick']

@@ -144,3 +144,34 @@ def test_two_plants_fed_the_same_inputs_agree_bit_for_bit():
     a, b = run(20), run(20)
     assert a == b
     assert np.array_equal(equilibrium_state(p), Plant(p, DT).state)
+
+
+def test_one_call_ticks_equal_advance_then_outputs_and_the_model_itself():
+    """advance_outputs (integrate, check, observe in one compiled call) gives exactly what
+    advance() then outputs() give, and outputs() is model.outputs of the state, also
+    across input changes, conventional mode and the fault path."""
+    from screwgear_ros.model import outputs as model_outputs
+    for mode in ('anti_backlash', 'conventional'):
+        p = TableParams(mode=mode, table_damping=8867.0)
+        fused, split = Plant(p, DT), Plant(p, DT)
+        for k, drive in enumerate([DriveInput(400.0, 1, 0.0), DriveInput(400.0, -1, 20.0),
+                                   DriveInput(0.0, 1, 0.0)]):
+            fused.set_input(drive)
+            split.set_input(drive)
+            for _ in range(40):
+                a = fused.advance_outputs(20)
+                assert split.advance(20)
+                b = split.outputs()
+                assert a == b
+            m = fused._model
+            expected = model_outputs(fused.time, *(float(v) for v in fused.state), m.p,
+                                     m.ste_amp, m.ste_phase, drive.torque,
+                                     float(drive.direction), drive.load)
+            assert (*a.effort, a.delta[0], a.delta_rate[0], a.mesh_force[0], a.delta[1],
+                    a.delta_rate[1], a.mesh_force[1]) == tuple(expected)
+            assert a.position == tuple(fused.state[:3]) and a.velocity == tuple(fused.state[3:])
+    good = fused.state.copy()
+    fused.dt = 3.0 * max_stable_dt(p)                   # blow up behind the plant's back
+    out = fused.advance_outputs(5000)
+    assert fused.fault is not None and np.array_equal(fused.state, good)
+    assert out.step == fused.step and out.position == tuple(good[:3])

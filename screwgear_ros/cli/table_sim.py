@@ -249,6 +249,8 @@ class TableSim(Node):
 
     def _report(self, tick: Tick) -> None:
         """Log what a person should know about a tick (rate-limited where it repeats)."""
+        if not (tick.applied or tick.rejected or tick.notices or tick.new_fault):
+            return                          # most ticks: nothing happened to say
         log = self.get_logger()
         for error in tick.rejected:
             emit, held = self._warnings.allow(error.topic)
