@@ -33,7 +33,7 @@ from ..plant import DriveInput, Plant
 from ..reference import RTOL, ReferenceFailure, Segment, solve
 from ..events import ParameterChange, Reset
 from .bagread import RecordedRun
-from .replay import ReplayedOutputs, joint_values, replay_in_process
+from .replay import ROW, ReplayedOutputs, replay_in_process, row_of
 
 #: Tolerance = SAFETY × Richardson estimate of RK4's error.
 SAFETY = 4.0
@@ -119,16 +119,18 @@ def reference_outputs(run: RecordedRun, replayed: ReplayedOutputs,
 
     ``replayed`` is the in-process RK4 replay of ``run`` (:func:`replay_in_process`):
     its ticks say which input and parameters were in force from which step, and
-    where resets restarted the state, as the node's session applied them.
+    where resets restarted the state, as the node's session applied them (a sample
+    between them ran under what the tick before it ran under).
     ``progress(seconds)`` is told the simulated time solved after each block.
     """
     start = run.parameters
     params: TableParams = start.params
     drive = DriveInput()
+    steps = run.joint_states.steps
     pieces = [_Piece(start.start_step, np.array(start.initial_state, dtype=np.float64),
-                     [Segment(start.start_step, drive, params)], {start.start_step})]
-    # Pass 1: pieces, segments, and the context (piece, input, parameters) of each sample.
-    contexts = [(0, start.start_step, drive, params)]
+                     [Segment(start.start_step, drive, params)])]
+    # Pass 1: pieces, segments, and the context (piece, input, parameters) of each tick.
+    contexts = [(0, drive, params)]
     for tick in replayed.ticks:
         for event in tick.applied:      # the state a reset restarts from, with the
             if isinstance(event, ParameterChange):   # parameters in force at the reset
@@ -143,8 +145,12 @@ def reference_outputs(run: RecordedRun, replayed: ReplayedOutputs,
                 segments[-1] = Segment(tick.start, drive, params)
             else:
                 segments.append(Segment(tick.start, drive, params))
-        pieces[-1].samples.add(tick.outputs.step)
-        contexts.append((len(pieces) - 1, tick.outputs.step, drive, params))
+        contexts.append((len(pieces) - 1, drive, params))
+    # Each sample's context: that of the last tick through Session.tick at or before it.
+    in_force = np.searchsorted(replayed.tick_samples, np.arange(len(steps)), side='right')
+    piece_of = np.array([c[0] for c in contexts], dtype=np.int64)[in_force]
+    for k, piece in enumerate(pieces):
+        piece.samples = set(steps[piece_of == k].tolist())
 
     # Pass 2: the reference solution at every sample step, piece by piece, in blocks.
     total = sum(len(p.segments) for p in pieces)
@@ -154,21 +160,18 @@ def reference_outputs(run: RecordedRun, replayed: ReplayedOutputs,
         for p, first in zip(pieces, offsets)]
 
     # Pass 3: outputs of the reference states, through the plant's own output code.
-    js = np.empty((len(run.joint_states), 9))
-    te = np.empty(len(run.transmission_error))
+    rows = np.empty((len(steps), ROW))
     plants: dict[int, Plant] = {}
-    for i, (piece, step, drive, params) in enumerate(contexts):
+    for i, (step, c) in enumerate(zip(steps.tolist(), in_force.tolist())):
+        piece, drive, params = contexts[c]
         plant = plants.get(id(params))
         if plant is None:
             plant = plants[id(params)] = Plant(params, run.dt)
         plant.state[:] = states[piece][step]
         plant.step = step
         plant.input = drive
-        out = plant.outputs()
-        js[i] = joint_values(out)
-        if i < len(te):
-            te[i] = out.transmission_error
-    return js, te
+        rows[i] = row_of(plant.outputs())
+    return rows[:, :9], rows[:len(run.transmission_error), 9]
 
 
 def _solve_piece(piece: _Piece, dt: float, progress: Callable[[float], None] | None,
