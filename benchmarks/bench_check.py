@@ -11,13 +11,15 @@ between, recorded in-process by the node's own Session and RunIO
 package as it was before the compiled reference: make one with
 ``git worktree add /tmp/old <commit>`` and, from /tmp/old,
 ``SCREWGEAR_VENV=/tmp/venv_old bash scripts/setup_venv.sh``) each check that bag; both
-must pass. The old package does not know the parameters added since (it refuses a
-run_parameters naming one: ``contact_location``), so it checks a copy of the bag whose
-run_parameters leave those out, message for message the same otherwise; it then replays
-with its own RK4 (fixed step), which is the work it did on such a run. With ``--repeat N`` each is timed N times and the best is kept. With
+must pass; the new one is also timed with ``--serial`` (its replay at dt/2 in the same
+process, not in a second one meanwhile). The old package does not know the parameters
+added since (it refuses a run_parameters naming one: ``contact_location``), so it checks
+a copy of the bag whose run_parameters leave those out, message for message the same
+otherwise; it then replays with its own RK4 (fixed step), which is the work it did on
+such a run. With ``--repeat N`` each is timed N times and the best is kept. With
 ``--stages`` it also times check_run's stages in-process in each venv (reading the bag,
-the RK4 replay at dt, the reference solve, the RK4 replay at dt/2), which shows where
-the remaining time goes.
+the RK4 replay at dt, the reference solve, the RK4 replay at dt/2, one after the other),
+which shows where the remaining time goes.
 """
 
 from __future__ import annotations
@@ -63,14 +65,15 @@ def schedule() -> Schedule:
                     end_step=int(round(SECONDS / DT)))
 
 
-def timed(exe: str, bag: Path, repeat: int) -> tuple[float, str]:
-    """Best wall time of ``exe --no-progress bag`` over ``repeat`` runs; the last report."""
+def timed(exe: str, bag: Path, repeat: int, *options: str) -> tuple[float, str]:
+    """Best wall time of ``exe --no-progress [options] bag`` over ``repeat`` runs; the
+    last report."""
     best = float('inf')
     out = ''
     for _ in range(repeat):
         start = time.perf_counter()
-        result = subprocess.run([exe, '--no-progress', str(bag)], capture_output=True,
-                                text=True)
+        result = subprocess.run([exe, '--no-progress', *options, str(bag)],
+                                capture_output=True, text=True)
         elapsed = time.perf_counter() - start
         if result.returncode != 0:
             sys.exit(f'{exe} exited {result.returncode}:\n{result.stdout}{result.stderr}')
@@ -161,6 +164,7 @@ def main() -> int:
         old_python = str(Path(args.old_venv) / 'bin' / 'python')
         old_bag = for_old(bag, Path(tmp) / 'run60_old', old_python)
         t_new, report = timed(new_exe, bag, args.repeat)
+        t_serial, _ = timed(new_exe, bag, args.repeat, '--serial')
         t_old, _ = timed(str(old_exe), old_bag, args.repeat)
         if args.stages:
             new_st = stages(sys.executable, bag)
@@ -171,6 +175,7 @@ def main() -> int:
                       f'{old_st[name] / new_st[name]:>9.1f}')
     reference = next((line.strip() for line in report.splitlines() if 'reference:' in line), '')
     print(f'check_run, new ({new_exe}): {t_new:8.2f} s   [{reference}]')
+    print(f'check_run --serial, new (replay at dt/2 in the same process): {t_serial:8.2f} s')
     print(f'check_run, old ({old_exe}): {t_old:8.2f} s')
     print(f'speed-up old/new: {t_old / t_new:.1f}x')
     return 0
