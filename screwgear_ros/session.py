@@ -167,8 +167,9 @@ class Session:
         """Up to ``n`` ticks that take no event, for replays that sample every tick: the
         plant does exactly what ``n`` calls of :meth:`tick` would make it do (the same
         calls, bit for bit), without a :class:`Tick` each. Row i of ``values`` (float64,
-        at least n × 10) gets tick i's outputs: θ(3) rad, ω(3) rad/s, effort(3) N·m,
-        transmission error m; :attr:`outputs` is the last one's.
+        at least n × 11) gets tick i's outputs: θ(3) rad, ω(3) rad/s, effort(3) N·m,
+        transmission error m, and the step they are at (exact in float64; a faulted
+        plant's time stands still); :attr:`outputs` is the last one's.
 
         Stops before a tick that would do more than integrate: events are queued, or
         ``command_timeout`` comes due at its first step (:meth:`tick` does that one); and
@@ -185,8 +186,8 @@ class Session:
         for i in range(n):
             faulted = plant.fault is not None
             out = plant.advance_outputs(self._steps)
-            values[i, :10] = (*out.position, *out.velocity, *out.effort,
-                              out.transmission_error)
+            values[i, :11] = (*out.position, *out.velocity, *out.effort,
+                              out.transmission_error, out.step)
             self.outputs = out
             if plant.fault is not None and not faulted:
                 return i + 1

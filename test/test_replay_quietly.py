@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from screwgear_ros.ros.run_io import RunIO, topic_names
 from screwgear_ros.events import Command, ParameterChange, Reset
 from screwgear_ros.params import MeshPhase, Mode, SimSettings, TableParams, natural_frequency
 from screwgear_ros.runs.bagread import read_run
@@ -151,3 +152,39 @@ def test_replay_in_process_equals_a_replay_by_tick_alone(name: str) -> None:
         assert replayed.fault == session.plant.fault
         if refine == 1:
             assert np.array_equal(replayed.joint_states, run.joint_states.values)
+
+
+def test_a_recorded_fault_replays_bit_for_bit(tmp_path: Path) -> None:
+    """A recording of the diverging model: the tick that faults leaves the time where it
+    was, and so do the next two, then a detuning change and a reset revive it. It
+    replays in-process to the same bits, the fault inside a quiet stretch."""
+    unstable = TableParams(mode=Mode.CONVENTIONAL, backlash=0.0, mesh_phase=MeshPhase.TIME,
+                           mesh_stiffness_amplitude=5.0e6, mesh_damping=0.0)
+    params = replace(unstable, mesh_frequency=2.0 * natural_frequency(unstable))
+    settings = SimSettings(dt=50e-6, publish_rate=200.0, command_timeout=0.0)
+    # Recorded as the node does (record_session's RunIO), the reviving events submitted
+    # three ticks after the fault (time stands still meanwhile), as a service call would.
+    session = Session(params, settings)
+    io = RunIO(topic_names('', clock=settings.publish_clock), settings.joint_names)
+    recorder = io.open_recorder(tmp_path / 'fault')
+    io.start(session)
+    standing = 0
+    while standing < 3:
+        io.tick(session, session.tick())
+        standing += session.plant.fault is not None
+    assert session.plant.fault is not None
+    for event in (ParameterChange(replace(params, mesh_damping=717.0,
+                                          mesh_stiffness_amplitude=1.0e6), settings),
+                  Reset(), Command('cmd_torque', 50.0)):
+        session.submit(event)
+    for _ in range(200):
+        io.tick(session, session.tick())
+    recorder.close()
+    run = read_run(tmp_path / 'fault')
+    assert np.count_nonzero(np.diff(run.joint_states.steps) == 0) == 3   # time stood still
+    replayed = replay_in_process(run)
+    assert np.array_equal(replayed.joint_states, run.joint_states.values)
+    assert np.array_equal(replayed.transmission_error, run.transmission_error.values[:, 0])
+    assert replayed.fault is None                       # revived by the reset
+    fine = replay_in_process(run, 2)                    # and at dt/2 (its own fault, if any)
+    assert fine.joint_states.shape == replayed.joint_states.shape

@@ -43,13 +43,14 @@ def _refined(event: Event, refine: int) -> Event:
     return replace(event, step=None if event.step is None else event.step * refine)
 
 
-#: Columns of a replay's output rows: the joint_states row (9), the transmission error.
-ROW = 10
+#: Columns of a replay's output rows: the joint_states row (9), the transmission error,
+#: the step (:meth:`Session.tick_quietly`).
+ROW = 11
 
 
 def row_of(o: Outputs) -> tuple[float, ...]:
     """The ``ROW`` columns of ``o``."""
-    return (*o.position, *o.velocity, *o.effort, o.transmission_error)
+    return (*o.position, *o.velocity, *o.effort, o.transmission_error, o.step)
 
 
 @dataclass
@@ -104,8 +105,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
         done = 0 if due else session.tick_quietly(
             (int(takes[k]) if k < len(events) else n) - i, rows[i:])
         if done:
-            first = session.step - (done - 1) * session.settings.steps_per_publish
-            made = np.arange(first, session.step + 1, session.settings.steps_per_publish)
+            made = rows[i:i + done, 10].astype(np.int64)
             off = np.flatnonzero(samples.steps[i:i + done] * refine != made)
             if len(off):
                 raise BagError('invalid', f'joint_states sample {i + off[0]} is at step '
