@@ -11,15 +11,21 @@ between, recorded in-process by the node's own Session and RunIO
 package as it was before the compiled reference: make one with
 ``git worktree add /tmp/old <commit>`` and, from /tmp/old,
 ``SCREWGEAR_VENV=/tmp/venv_old bash scripts/setup_venv.sh``) each check that bag; both
-must pass. With ``--repeat N`` each is timed N times and the best is kept. With
+must pass; the new one is also timed with ``--serial`` (its replay at dt/2 in the same
+process, not in a second one meanwhile). The old package does not know the parameters
+added since (it refuses a run_parameters naming one: ``contact_location``), so it checks
+a copy of the bag whose run_parameters leave those out, message for message the same
+otherwise; it then replays with its own RK4 (fixed step), which is the work it did on
+such a run. With ``--repeat N`` each is timed N times and the best is kept. With
 ``--stages`` it also times check_run's stages in-process in each venv (reading the bag,
-the RK4 replay at dt, the reference solve, the RK4 replay at dt/2), which shows where
-the remaining time goes.
+the RK4 replay at dt, the reference solve, the RK4 replay at dt/2, one after the other),
+which shows where the remaining time goes.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import shutil
 import subprocess
 import sys
@@ -30,7 +36,12 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 from bag_runs import record_session  # noqa: E402
 
+import yaml  # noqa: E402
+
 from screwgear_ros.events import Command  # noqa: E402
+from screwgear_ros.runs import RunRecorder, TopicSpec  # noqa: E402
+from screwgear_ros.runs.bagformat import typestore  # noqa: E402
+from screwgear_ros.runs.bagread import iter_messages  # noqa: E402
 from screwgear_ros.params import SimSettings, TableParams  # noqa: E402
 from screwgear_ros.runs.replay import Schedule  # noqa: E402
 
@@ -54,14 +65,15 @@ def schedule() -> Schedule:
                     end_step=int(round(SECONDS / DT)))
 
 
-def timed(exe: str, bag: Path, repeat: int) -> tuple[float, str]:
-    """Best wall time of ``exe --no-progress bag`` over ``repeat`` runs; the last report."""
+def timed(exe: str, bag: Path, repeat: int, *options: str) -> tuple[float, str]:
+    """Best wall time of ``exe --no-progress [options] bag`` over ``repeat`` runs; the
+    last report."""
     best = float('inf')
     out = ''
     for _ in range(repeat):
         start = time.perf_counter()
-        result = subprocess.run([exe, '--no-progress', str(bag)], capture_output=True,
-                                text=True)
+        result = subprocess.run([exe, '--no-progress', *options, str(bag)],
+                                capture_output=True, text=True)
         elapsed = time.perf_counter() - start
         if result.returncode != 0:
             sys.exit(f'{exe} exited {result.returncode}:\n{result.stdout}{result.stderr}')
@@ -91,6 +103,38 @@ print(repr(t))
 """
 
 
+#: The run_parameters keys a venv's package reads; run by that venv's python.
+KNOWN_KEYS = r"""
+import json
+from screwgear_ros.params import default_values
+from screwgear_ros.run_parameters import EXTRA_KEYS
+print(json.dumps([*default_values(), *EXTRA_KEYS]))
+"""
+
+
+def for_old(bag: Path, dst: Path, python: str) -> Path:
+    """A copy of ``bag`` whose run_parameters hold only the keys ``python``'s package knows."""
+    out = subprocess.run([python, '-P', '-c', KNOWN_KEYS], capture_output=True, text=True,
+                         check=True).stdout
+    known = set(json.loads(out.strip().splitlines()[-1]))
+    store = typestore()
+    messages = list(iter_messages(next(bag.glob('*.mcap')), {}))
+    topics = {topic: TopicSpec(topic, msgtype, False)     # QoS plays no part in a check
+              for topic, msgtype, _, _ in messages}
+    recorder = RunRecorder(dst, list(topics.values()), bytes, queue_size=len(messages) + 1)
+    for topic, msgtype, log_time, raw in messages:
+        if topic.endswith('/run_parameters'):
+            document = yaml.safe_load(store.deserialize_cdr(raw, msgtype).data)
+            text = yaml.safe_dump({k: v for k, v in document.items() if k in known},
+                                  sort_keys=False)
+            raw = bytes(store.serialize_cdr(store.types[msgtype](data=text), msgtype))
+        recorder.write(topic, log_time, raw)
+    recorder.close()
+    if recorder.dropped:
+        sys.exit(f'copying {bag} for the old check_run dropped {recorder.dropped} messages')
+    return dst
+
+
 def stages(python: str, bag: Path) -> dict[str, float]:
     out = subprocess.run([python, '-P', '-c', STAGES, str(bag)], capture_output=True,
                          text=True, check=True).stdout
@@ -117,17 +161,21 @@ def main() -> int:
         size = sum(f.stat().st_size for f in bag.iterdir()) / 1e6
         print(f'recorded {SECONDS:g} s at dt = {DT * 1e6:g} µs, {RATE:g} Hz '
               f'({size:.1f} MB) in {time.perf_counter() - start:.1f} s')
+        old_python = str(Path(args.old_venv) / 'bin' / 'python')
+        old_bag = for_old(bag, Path(tmp) / 'run60_old', old_python)
         t_new, report = timed(new_exe, bag, args.repeat)
-        t_old, _ = timed(str(old_exe), bag, args.repeat)
+        t_serial, _ = timed(new_exe, bag, args.repeat, '--serial')
+        t_old, _ = timed(str(old_exe), old_bag, args.repeat)
         if args.stages:
             new_st = stages(sys.executable, bag)
-            old_st = stages(str(Path(args.old_venv) / 'bin' / 'python'), bag)
+            old_st = stages(old_python, old_bag)
             print(f'{"stage (in-process)":<22}{"old [s]":>9}{"new [s]":>9}{"old/new":>9}')
             for name in new_st:
                 print(f'{name:<22}{old_st[name]:>9.2f}{new_st[name]:>9.2f}'
                       f'{old_st[name] / new_st[name]:>9.1f}')
     reference = next((line.strip() for line in report.splitlines() if 'reference:' in line), '')
     print(f'check_run, new ({new_exe}): {t_new:8.2f} s   [{reference}]')
+    print(f'check_run --serial, new (replay at dt/2 in the same process): {t_serial:8.2f} s')
     print(f'check_run, old ({old_exe}): {t_old:8.2f} s')
     print(f'speed-up old/new: {t_old / t_new:.1f}x')
     return 0

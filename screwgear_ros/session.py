@@ -163,5 +163,35 @@ class Session:
                            f'({drive.torque:g} N·m) and load ({drive.load:g} N·m) set to '
                            'zero until the next command')
 
+    def tick_quietly(self, n: int, values: np.ndarray) -> int:
+        """Up to ``n`` ticks that take no event, for replays that sample every tick: the
+        plant does exactly what ``n`` calls of :meth:`tick` would make it do (the same
+        calls, bit for bit), without a :class:`Tick` each. Row i of ``values`` (float64,
+        at least n × 11) gets tick i's outputs: θ(3) rad, ω(3) rad/s, effort(3) N·m,
+        transmission error m, and the step they are at (exact in float64; a faulted
+        plant's time stands still); :attr:`outputs` is the last one's.
+
+        Stops before a tick that would do more than integrate: events are queued, or
+        ``command_timeout`` comes due at its first step (:meth:`tick` does that one); and
+        after a tick in which the plant faulted (:attr:`Plant.fault` says why). Returns
+        the number of ticks done.
+        """
+        with self._lock:
+            if self._pending:
+                return 0
+        plant = self.plant
+        if self._timeout_steps is not None and not self.timed_out:
+            left = self._last_command + self._timeout_steps - plant.step
+            n = min(n, max(0, -(-left // self._steps)))   # ticks starting before it is due
+        for i in range(n):
+            faulted = plant.fault is not None
+            out = plant.advance_outputs(self._steps)
+            values[i, :11] = (*out.position, *out.velocity, *out.effort,
+                              out.transmission_error, out.step)
+            self.outputs = out
+            if plant.fault is not None and not faulted:
+                return i + 1
+        return max(n, 0)
+
 
 __all__ = ['Session', 'Tick']

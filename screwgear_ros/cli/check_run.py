@@ -5,8 +5,13 @@ says which, by how much, when), 2 the path cannot be checked (not a bag, no
 run_parameters in it, truncated, inconsistent), the reference solver cannot follow the
 run (its step size collapses below the spacing of floating-point numbers, e.g. a run
 driven through the mesh resonance, or the state becomes non-finite: stderr says why, at
-what simulation time and in which segment), or the --plot figure cannot be written.
-Never a traceback for any of these.
+what simulation time and in which segment), the recorded parameters cannot be
+simulated (refused by the model: an equilibrium not found, an unstable step), or the
+--plot figure cannot be written. Never a traceback: anything else unexpected also
+exits 2, with its type and message.
+
+--serial: the RK4 replay at dt/2 runs after the reference in this process instead of
+in a forked second process meanwhile (the report is the same).
 """
 
 from __future__ import annotations
@@ -16,10 +21,11 @@ import sys
 
 from tqdm import tqdm
 
+from ..model import EquilibriumNotFound
+from ..params import ParameterError
 from ..reference import ReferenceFailure
 from ..runs.bagread import BagError, read_run
 from ..runs.check import check_run, format_report
-from ..runs.plot import FigureFileError, check_figure, output_path, save
 
 EXIT_OK, EXIT_FAIL, EXIT_UNUSABLE = 0, 1, 2
 
@@ -34,33 +40,49 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--allow-truncated', action='store_true',
                         help='check the readable part of a bag whose recording was killed')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
+    parser.add_argument('--serial', action='store_true',
+                        help='replay at dt/2 in this process after the reference, instead of '
+                        'in a second process meanwhile (same result, slower on two cores)')
     parser.add_argument('--plot', metavar='OUT.png',
                         help='also draw |node − reference| of every signal against its '
                         'tolerance (log scale) into this figure file')
     args = parser.parse_args(argv)
+    figure_errors: tuple[type[Exception], ...] = ()
     try:
-        plot = output_path(args.plot) if args.plot else None
+        plot = None
+        if args.plot:     # matplotlib only when a figure is asked for (a quarter second)
+            from ..runs import plot as plotting
+            figure_errors = (plotting.FigureFileError,)
+            plot = plotting.output_path(args.plot)
         run = read_run(args.bag, allow_truncated=args.allow_truncated)
         total = (run.end_step - run.parameters.start_step) * run.dt
         with tqdm(total=round(total, 6), unit='s sim', desc='reference solution',
                   disable=True if args.no_progress else None, leave=False,
                   bar_format='{l_bar}{bar}| {n:.2f}/{total:.2f} s sim [{elapsed}<{remaining}]'
                   ) as bar:
-            report = check_run(run, progress=bar.update)
+            report = check_run(run, progress=bar.update, parallel=not args.serial)
     except BagError as exc:
         print(exc.report('check_run', 'check', args.bag), file=sys.stderr)
         return EXIT_UNUSABLE
     except ReferenceFailure as exc:
         print(f'check_run: cannot check {args.bag}: {exc}', file=sys.stderr)
         return EXIT_UNUSABLE
-    except FigureFileError as exc:
+    except figure_errors as exc:
         print(f'check_run: {exc}', file=sys.stderr)
+        return EXIT_UNUSABLE
+    except (ParameterError, EquilibriumNotFound, ValueError) as exc:
+        print(f'check_run: cannot check {args.bag}: the recorded parameters cannot be '
+              f'simulated: {exc}', file=sys.stderr)
+        return EXIT_UNUSABLE
+    except Exception as exc:  # noqa: BLE001 - never a traceback (module docstring)
+        print(f'check_run: cannot check {args.bag}: unexpected {type(exc).__name__}: {exc}',
+              file=sys.stderr)
         return EXIT_UNUSABLE
     print(format_report(report))
     if plot is not None:
         try:
-            print(f'  plot: {save(check_figure(run, report), plot)}')
-        except FigureFileError as exc:
+            print(f'  plot: {plotting.save(plotting.check_figure(run, report), plot)}')
+        except figure_errors as exc:
             print(f'check_run: {exc}', file=sys.stderr)
             return EXIT_UNUSABLE
     return EXIT_OK if report.ok else EXIT_FAIL

@@ -3,14 +3,23 @@
 The MCAP file is read record by record in file order with ``mcap``'s stream reader,
 so messages with equal log times keep the order the node wrote them in (which is
 the order it applied them), and a bag whose writer was killed reads up to its last
-complete chunk. Messages are decoded with the ROS 2 Jazzy CDR codec of ``rosbags``.
-Topics are matched on their relative name, so a namespaced table reads the same.
-Log times are simulation times: step = round(log_time / dt).
+complete chunk. Messages are decoded with the ROS 2 Jazzy CDR codec of ``rosbags``,
+except the ~4 per tick of fixed layout (joint_states, transmission_error, mesh_state,
+clock): a chunk's message records are located in one pass and those messages are
+decoded in bulk with NumPy, on the layout the node writes them in
+(:class:`screwgear_ros.ros.cdr.Template`: a message is decoded that way only if every
+byte outside its stamp and values equals the template's, which fixes where they are;
+any other message of these topics goes through ``rosbags`` as before). Topics the
+check does not read are skipped undecoded. Topics are matched on their relative name,
+so a namespaced table reads the same. Log times are simulation times:
+step = round(log_time / dt).
 """
 
 from __future__ import annotations
 
+import io
 import struct
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator
@@ -18,12 +27,14 @@ from typing import Any, Iterator
 import numpy as np
 import yaml
 from mcap.exceptions import InvalidMagic, McapError
-from mcap.records import Channel, Footer, Message, Schema
+from mcap.data_stream import ReadDataStream
+from mcap.records import Channel, Chunk, Footer, Message, Schema
 from mcap.stream_reader import StreamReader
 
 from ..commands import INPUT_TOPICS, command_value
 from ..events import Command, Event, ParameterChange, Reset
 from ..run_parameters import RunParameters, RunParametersError, load
+from ..ros.cdr import Template, float64_template, joint_state_template
 from .bagformat import typestore
 
 OUTPUT_TOPICS = {
@@ -198,88 +209,306 @@ class _Collector:
                       np.asarray(self.order, dtype=np.int64), values)
 
 
+_RECORD = struct.Struct('<BQ')        # an MCAP record's opcode and length
+_OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE = 0x03, 0x04, 0x05
+_MESSAGE_HEAD = 22                    # channel u16, sequence u32, log time u64, publish time u64
+#: Output topics of fixed layout, read in bulk (clock: log times only, nothing decoded).
+BULK_TOPICS = ('joint_states', 'transmission_error', 'mesh_state', 'clock')
+
+
+def _wanted(rel: str, msgtype: str) -> str | None:
+    """'bulk', 'message' (decoded one by one) or None (not read) for a topic."""
+    if rel in OUTPUT_TOPICS:
+        if msgtype != OUTPUT_TOPICS[rel]:
+            return None
+        return 'bulk' if rel in BULK_TOPICS else 'message'
+    if ((rel in INPUT_TOPICS and msgtype == INPUT_TOPICS[rel])
+            or (rel == RUN_PARAMETERS and msgtype == 'std_msgs/msg/String')
+            or (rel == RESET and msgtype == 'std_msgs/msg/Empty')):
+        return 'message'
+    return None
+
+
+def _gather(buf: np.ndarray, starts: np.ndarray, width: int) -> np.ndarray:
+    """(len(starts), width) uint8: ``width`` bytes of ``buf`` from each start."""
+    return buf[starts[:, None] + np.arange(width, dtype=np.int64)]
+
+
+def _decompress(chunk: Chunk) -> bytes:
+    """A chunk's records, checked against its CRC (when it has one)."""
+    if chunk.compression == 'zstd':
+        import zstandard
+        data = zstandard.decompress(chunk.data, chunk.uncompressed_size)
+    elif chunk.compression == 'lz4':
+        import lz4.frame
+        data = lz4.frame.decompress(chunk.data)
+    elif chunk.compression == '':
+        data = chunk.data
+    else:
+        raise ValueError(f'unsupported chunk compression {chunk.compression!r}')
+    if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
+        raise ValueError('the chunk\'s records do not match its CRC')
+    return data
+
+
+@dataclass
+class _Kept:
+    """The messages of one channel the reader keeps, in file order: positions in the
+    file's message sequence, log times (ns), and their bytes as parts, each either an
+    (n, length) uint8 matrix (a chunk's messages of one length) or a list of bytes."""
+
+    order: list[np.ndarray] = field(default_factory=list)
+    log_time: list[np.ndarray] = field(default_factory=list)
+    parts: list[np.ndarray | list[bytes]] = field(default_factory=list)
+
+
+class _Scan:
+    """One pass over an MCAP file: channels, and the messages of the topics read."""
+
+    def __init__(self) -> None:
+        self.schemas: dict[int, str] = {}
+        self.channels: dict[int, tuple[str, str]] = {}
+        self.kept: dict[int, _Kept] = {}
+        self.first: dict[int, int] = {}     # channel → its first message's position
+        self.count = 0
+
+    def _schema(self, record: Schema) -> None:
+        self.schemas[record.id] = record.name
+
+    def _channel(self, record: Channel) -> None:
+        self.channels[record.id] = (record.topic, self.schemas.get(record.schema_id, ''))
+
+    def message(self, record: Message) -> None:
+        if record.channel_id not in self.channels:
+            raise BagError('invalid', f'a message on channel {record.channel_id}, which no '
+                           'channel record declares')
+        self._keep(record.channel_id, np.array([self.count]), np.array([record.log_time]),
+                   [record.data])
+        self.count += 1
+
+    def _keep(self, channel: int, order: np.ndarray, log_time: np.ndarray,
+              part: np.ndarray | list[bytes]) -> None:
+        self.first.setdefault(channel, int(order[0]))
+        topic, msgtype = self.channels[channel]
+        if _wanted(_relative(topic), msgtype) is None:
+            return
+        kept = self.kept.setdefault(channel, _Kept())
+        kept.order.append(order)
+        kept.log_time.append(log_time.astype(np.int64))
+        kept.parts.append(part)
+
+    def chunk(self, chunk: Chunk) -> None:
+        """A chunk's records; raises (and keeps nothing of it) if the chunk is damaged."""
+        data = _decompress(chunk)
+        end = len(data)
+        at: list[int] = []
+        records: list[Schema | Channel] = []
+        pos = 0
+        unpack = _RECORD.unpack_from
+        while pos < end:
+            opcode, length = unpack(data, pos)
+            body = pos + 9
+            if body + length > end:
+                raise ValueError(f'a record of {length} bytes runs past the end of its chunk')
+            if opcode == _OP_MESSAGE:
+                if length < _MESSAGE_HEAD:
+                    raise ValueError(f'a message record of {length} bytes')
+                at.append(pos)
+            elif opcode in (_OP_SCHEMA, _OP_CHANNEL):
+                stream = ReadDataStream(io.BytesIO(data[body:body + length]))
+                records.append(Schema.read(stream) if opcode == _OP_SCHEMA
+                               else Channel.read(stream))
+            pos = body + length
+        for record in records:          # the chunk is whole: take what it declares
+            (self._schema if isinstance(record, Schema) else self._channel)(record)
+        if not at:
+            return
+        buf = np.frombuffer(data, dtype=np.uint8)
+        starts = np.array(at, dtype=np.int64)
+        size = _gather(buf, starts + 1, 8).view('<u8')[:, 0].astype(np.int64) - _MESSAGE_HEAD
+        channel = _gather(buf, starts + 9, 2).view('<u2')[:, 0]
+        log_time = _gather(buf, starts + 15, 8).view('<u8')[:, 0]
+        starts += 9 + _MESSAGE_HEAD
+        order = self.count + np.arange(len(at), dtype=np.int64)
+        unknown = set(np.unique(channel).tolist()) - set(self.channels)
+        if unknown:
+            raise ValueError(f'messages on channels {sorted(unknown)}, which no channel '
+                             'record declares')
+        for c in np.unique(channel).tolist():
+            mine = np.flatnonzero(channel == c)
+            sizes = size[mine]
+            topic, msgtype = self.channels[c]
+            if (_wanted(_relative(topic), msgtype) == 'bulk' and len(mine)
+                    and np.all(sizes == sizes[0])):
+                part: np.ndarray | list[bytes] = _gather(buf, starts[mine], int(sizes[0]))
+            else:
+                part = [data[a:a + n] for a, n in zip(starts[mine].tolist(), sizes.tolist())]
+            self._keep(c, order[mine], log_time[mine], part)
+        self.count += len(at)
+
+
+_MAGIC = b'\x89MCAP0\r\n'
+_OP_FOOTER, _OP_CHUNK = 0x02, 0x06
+_CHUNK_HEAD = struct.Struct('<QQQII')   # start, end time, uncompressed size, CRC, len(compression)
+#: Longest record read, bytes (a corrupt length is taken for a cut file, not allocated).
+RECORD_SIZE_LIMIT = 1 << 30
+
+
+def _chunk(body: memoryview) -> Chunk:
+    start, end, size, crc, n = _CHUNK_HEAD.unpack_from(body, 0)
+    at = _CHUNK_HEAD.size
+    compression = bytes(body[at:at + n]).decode()
+    (length,) = struct.unpack_from('<Q', body, at + n)
+    data = bytes(body[at + n + 8:at + n + 8 + length])
+    if len(data) != length:
+        raise ValueError(f'a chunk holds {len(data)} of its {length} bytes of records')
+    return Chunk(compression=compression, data=data, message_end_time=end,
+                 message_start_time=start, uncompressed_crc=crc, uncompressed_size=size)
+
+
+def scan(mcap_path: Path, status: dict[str, Any]) -> _Scan:
+    """The file's records in order, as :func:`iter_messages` reads them: a killed
+    writer's file reads up to its last whole chunk (``status['truncated']`` says why),
+    and so does one with a damaged chunk. Keeps the messages of the topics
+    :func:`read_run` uses, undecoded. Message indexes and the summary are skipped
+    unread (they only repeat what the data section says)."""
+    result = _Scan()
+    data = memoryview(mcap_path.read_bytes())
+    if bytes(data[:len(_MAGIC)]) != _MAGIC:
+        if not _MAGIC.startswith(bytes(data)):
+            raise BagError('not_a_bag', f'{mcap_path} is not an MCAP file')
+        status['truncated'] = (f'{mcap_path.name} ends after {len(data)} bytes, within its '
+                               'magic: the recording was not closed (killed?)')
+        return result
+    pos, end = len(_MAGIC), len(data)
+    while True:
+        if pos + 9 > end:
+            status['truncated'] = (f'{mcap_path.name} ends without its summary after {pos} '
+                                   'bytes: the recording was not closed (killed?)')
+            break
+        opcode, length = _RECORD.unpack_from(data, pos)
+        body = pos + 9
+        if length > RECORD_SIZE_LIMIT or body + length > end:
+            status['truncated'] = (f'{mcap_path.name} ends without its summary after {pos} '
+                                   f'bytes (a record of {length} bytes is cut short): the '
+                                   'recording was not closed (killed?)')
+            break
+        record = data[body:body + length]
+        try:
+            if opcode == _OP_CHUNK:
+                result.chunk(_chunk(record))
+            elif opcode == _OP_MESSAGE:
+                result.message(Message.read(ReadDataStream(io.BytesIO(record)), length))
+            elif opcode == _OP_SCHEMA:
+                result._schema(Schema.read(ReadDataStream(io.BytesIO(record))))
+            elif opcode == _OP_CHANNEL:
+                result._channel(Channel.read(ReadDataStream(io.BytesIO(record))))
+            elif opcode == _OP_FOOTER:
+                break
+        except BagError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - zstd or CRC errors, a cut or bad record
+            status['truncated'] = (f'{mcap_path.name} is damaged after {pos} bytes: '
+                                   f'{type(exc).__name__}: {exc}')
+            break
+        pos = body + length
+    return result
+
+
+def _fixed_bytes(template: Template) -> np.ndarray:
+    """Mask of the template's bytes that fix the layout: all but the stamp, the values, and
+    the bytes no decoder reads (alignment padding, which rclpy leaves uninitialized): a
+    byte is one of those if ``rosbags`` decodes the template with it flipped into the
+    very message it decodes the template into (both serialized again compared)."""
+    store = typestore()
+    fixed = np.ones(len(template.bytes), dtype=bool)
+    for f in ([template.stamp] if template.stamp is not None else []) + template.fields:
+        fixed[f.offset:f.offset + f.codec.size] = False
+    for i in np.flatnonzero(fixed).tolist():
+        flipped = bytearray(template.bytes)
+        flipped[i] ^= 0xFF
+        try:
+            again = store.serialize_cdr(store.deserialize_cdr(bytes(flipped), template.msgtype),
+                                        template.msgtype)
+        except Exception:  # noqa: BLE001 - the decoder refuses it: the byte matters
+            continue
+        fixed[i] = bytes(again) != template.bytes
+    return fixed
+
+
+def _bulk(parts: list[np.ndarray | list[bytes]], template: Template | None, width: int,
+          one: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Values (n, width) and header stamps (n,) ns (0 if unstamped) of messages.
+
+    A message whose bytes equal ``template``'s outside its stamp and values (``width``
+    of them) is read in place with NumPy; any other is ``one(bytes) -> (values, stamp)``
+    (``rosbags``), and every one if ``template`` is None.
+    """
+    n = sum(len(p) for p in parts)
+    values = np.empty((n, width))
+    stamps = np.zeros(n, dtype=np.int64)
+    if template is not None:
+        assert sum(f.codec.size for f in template.fields) == 8 * width
+        fixed = _fixed_bytes(template)
+        reference = np.frombuffer(template.bytes, dtype=np.uint8)[fixed]
+    i = 0
+    for part in parts:
+        k = len(part)
+        fits = np.zeros(k, dtype=bool)
+        if (template is not None and isinstance(part, np.ndarray)
+                and part.shape[1] == len(template.bytes)):
+            fits = np.all(part[:, fixed] == reference, axis=1)
+            rows = part[fits]
+            values[i:i + k][fits] = np.hstack(
+                [np.ascontiguousarray(rows[:, f.offset:f.offset + f.codec.size]).view('<f8')
+                 for f in template.fields])
+            if template.stamp is not None:
+                o = template.stamp.offset
+                sec = np.ascontiguousarray(rows[:, o:o + 4]).view('<i4')[:, 0]
+                nanosec = np.ascontiguousarray(rows[:, o + 4:o + 8]).view('<u4')[:, 0]
+                stamps[i:i + k][fits] = sec.astype(np.int64) * 1_000_000_000 + nanosec
+        for j in np.flatnonzero(~fits).tolist():
+            raw = part[j].tobytes() if isinstance(part, np.ndarray) else part[j]
+            values[i + j], stamps[i + j] = one(raw)
+        i += k
+    return values, stamps
+
+
 def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
     """Read a table_sim recording. Raises :class:`BagError` when it cannot be used."""
     bag_dir, mcap_path = find_mcap(path)
     store = typestore()
     status: dict[str, Any] = {'truncated': None}
-    first: RunParameters | None = None
-    pending: list[tuple[int, str, str, int, bytes]] = []   # before the first run_parameters
-    events: list[tuple[int, Event]] = []
-    collectors = {'joint_states': _Collector(9), 'transmission_error': _Collector(1),
-                  'mesh_state': _Collector(6), 'active_path': _Collector(1),
-                  'clock': _Collector(0)}
+    found = scan(mcap_path, status)
     topics: dict[str, str] = {}
     names: dict[str, str] = {}
-    stamp_mismatches: list[tuple[int, int]] = []
-    count = 0
-    dt_ns = 0.0
-
-    def step_of(log_time: int, topic: str) -> int:
-        step = round(log_time / dt_ns)
-        if abs(log_time - step * dt_ns) > 0.5 + 1e-6 * dt_ns:
-            raise BagError('invalid', f'{topic}: log time {log_time} ns is not on the step '
-                           f'grid of dt = {dt_ns:g} ns')
-        return step
-
-    def handle(order: int, topic: str, msgtype: str, log_time: int, data: bytes) -> None:
-        rel = _relative(topic)
-        if rel in OUTPUT_TOPICS and msgtype != OUTPUT_TOPICS[rel]:
-            return
-        if rel == 'clock':
-            collectors['clock'].add(step_of(log_time, topic), order, None)
-        elif rel == 'joint_states':
-            msg = store.deserialize_cdr(data, msgtype)
-            try:
-                idx = [list(msg.name).index(n) for n in first.settings.joint_names]
-            except ValueError:
-                raise BagError('invalid', f'{topic}: joints {list(msg.name)} do not include '
-                               f'{list(first.settings.joint_names)}') from None
-            collectors[rel].add(step_of(log_time, topic), order,
-                                np.concatenate([msg.position[idx], msg.velocity[idx],
-                                                msg.effort[idx]]))
-            stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-            if stamp != log_time:
-                stamp_mismatches.append((log_time, stamp))
-        elif rel in ('transmission_error', 'active_path'):
-            msg = store.deserialize_cdr(data, msgtype)
-            collectors[rel].add(step_of(log_time, topic), order, msg.data)
-        elif rel == 'mesh_state':
-            msg = store.deserialize_cdr(data, msgtype)
-            collectors[rel].add(step_of(log_time, topic), order,
-                                np.concatenate([msg.position, msg.velocity, msg.effort]))
-        elif rel in INPUT_TOPICS and msgtype == INPUT_TOPICS[rel]:
-            msg = store.deserialize_cdr(data, msgtype)
-            events.append((order, Command(rel, command_value(rel, msg),
-                                          step_of(log_time, topic))))
-        elif rel == RUN_PARAMETERS and msgtype == 'std_msgs/msg/String':
-            params = _parse(store.deserialize_cdr(data, msgtype).data, topic)
-            if params.settings.dt != first.settings.dt:
-                raise BagError('invalid', f'{topic}: dt changed during the run')
-            events.append((order, ParameterChange(params.params, params.settings,
-                                                  step_of(log_time, topic))))
-        elif rel == RESET and msgtype == 'std_msgs/msg/Empty':
-            events.append((order, Reset(step_of(log_time, topic))))
-
-    for order, (topic, msgtype, log_time, data) in enumerate(iter_messages(mcap_path, status)):
-        count += 1
+    for channel in sorted(found.first, key=found.first.__getitem__):
+        topic, msgtype = found.channels[channel]
         topics.setdefault(topic, msgtype)
         rel = _relative(topic)
         if names.setdefault(rel, topic) != topic and (rel in OUTPUT_TOPICS or rel in INPUT_TOPICS
                                                       or rel == RUN_PARAMETERS):
             raise BagError('invalid', f'{path}: two topics named {rel!r} ({names[rel]}, '
                            f'{topic}); one table per bag')
-        if first is None:
-            if rel == RUN_PARAMETERS and msgtype == 'std_msgs/msg/String':
-                first = _parse(store.deserialize_cdr(data, msgtype).data, topic)
-                dt_ns = first.settings.dt * 1e9
-                for item in pending:
-                    handle(*item)
-                pending.clear()
-            else:
-                pending.append((order, topic, msgtype, log_time, data))
+    one_by_one: list[tuple[int, str, str, int, bytes]] = []
+    bulk: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray | list[bytes]]]] = {}
+    for channel, kept in found.kept.items():
+        topic, msgtype = found.channels[channel]
+        rel = _relative(topic)
+        if _wanted(rel, msgtype) == 'bulk':
+            bulk.setdefault(rel, []).extend(zip(kept.order, kept.log_time, kept.parts))
             continue
-        handle(order, topic, msgtype, log_time, data)
+        for order, log_time, part in zip(kept.order, kept.log_time, kept.parts):
+            one_by_one.extend(zip(order.tolist(), [topic] * len(part), [msgtype] * len(part),
+                                  log_time.tolist(), part))
+    one_by_one.sort(key=lambda m: m[0])
+
+    first: RunParameters | None = None
+    for order, topic, msgtype, log_time, data in one_by_one:
+        if _relative(topic) == RUN_PARAMETERS and msgtype == 'std_msgs/msg/String':
+            first = _parse(store.deserialize_cdr(data, msgtype).data, topic)
+            first_order = order
+            break
     if first is None and status['truncated']:
         raise BagError('truncated', f'{path}: {status["truncated"]}; no run_parameters '
                        'message is readable before that')
@@ -287,14 +516,90 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
         raise BagError('no_parameters', f'{path} holds no run_parameters message: the model '
                        'cannot be rebuilt from it (recorded by something other than '
                        "table_sim's record parameter?)")
+    dt_ns = first.settings.dt * 1e9
+    joints = list(first.settings.joint_names)
+
+    def steps_of(log_time: np.ndarray, topic: str) -> np.ndarray:
+        steps = np.rint(log_time / dt_ns)
+        off = np.flatnonzero(np.abs(log_time - steps * dt_ns) > 0.5 + 1e-6 * dt_ns)
+        if len(off):
+            raise BagError('invalid', f'{topic}: log time {int(log_time[off[0]])} ns is not on '
+                           f'the step grid of dt = {dt_ns:g} ns')
+        return steps.astype(np.int64)
+
+    events: list[tuple[int, Event]] = []
+    active_path = _Collector(1)
+    for order, topic, msgtype, log_time, data in one_by_one:
+        rel = _relative(topic)
+        if order == first_order:
+            continue
+        step = int(steps_of(np.array([log_time]), topic)[0])
+        if rel == 'active_path':
+            active_path.add(step, order, store.deserialize_cdr(data, msgtype).data)
+        elif rel in INPUT_TOPICS:
+            msg = store.deserialize_cdr(data, msgtype)
+            events.append((order, Command(rel, command_value(rel, msg), step)))
+        elif rel == RUN_PARAMETERS:
+            params = _parse(store.deserialize_cdr(data, msgtype).data, topic)
+            if params.settings.dt != first.settings.dt:
+                raise BagError('invalid', f'{topic}: dt changed during the run')
+            events.append((order, ParameterChange(params.params, params.settings, step)))
+        elif rel == RESET:
+            events.append((order, Reset(step)))
+
+    def joint_state(raw: bytes) -> tuple[np.ndarray, int]:
+        msg = store.deserialize_cdr(raw, OUTPUT_TOPICS['joint_states'])
+        try:
+            idx = [list(msg.name).index(n) for n in joints]
+        except ValueError:
+            raise BagError('invalid', f'{names["joint_states"]}: joints {list(msg.name)} do '
+                           f'not include {joints}') from None
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        return np.concatenate([msg.position[idx], msg.velocity[idx], msg.effort[idx]]), stamp
+
+    def mesh_state(raw: bytes) -> tuple[np.ndarray, int]:
+        msg = store.deserialize_cdr(raw, OUTPUT_TOPICS['mesh_state'])
+        return np.concatenate([msg.position, msg.velocity, msg.effort]), 0
+
+    def float64(raw: bytes) -> tuple[np.ndarray, int]:
+        return np.array([store.deserialize_cdr(raw, OUTPUT_TOPICS['transmission_error']).data]), 0
+
+    def mesh_template(parts: list[np.ndarray | list[bytes]]) -> Template | None:
+        """The layout of the first mesh_state message's names (the node's: one δ1, δ3)."""
+        if not parts:
+            return None
+        raw = parts[0][0].tobytes() if isinstance(parts[0], np.ndarray) else parts[0][0]
+        msg = store.deserialize_cdr(raw, OUTPUT_TOPICS['mesh_state'])
+        return joint_state_template(list(msg.name)) if len(msg.name) == 2 else None
+
+    layouts = {'joint_states': (lambda parts: joint_state_template(joints), 9, joint_state),
+               'transmission_error': (lambda parts: float64_template(), 1, float64),
+               'mesh_state': (mesh_template, 6, mesh_state)}
+    signals: dict[str, Signal] = {}
+    stamp_mismatches: list[tuple[int, int]] = []
+    for rel in BULK_TOPICS:
+        pieces = bulk.get(rel, [])
+        order = np.concatenate([p[0] for p in pieces] or [np.empty(0, np.int64)])
+        log_time = np.concatenate([p[1] for p in pieces] or [np.empty(0, np.int64)])
+        sort = np.argsort(order, kind='stable')
+        steps = steps_of(log_time[sort], names.get(rel, rel))
+        if rel == 'clock':
+            signals[rel] = Signal(steps, order[sort], np.empty((len(steps), 0)))
+            continue
+        make, width, one = layouts[rel]
+        parts = [p[2] for p in pieces]
+        values, stamps = _bulk(parts, make(parts), width, one)
+        signals[rel] = Signal(steps, order[sort], values[sort])
+        if rel == 'joint_states':
+            off = np.flatnonzero(stamps[sort] != log_time[sort])
+            stamp_mismatches = list(zip(log_time[sort][off].tolist(), stamps[sort][off].tolist()))
     if status['truncated'] and not allow_truncated:
         raise BagError('truncated', f'{path}: {status["truncated"]}')
-    return RecordedRun(bag_dir, mcap_path, first, events,
-                       collectors['joint_states'].signal(),
-                       collectors['transmission_error'].signal(),
-                       collectors['mesh_state'].signal(), collectors['active_path'].signal(),
-                       collectors['clock'].signal(), topics, count, status['truncated'], names,
-                       stamp_mismatches)
+    return RecordedRun(bag_dir, mcap_path, first, events, signals['joint_states'],
+                       signals['transmission_error'], signals['mesh_state'],
+                       active_path.signal(), signals['clock'], topics, found.count,
+                       status['truncated'], names, stamp_mismatches)
+
 
 
 def _parse(text: str, topic: str) -> RunParameters:
@@ -305,4 +610,5 @@ def _parse(text: str, topic: str) -> RunParameters:
 
 
 __all__ = ['BagError', 'Command', 'ParameterChange', 'Reset', 'Event', 'Signal',
-           'RecordedRun', 'OUTPUT_TOPICS', 'find_mcap', 'iter_messages', 'read_run']
+           'RecordedRun', 'OUTPUT_TOPICS', 'BULK_TOPICS', 'find_mcap', 'iter_messages', 'scan',
+           'read_run']

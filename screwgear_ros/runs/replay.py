@@ -1,8 +1,8 @@
 """Replay a recorded run in-process through a :class:`~screwgear_ros.session.Session`,
 and the schedules that ``replay_run`` plays into a live node.
 
-:func:`replay` drives a fresh session through a recording exactly as the node ran
-it: every event recorded between two ``joint_states`` samples (in file order) is
+:func:`replay_in_process` drives a fresh session through a recording exactly as the
+node ran it: every event recorded between two ``joint_states`` samples (in file order) is
 submitted before the tick that produced the second sample, so it takes effect at
 that tick's first step, as in the node. Each event's recorded step and each
 sample's step are checked against the session's (a bag that disagrees is
@@ -35,11 +35,6 @@ from ..session import Session, Tick
 from .bagread import BagError, RecordedRun
 
 
-def joint_values(o: Outputs) -> np.ndarray:
-    """θ(3) rad, ω(3) rad/s, effort(3) N·m, as the bag's joint_states rows."""
-    return np.array([*o.position, *o.velocity, *o.effort])
-
-
 def _refined(event: Event, refine: int) -> Event:
     """``event`` for a session at dt/refine: steps and the settings' dt scaled."""
     if isinstance(event, ParameterChange):
@@ -48,28 +43,77 @@ def _refined(event: Event, refine: int) -> Event:
     return replace(event, step=None if event.step is None else event.step * refine)
 
 
-def replay(run: RecordedRun, refine: int = 1) -> Iterator[tuple[int, Tick | None, Outputs]]:
-    """(sample index, tick, outputs) for every joint_states sample of ``run``.
+#: Columns of a replay's output rows: the joint_states row (9), the transmission error,
+#: the step (:meth:`Session.tick_quietly`).
+ROW = 11
 
-    Sample 0 is the start of the run (no tick); sample i > 0 is what tick i
-    produced. Raises :class:`BagError` where the recording disagrees with the
-    session (an event or a sample off the node's tick grid, a recorded command the
-    node must have refused).
+
+def row_of(o: Outputs) -> tuple[float, ...]:
+    """The ``ROW`` columns of ``o``."""
+    return (*o.position, *o.velocity, *o.effort, o.transmission_error, o.step)
+
+
+@dataclass
+class ReplayedOutputs:
+    """Outputs at the bag's output samples: joint_states rows and transmission errors,
+    and the ticks that went through :meth:`Session.tick` (every tick that applied an
+    event, or in which command_timeout came due; ``ticks[j]`` made sample
+    ``tick_samples[j]``). The ticks in between took no event: each ran under the input
+    and parameters of the tick before it (:meth:`Session.tick_quietly`)."""
+
+    joint_states: np.ndarray        # (n, 9) like RecordedRun.joint_states.values
+    transmission_error: np.ndarray  # (m,) m
+    fault: str | None
+    ticks: list[Tick] = field(default_factory=list)
+    tick_samples: list[int] = field(default_factory=list)
+
+
+def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
+    """Re-run the recorded events through a fresh session at dt/refine, sampling the
+    outputs of every tick (sample 0: the start of the run; sample i > 0: what tick i made).
+
+    Every event recorded (in file order) before the ``joint_states`` sample i is
+    submitted before the tick that makes it; the ticks between events go through
+    :meth:`Session.tick_quietly`. Raises :class:`BagError` where the recording disagrees
+    with the session (an event or a sample off the node's tick grid, a recorded command
+    the node must have refused).
     """
     start = run.parameters
+    samples = run.joint_states
+    n = len(samples)
+    rows = np.empty((n, ROW))
+    m = len(run.transmission_error)
+    if m and not np.array_equal(run.transmission_error.steps, samples.steps[:m]):
+        raise BagError('invalid', 'transmission_error and joint_states samples are not '
+                       'published at the same steps')
+    replayed = ReplayedOutputs(rows[:, :9], rows[:m, 9], None)
+    if not n:
+        return replayed
     session = Session(start.params, _refined(ParameterChange(start.params, start.settings),
                                              refine).settings,
                       np.asarray(start.initial_state), start.start_step * refine)
-    samples = run.joint_states
-    if not len(samples):
-        return
     if samples.steps[0] != start.start_step:
         raise BagError('invalid', f'the first joint_states is at step {samples.steps[0]}, '
                        f'the run starts at step {start.start_step}')
-    yield 0, None, session.outputs
+    rows[0] = row_of(session.outputs)
     events, k = run.events, 0
-    for i in range(1, len(samples)):
-        while k < len(events) and events[k][0] < samples.order[i]:
+    # The sample whose tick takes each event: the first sample recorded after it.
+    takes = np.searchsorted(samples.order, [order for order, _ in events], side='right')
+    i = 1
+    while i < n:
+        due = k < len(events) and takes[k] <= i
+        done = 0 if due else session.tick_quietly(
+            (int(takes[k]) if k < len(events) else n) - i, rows[i:])
+        if done:
+            made = rows[i:i + done, 10].astype(np.int64)
+            off = np.flatnonzero(samples.steps[i:i + done] * refine != made)
+            if len(off):
+                raise BagError('invalid', f'joint_states sample {i + off[0]} is at step '
+                               f'{samples.steps[i + off[0]]}, but the tick that produced it '
+                               f'ends at step {made[off[0]] // refine}')
+            i += done
+            continue
+        while k < len(events) and takes[k] <= i:
             event = _refined(events[k][1], refine)
             if event.step != session.step:
                 raise BagError('invalid', f'{describe(events[k][1])} is recorded at '
@@ -84,38 +128,12 @@ def replay(run: RecordedRun, refine: int = 1) -> Iterator[tuple[int, Tick | None
         if session.step != samples.steps[i] * refine:
             raise BagError('invalid', f'joint_states sample {i} is at step {samples.steps[i]}, '
                            f'but the tick that produced it ends at step {session.step // refine}')
-        yield i, tick, tick.outputs
-
-
-@dataclass
-class ReplayedOutputs:
-    """Outputs at the bag's output samples: joint_states rows and transmission errors,
-    and the ticks that produced them (``ticks[i - 1]`` made sample i)."""
-
-    joint_states: np.ndarray        # (n, 9) like RecordedRun.joint_states.values
-    transmission_error: np.ndarray  # (m,) m
-    fault: str | None
-    ticks: list[Tick] = field(default_factory=list)
-
-
-def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
-    """Re-run the recorded events through a fresh session at dt/refine."""
-    js = np.empty((len(run.joint_states), 9))
-    te = np.empty(len(run.transmission_error))
-    if len(te) and not np.array_equal(run.transmission_error.steps,
-                                      run.joint_states.steps[:len(te)]):
-        raise BagError('invalid', 'transmission_error and joint_states samples are not '
-                       'published at the same steps')
-    ticks: list[Tick] = []
-    fault = None
-    for i, tick, out in replay(run, refine):
-        js[i] = joint_values(out)
-        if i < len(te):
-            te[i] = out.transmission_error
-        if tick is not None:
-            ticks.append(tick)
-            fault = tick.fault
-    return ReplayedOutputs(js, te, fault, ticks)
+        rows[i] = row_of(tick.outputs)
+        replayed.ticks.append(tick)
+        replayed.tick_samples.append(i)
+        i += 1
+    replayed.fault = session.plant.fault
+    return replayed
 
 
 #: Settings a replay does not copy from the recording: where to record, and how the
@@ -230,5 +248,5 @@ def load_scenario(path: str | Path) -> Schedule:
     return schedule
 
 
-__all__ = ['joint_values', 'replay', 'ReplayedOutputs', 'replay_in_process', 'NOT_REPLAYED',
+__all__ = ['ROW', 'row_of', 'ReplayedOutputs', 'replay_in_process', 'NOT_REPLAYED',
            'ros_values', 'Schedule', 'schedule_from_run', 'load_scenario']
