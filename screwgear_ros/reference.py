@@ -21,7 +21,6 @@ from dataclasses import dataclass
 from typing import Callable, Sequence
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from . import dop853
 from .model import pack, rhs_vector
@@ -151,6 +150,7 @@ def _segment(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray, dt: 
 def _segment_scipy(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray, dt: float,
                    seg: Segment, rtol: float, atol: float) -> tuple[np.ndarray, np.ndarray]:
     """The same with SciPy's solve_ivp DOP853 (for cross-checks)."""
+    from scipy.integrate import solve_ivp    # here: importing it costs check_run 0.3 s
     model = pack(seg.params)
     drive = seg.drive
     ends_on_sample = len(samples) > 0 and samples[-1] == step_b

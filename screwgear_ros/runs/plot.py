@@ -31,7 +31,7 @@ from ..plant import DriveInput
 from ..report.common import COLORS, plt
 from ..session import Tick
 from .bagread import BagError, RecordedRun
-from .check import SAFETY, CheckReport, signal_names
+from .check import CheckReport, signal_names
 from .replay import replay_in_process
 
 #: Resolution the figures are written at (and readable at), dots per inch.
@@ -352,8 +352,8 @@ def check_figure(run: RecordedRun, report: CheckReport) -> Figure:
         if k % joints == joints - 1 or k == 3 * joints:
             a.set_xlabel('simulation time [s]')
     handles = [Line2D([], [], color=COLORS[0], label='|node − reference| at each sample'),
-               Line2D([], [], label=f'tolerance ({SAFETY:g} × Richardson estimate of RK4\'s '
-                      'error, or its floor)', **TOLERANCE_STYLE),
+               Line2D([], [], label=f'tolerance ({report.safety:g} × Richardson estimate of '
+                      'RK4\'s error, or its floor)', **TOLERANCE_STYLE),
                Line2D([], [], label='parameter change', **PARAMETER_STYLE),
                Line2D([], [], label='reset', **RESET_STYLE)]
     fig.legend(handles=handles, loc='outside lower center', ncols=4, fontsize=10, frameon=False)
