@@ -9,6 +9,8 @@ exactly as table_sim writes it, tick by tick, as fast as the machine goes.
 
 from __future__ import annotations
 
+import shutil
+import subprocess
 from pathlib import Path
 from typing import Any, Callable
 
@@ -67,6 +69,30 @@ def reversal_run(params: TableParams, settings: SimSettings, torque: float, reve
 Edit = Callable[[str, str, int, bytes], 'tuple[int, bytes] | None']
 
 
+def nudge_table_angle(at_ns: int, by: float) -> Edit:
+    """An edit for :func:`copy_bag`: the table angle of the joint_states at log time
+    ``at_ns`` moved by ``by`` rad, every other message as it was."""
+    from rosbags.typesys import Stores, get_typestore
+    store = get_typestore(Stores.ROS2_JAZZY)
+
+    def edit(topic: str, msgtype: str, log_time: int, raw: bytes) -> tuple[int, bytes]:
+        if topic.endswith('/joint_states') and log_time == at_ns:
+            msg = store.deserialize_cdr(raw, msgtype)
+            msg.position = msg.position.copy()     # rosbags decodes read-only views
+            msg.position[1] += by
+            raw = bytes(store.serialize_cdr(msg, msgtype))
+        return log_time, raw
+    return edit
+
+
+def installed_check_run(*args: object) -> subprocess.CompletedProcess:
+    """The installed ``check_run`` console script on ``args`` (no progress bar)."""
+    exe = shutil.which('check_run')
+    assert exe is not None, 'check_run is not installed in the venv'
+    return subprocess.run([exe, '--no-progress', *map(str, args)], capture_output=True,
+                          text=True, timeout=300)
+
+
 def copy_bag(src: Path, dst: Path, edit: Edit | None = None) -> int:
     """Rewrite the bag ``src`` to ``dst`` message by message, in file order.
 
@@ -99,4 +125,5 @@ def copy_bag(src: Path, dst: Path, edit: Edit | None = None) -> int:
     return recorder.written
 
 
-__all__ = ['record_session', 'reversal_run', 'copy_bag']
+__all__ = ['record_session', 'reversal_run', 'nudge_table_angle', 'installed_check_run',
+           'copy_bag']

@@ -10,13 +10,13 @@ the reason, never a traceback.
 from __future__ import annotations
 
 import shutil
-import subprocess
 from pathlib import Path
 
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import copy_bag, record_session
+from bag_runs import copy_bag, nudge_table_angle, record_session
+from bag_runs import installed_check_run as check_run
 from screwgear_ros.events import Command
 from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.runs.replay import Schedule
@@ -26,12 +26,6 @@ BAGS = ['steady_drive', 'reversals_anti_backlash', 'reversals_conventional',
         'load_steps_parameter_changes']
 STORE = get_typestore(Stores.ROS2_JAZZY)
 
-
-def check_run(*args: object) -> subprocess.CompletedProcess:
-    exe = shutil.which('check_run')
-    assert exe is not None, 'check_run is not installed in the venv'
-    return subprocess.run([exe, '--no-progress', *map(str, args)], capture_output=True,
-                          text=True, timeout=300)
 
 
 @pytest.mark.parametrize('name', BAGS)
@@ -62,15 +56,7 @@ def test_an_unchanged_copy_passes(tmp_path: Path) -> None:
 def test_a_corrupted_output_fails(tmp_path: Path) -> None:
     """0.1 µrad on the table angle at one instant: physically nothing, far beyond RK4's error."""
     target = 2 * 10**9            # t = 2 s
-
-    def nudge(topic, msgtype, log_time, raw):
-        if topic.endswith('/joint_states') and log_time == target:
-            msg = STORE.deserialize_cdr(raw, msgtype)
-            msg.position = msg.position.copy()     # rosbags decodes read-only views
-            msg.position[1] += 1e-7
-            raw = bytes(STORE.serialize_cdr(msg, msgtype))
-        return log_time, raw
-    result = check_run(_edited(tmp_path, nudge))
+    result = check_run(_edited(tmp_path, nudge_table_angle(target, 1e-7)))
     assert result.returncode == 1, result.stdout + result.stderr
     fails = [line for line in result.stdout.splitlines() if line.endswith('FAIL')]
     assert [line.split()[0:2] for line in fails] == [['table', 'position']]

@@ -15,8 +15,6 @@ and the tolerance is 1.5 × the estimate. Judged against the compiled DOP853 ref
 
 from __future__ import annotations
 
-import shutil
-import subprocess
 from dataclasses import replace
 from pathlib import Path
 
@@ -24,7 +22,7 @@ import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import copy_bag, record_session
+from bag_runs import copy_bag, installed_check_run, nudge_table_angle, record_session
 from screwgear_ros.runs.bagread import read_run
 from screwgear_ros.runs.check import SAFETY, SAFETY_FIXED_STEP, check_run
 from screwgear_ros.runs.replay import load_scenario
@@ -32,12 +30,6 @@ from screwgear_ros.runs.replay import load_scenario
 DATA = Path(__file__).parent / 'data'
 STORE = get_typestore(Stores.ROS2_JAZZY)
 
-
-def installed_check_run(*args: object) -> subprocess.CompletedProcess:
-    exe = shutil.which('check_run')
-    assert exe is not None, 'check_run is not installed in the venv'
-    return subprocess.run([exe, '--no-progress', *map(str, args)], capture_output=True,
-                          text=True, timeout=300)
 
 
 @pytest.fixture(scope='module')
@@ -66,15 +58,7 @@ def test_a_located_conventional_run_passes_with_the_tight_tolerance(conventional
 
 def test_a_table_angle_off_by_1e8_rad_fails(conventional: Path, tmp_path: Path) -> None:
     target = 2 * 10**9            # t = 2 s, between two reversals
-
-    def nudge(topic, msgtype, log_time, raw):
-        if topic.endswith('/joint_states') and log_time == target:
-            msg = STORE.deserialize_cdr(raw, msgtype)
-            msg.position = msg.position.copy()
-            msg.position[1] += 1e-8
-            raw = bytes(STORE.serialize_cdr(msg, msgtype))
-        return log_time, raw
-    copy_bag(conventional, tmp_path / 'nudged', nudge)
+    copy_bag(conventional, tmp_path / 'nudged', nudge_table_angle(target, 1e-8))
     result = installed_check_run(tmp_path / 'nudged')
     assert result.returncode == 1, result.stdout + result.stderr
     fails = [line for line in result.stdout.splitlines() if line.endswith('FAIL')]

@@ -20,7 +20,7 @@ import pytest
 import yaml
 from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import copy_bag
+from bag_runs import copy_bag, nudge_table_angle
 from screwgear_ros.events import Command, ParameterChange, Reset
 from screwgear_ros.runs.bagread import read_run
 from screwgear_ros.runs.check import check_run
@@ -259,15 +259,7 @@ def test_check_figure_draws_each_error_against_its_tolerance(tmp_path: Path) -> 
     """A copy with 0.1 µrad added to the table angle at t = 2 s: that panel, and only
     that one, shows the error above its tolerance line, at 2 s."""
     target = 2 * 10**9
-
-    def nudge(topic, msgtype, log_time, raw):
-        if topic.endswith('/joint_states') and log_time == target:
-            msg = STORE.deserialize_cdr(raw, msgtype)
-            msg.position = msg.position.copy()
-            msg.position[1] += 1e-7
-            raw = bytes(STORE.serialize_cdr(msg, msgtype))
-        return log_time, raw
-    copy_bag(DATA / 'steady_drive', tmp_path / 'nudged', nudge)
+    copy_bag(DATA / 'steady_drive', tmp_path / 'nudged', nudge_table_angle(target, 1e-7))
     run = read_run(tmp_path / 'nudged')
     report = check_run(run)
     with warnings.catch_warnings():      # e.g. a log axis of errors that are all 0
