@@ -29,10 +29,10 @@ plain fixed-step RK4 on the law (the integrator of earlier releases, bit for bit
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
-
-import math
 
 from . import rk
 from .model import (ContactBranch, DrivePiece, active_speed, contact_branches, drive_piece,
@@ -83,12 +83,11 @@ def _same(a, b):
 
 
 @njit(cache=True, error_model="numpy")
-def _locate(t, h, y0, f0, y1, f1, p, ste_amp, ste_phase, torque, direction, held):
+def _locate(t, h, y0, f0, y1, f1, p, ste_amp, ste_phase, torque, direction, held, after):
     """First instant t + θ·h at which the law leaves the ``held`` pieces, on the Hermite
     interpolant of the step (y0, f0) → (y1, f1), by bisection: (θ just past the change,
-    the pieces the law gives there). The law has left them at θ = 1."""
+    the pieces the law gives there). The law has left them at θ = 1, for ``after``."""
     lo, hi = 0.0, 1.0
-    after = _pieces(t + h, y1, p, ste_amp, ste_phase, torque, direction)
     for _ in range(MAX_BISECTIONS):
         if hi - lo <= THETA_TOLERANCE:
             break
@@ -121,7 +120,7 @@ def _located_step(t0, t_end, dt, y, slope, held, p, ste_amp, ste_phase, torque, 
                                       load)
             return y_end, slope_end, end, changes
         theta, after = _locate(t, h, y, slope, y_end, _slope(t + h, y_end, args), p, ste_amp,
-                               ste_phase, torque, direction, held)
+                               ste_phase, torque, direction, held, end)
         tau = theta * h
         y = rk.step_from(_slope, t, y, tau, slope, args)         # up to the change
         t = t + tau
