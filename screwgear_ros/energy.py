@@ -8,7 +8,7 @@ Along a run driven through a :class:`~screwgear_ros.session.Session`, the balanc
 is evaluated at every integration step (docs/model_notes.md §9–10 give the derivation):
 
 - E_kin = ½·(I1·ω1² + I2·ω2² + I3·ω3²); V = Σ ½·K(φ_i)·f(δ_i)² over the meshes in use
-  (mesh 3 only in `anti_backlash`), f the spring deflection (:func:`model.penetration`);
+  (mesh 3 only in `anti_backlash`), f the spring deflection (:func:`model.branch_penetration`);
 - W_drive = ∫ T_d·ω_a dt: the drive torque delivered on the active pinion (through the
   torque–speed line, with the torque fluctuation) times that pinion's speed in the sense
   it drives, i.e. T1·ω1 + T3·ω3 less the preload's share;
@@ -51,9 +51,9 @@ import numpy as np
 from numba import njit
 
 from .events import Command, Event
-from .model import (B, CONVENTIONAL, CT, I1, I2, I3, MODE, PHASE, PHASE_TIME, R1, R3, TP, Z1,
-                    Z3, applied_torques, mesh_phase, mesh_state, mesh_stiffness,
-                    mesh_stiffness_slope, pack, penetration, static_transmission_error)
+from .model import (B, C, CONVENTIONAL, CT, I1, I2, I3, MODE, PHASE, PHASE_TIME, R1, R3, TP,
+                    Z1, Z3, applied_torques, branch_force, branch_penetration, contact_branch,
+                    mesh_motion, mesh_phase, mesh_stiffness_slope, pack)
 from .params import SimSettings, TableParams
 from .plant import DriveInput
 from .session import Session
@@ -252,12 +252,12 @@ def _powers(t: np.ndarray, y: np.ndarray, p: np.ndarray, ste_amp: np.ndarray,
         for i in range(meshes):
             theta, omega = (th1, w1) if i == 0 else (th3, w3)
             radius, teeth = (p[R1], p[Z1]) if i == 0 else (p[R3], p[Z3])
-            delta, delta_dot, force = mesh_state(theta, omega, radius, teeth, th2, w2, t[k],
-                                                 p, ste_amp, ste_phase)
-            phi, phi_dot = mesh_phase(theta, omega, teeth, t[k], p)
-            deps = static_transmission_error(phi, ste_amp, ste_phase)[1]
-            stiffness = mesh_stiffness(phi, p)
-            f = penetration(delta, p[B])
+            phi, deps, delta, delta_dot, stiffness = mesh_motion(
+                theta, omega, radius, teeth, th2, w2, t[k], p, ste_amp, ste_phase)
+            phi_dot = mesh_phase(theta, omega, teeth, t[k], p)[1]
+            branch = contact_branch(delta, delta_dot, stiffness, p[C], p[B])
+            force = branch_force(branch, delta, delta_dot, stiffness, p[C], p[B])
+            f = branch_penetration(branch, delta, p[B])
             spring = stiffness * f
             potential += 0.5 * spring * f
             damping += (force - spring) * delta_dot

@@ -200,21 +200,9 @@ def mesh_motion(theta_pinion: float, omega_pinion: float, radius_pinion: float, 
 
 
 @njit(cache=True, error_model="numpy")
-def penetration(delta: float, backlash: float) -> float:
-    """f(δ), m: the spring's deflection: δ for b = 0, δ ∓ b on a flank, 0 in the gap."""
-    if backlash <= 0.0:
-        return delta
-    if delta > backlash:
-        return delta - backlash
-    if delta < -backlash:
-        return delta + backlash
-    return 0.0
-
-
-@njit(cache=True, error_model="numpy")
 def branch_penetration(branch: ContactBranch, delta: float, backlash: float) -> float:
     """f(δ), m, on a given branch: δ (linear), δ ∓ b on or lifting off a flank, 0 in
-    the gap (:func:`penetration` on the branch the state is on)."""
+    the gap (on the branch :func:`contact_branch` gives, the spring's deflection at δ)."""
     if branch == ContactBranch.FORWARD or branch == ContactBranch.FORWARD_LIFTING:
         return delta - backlash
     if branch == ContactBranch.REVERSE or branch == ContactBranch.REVERSE_LIFTING:
@@ -309,8 +297,7 @@ def applied_torques(t: float, w1: float, w3: float, torque: float, direction: fl
                     p: np.ndarray) -> tuple[float, float]:
     """Torques (T1, T3) on pinions 1 and 3, N·m, with the drive's torque–speed line:
     :func:`drive_torques` of the torque :func:`drive_line` delivers."""
-    return drive_torques(t, drive_line(torque, active_speed(w1, w3, direction, p), p),
-                         direction, p)
+    return applied_torques_on(DrivePiece.FROM_STATE, t, w1, w3, torque, direction, p)[:2]
 
 
 @njit(cache=True, error_model="numpy")
@@ -466,12 +453,13 @@ class EquilibriumNotFound(ArithmeticError):
         return (EquilibriumNotFound, (self.what, self.iterations, self.step, self.residual))
 
 
-#: Newton iterations allowed for a pinion's equilibrium angle (it takes 3–6).
+#: Newton iterations allowed for a pinion's equilibrium angle (it takes 3–6), either
+#: formulation.
 NEWTON_ITERATIONS = 100
 
 
 def _pinion_angle_for(delta_target_sign: float, radius: float, teeth: float,
-                      model: PackedModel, iterations: int = NEWTON_ITERATIONS) -> float:
+                      model: PackedModel) -> float:
     """Pinion angle θ (rad) with θ2 = 0 at which the mesh sits at its preload equilibrium.
 
     Solves g(θ) = r·θ − ε(φ(θ)) − s·(b + T_p / (r·K(φ(θ)))) = 0 by Newton's method;
@@ -486,13 +474,13 @@ def _pinion_angle_for(delta_target_sign: float, radius: float, teeth: float,
     scale = (p[B] + tp / (radius * (p[K_EFF] - p[K_A])) + float(np.sum(np.abs(model.ste_amp)))
              ) / radius
     step = g = math.nan
-    for _ in range(iterations):
+    for _ in range(NEWTON_ITERATIONS):
         angle_phase = p[PHASE] == PHASE_ANGLE
         phi = teeth * theta if angle_phase else 0.0
         dphi = teeth if angle_phase else 0.0
         eps, deps = static_transmission_error(phi, model.ste_amp, model.ste_phase)
         k = mesh_stiffness(phi, p)
-        dk = -p[K_A] * math.sin(phi + p[PHI_K]) * dphi
+        dk = mesh_stiffness_slope(phi, p) * dphi
         target = delta_target_sign * (p[B] + tp / (radius * k))
         dtarget = -delta_target_sign * tp * dk / (radius * k * k)
         g = radius * theta - eps - target
@@ -505,7 +493,7 @@ def _pinion_angle_for(delta_target_sign: float, radius: float, teeth: float,
         return theta
     flank = 'forward' if delta_target_sign > 0.0 else 'reverse'
     raise EquilibriumNotFound(f'the angle of the pinion resting on its {flank} flank',
-                              iterations, step, g)
+                              NEWTON_ITERATIONS, step, g)
 
 
 def _energy_pinion_angle(sign: float, radius: float, teeth: float, theta2: float,
@@ -519,7 +507,7 @@ def _energy_pinion_angle(sign: float, radius: float, teeth: float, theta2: float
     """
     p, amp, phase = model.p, model.ste_amp, model.ste_phase
     n = np.arange(1, len(amp) + 1)
-    for _ in range(100):
+    for _ in range(NEWTON_ITERATIONS):
         phi = teeth * theta
         eps, deps = static_transmission_error(phi, amp, phase)
         d2eps = -float(np.sum(amp * n * n * np.sin(n * phi + phase)))
@@ -538,7 +526,7 @@ def _energy_pinion_angle(sign: float, radius: float, teeth: float, theta2: float
                 phi, amp, phase)[0] - sign * p[B]
             return theta, mesh_stiffness(phi, p) * f
     raise EquilibriumNotFound(f'the energy-consistent angle of the pinion of sign {sign:+g} '
-                              f'at table angle {theta2!r} rad', 100, step, g)
+                              f'at table angle {theta2!r} rad', NEWTON_ITERATIONS, step, g)
 
 
 def _energy_equilibrium(params: TableParams, model: PackedModel,
@@ -614,7 +602,7 @@ def equilibrium_state(params: TableParams) -> np.ndarray:
 
 __all__ = [
     'PackedModel', 'pack', 'mesh_phase', 'static_transmission_error', 'mesh_stiffness',
-    'mesh_force', 'mesh_state', 'penetration', 'mesh_stiffness_slope', 'mesh_load',
+    'mesh_force', 'mesh_state', 'mesh_stiffness_slope', 'mesh_load',
     'mesh_load_on',
     'drive_line', 'active_speed', 'applied_torques', 'drive_torques', 'rhs', 'rhs_vector',
     'DrivePiece', 'drive_piece', 'drive_on', 'applied_torques_on',
