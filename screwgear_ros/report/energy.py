@@ -21,6 +21,7 @@ from tqdm import tqdm
 from .. import energy
 from ..model import equilibrium_state
 from ..params import PAPER_PINION_SPEED, TableParams
+from .antibacklash import paper_table_speed
 from .common import COLORS, FAILS, HOLDS, Section, Verdict, fmt, plt, save_figure, table
 
 FORMULATIONS = ('paper', 'energy_consistent')
@@ -31,8 +32,7 @@ def coasting(form: str, dt: float, duration: float, **changes) -> energy.EnergyA
     (24 r/min at the pinions), nothing driving or braking but the mesh damping."""
     p = TableParams(mesh_formulation=form, **changes)
     y = equilibrium_state(p)
-    y[3:] = (PAPER_PINION_SPEED, PAPER_PINION_SPEED * p.radius_pinion_1 / p.radius_table,
-             PAPER_PINION_SPEED)
+    y[3:] = (PAPER_PINION_SPEED, paper_table_speed(p), PAPER_PINION_SPEED)
     return energy.run(p, dt, duration, initial_state=y)
 
 
