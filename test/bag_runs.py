@@ -85,12 +85,27 @@ def nudge_table_angle(at_ns: int, by: float) -> Edit:
     return edit
 
 
+def installed(exe: str, *args: object, timeout: float = 300.0) -> subprocess.CompletedProcess:
+    """The installed console script ``exe`` on ``args``, output captured."""
+    path = shutil.which(exe)
+    assert path is not None, f'{exe} is not installed in the venv'
+    return subprocess.run([path, *map(str, args)], capture_output=True, text=True,
+                          timeout=timeout)
+
+
 def installed_check_run(*args: object) -> subprocess.CompletedProcess:
     """The installed ``check_run`` console script on ``args`` (no progress bar)."""
-    exe = shutil.which('check_run')
-    assert exe is not None, 'check_run is not installed in the venv'
-    return subprocess.run([exe, '--no-progress', *map(str, args)], capture_output=True,
-                          text=True, timeout=300)
+    return installed('check_run', '--no-progress', *args)
+
+
+def truncated_copy(src: Path, dst: Path, keep: float = 0.6) -> Path:
+    """A copy of the bag ``src`` at ``dst`` whose MCAP file is cut to ``keep`` of its
+    length, as a killed writer leaves it."""
+    shutil.copytree(src, dst)
+    mcap_file, = dst.glob('*.mcap')
+    data = mcap_file.read_bytes()
+    mcap_file.write_bytes(data[:int(len(data) * keep)])
+    return dst
 
 
 def copy_bag(src: Path, dst: Path, edit: Edit | None = None) -> int:
@@ -125,5 +140,5 @@ def copy_bag(src: Path, dst: Path, edit: Edit | None = None) -> int:
     return recorder.written
 
 
-__all__ = ['record_session', 'reversal_run', 'nudge_table_angle', 'installed_check_run',
-           'copy_bag']
+__all__ = ['record_session', 'reversal_run', 'nudge_table_angle', 'installed',
+           'installed_check_run', 'truncated_copy', 'copy_bag']

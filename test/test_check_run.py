@@ -9,13 +9,12 @@ the reason, never a traceback.
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import copy_bag, nudge_table_angle, record_session
+from bag_runs import copy_bag, nudge_table_angle, record_session, truncated_copy
 from bag_runs import installed_check_run as check_run
 from screwgear_ros.events import Command
 from screwgear_ros.params import SimSettings, TableParams
@@ -102,11 +101,7 @@ def test_a_bag_without_parameters_is_refused(tmp_path: Path) -> None:
 
 
 def test_a_truncated_bag_is_refused_unless_asked(tmp_path: Path) -> None:
-    bag = tmp_path / 'cut'
-    shutil.copytree(DATA / 'reversals_anti_backlash', bag)
-    mcap_file, = bag.glob('*.mcap')
-    data = mcap_file.read_bytes()
-    mcap_file.write_bytes(data[:len(data) * 6 // 10])
+    bag = truncated_copy(DATA / 'reversals_anti_backlash', tmp_path / 'cut')
     result = check_run(bag)
     assert result.returncode == 2, result.stdout + result.stderr
     assert 'not closed' in result.stderr and '--allow-truncated' in result.stderr

@@ -18,9 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import copy_bag, nudge_table_angle
+from bag_runs import copy_bag, installed, nudge_table_angle, truncated_copy
 from screwgear_ros.events import Command, ParameterChange, Reset
 from screwgear_ros.runs.bagread import read_run
 from screwgear_ros.runs.check import check_run
@@ -29,14 +28,8 @@ from screwgear_ros.runs.plot import (DPI, Mark, Panel, check_figure, params_at, 
 from screwgear_ros.runs.replay import replay_in_process
 
 DATA = Path(__file__).parent / 'data'
-STORE = get_typestore(Stores.ROS2_JAZZY)
 PREFIX = Path(sys.prefix)
 
-
-def installed(exe: str, *args: object) -> subprocess.CompletedProcess:
-    path = shutil.which(exe)
-    assert path is not None, f'{exe} is not installed in the venv'
-    return subprocess.run([path, *map(str, args)], capture_output=True, text=True, timeout=300)
 
 
 def png_size(path: Path) -> tuple[int, int]:
@@ -129,11 +122,7 @@ def test_what_cannot_be_plotted_exits_2_with_the_reason(tmp_path: Path) -> None:
 
 
 def test_a_truncated_bag_is_plotted_only_when_asked(tmp_path: Path) -> None:
-    bag = tmp_path / 'cut'
-    shutil.copytree(DATA / 'reversals_anti_backlash', bag)
-    mcap_file, = bag.glob('*.mcap')
-    data = mcap_file.read_bytes()
-    mcap_file.write_bytes(data[:len(data) * 6 // 10])
+    bag = truncated_copy(DATA / 'reversals_anti_backlash', tmp_path / 'cut')
     result = installed('plot_run', bag)
     assert result.returncode == 2 and '--allow-truncated' in result.stderr, result.stderr
     result = installed('plot_run', '--allow-truncated', bag)

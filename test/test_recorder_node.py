@@ -7,9 +7,7 @@ Real processes over DDS: the node is started as installed (its console script) w
 
 from __future__ import annotations
 
-import shutil
 import signal
-import subprocess
 import time
 from pathlib import Path
 
@@ -21,6 +19,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
+from bag_runs import installed_check_run as check_run
 from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
 from screwgear_ros.runs.bagread import read_run
 from screwgear_ros.runs.recorder import FLUSH_PERIOD
@@ -29,9 +28,6 @@ PARAMS = {'table_damping': 8867.0, 'publish_rate': 200.0}
 PRELOAD = 350.0                  # N·m on pinion 1 with no command (the default preload)
 
 
-def check_run(*args: object) -> subprocess.CompletedProcess:
-    return subprocess.run([shutil.which('check_run'), '--no-progress', *map(str, args)],
-                          capture_output=True, text=True, timeout=300)
 
 
 def drive(seconds: float) -> int:

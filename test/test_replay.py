@@ -21,13 +21,13 @@ from __future__ import annotations
 
 import dataclasses
 import re
-import shutil
 import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from bag_runs import installed
 from ros_procs import (STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process,
                        wait_until)
 from screwgear_ros.cli.replay_run import lockstep_problem
@@ -45,10 +45,7 @@ WAIT = 120.0
 
 
 def tool(name: str, *args: object, timeout: float = TOOL_TIMEOUT) -> subprocess.CompletedProcess:
-    exe = shutil.which(name)
-    assert exe is not None, f'{name} is not installed in the venv'
-    return subprocess.run([exe, *map(str, args)], capture_output=True, text=True,
-                          timeout=timeout)
+    return installed(name, *args, timeout=timeout)
 
 
 def assert_no_traceback(result: subprocess.CompletedProcess) -> None:
