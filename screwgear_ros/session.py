@@ -44,6 +44,16 @@ from .params import SimSettings, TableParams
 from .plant import DriveInput, Outputs, Plant
 
 
+#: Columns of an output row (:meth:`Session.tick_quietly`, replays): the joint_states
+#: row (θ, ω, effort of the three joints), the transmission error, the step.
+ROW = 11
+
+
+def row_of(o: Outputs) -> tuple[float, ...]:
+    """The ``ROW`` columns of ``o``."""
+    return (*o.position, *o.velocity, *o.effort, o.transmission_error, o.step)
+
+
 @dataclass(frozen=True)
 class Tick:
     """What one tick did."""
@@ -167,7 +177,7 @@ class Session:
         """Up to ``n`` ticks that take no event, for replays that sample every tick: the
         plant does exactly what ``n`` calls of :meth:`tick` would make it do (the same
         calls, bit for bit), without a :class:`Tick` each. Row i of ``values`` (float64,
-        at least n × 11) gets tick i's outputs: θ(3) rad, ω(3) rad/s, effort(3) N·m,
+        at least n × ROW) gets tick i's outputs: θ(3) rad, ω(3) rad/s, effort(3) N·m,
         transmission error m, and the step they are at (exact in float64; a faulted
         plant's time stands still); :attr:`outputs` is the last one's.
 
@@ -186,12 +196,11 @@ class Session:
         for i in range(n):
             faulted = plant.fault is not None
             out = plant.advance_outputs(self._steps)
-            values[i, :11] = (*out.position, *out.velocity, *out.effort,
-                              out.transmission_error, out.step)
+            values[i, :ROW] = row_of(out)
             self.outputs = out
             if plant.fault is not None and not faulted:
                 return i + 1
         return max(n, 0)
 
 
-__all__ = ['Session', 'Tick']
+__all__ = ['ROW', 'row_of', 'Session', 'Tick']

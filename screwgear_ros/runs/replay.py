@@ -30,8 +30,7 @@ from ..commands import INPUT_TOPICS
 from ..events import Command, Event, ParameterChange, Reset, describe
 from ..params import (ParameterError, SimSettings, TableParams, default_values,
                       split_parameters)
-from ..plant import Outputs
-from ..session import Session, Tick
+from ..session import ROW, Session, Tick, row_of
 from .bagread import BagError, RecordedRun
 
 
@@ -41,16 +40,6 @@ def _refined(event: Event, refine: int) -> Event:
         event = replace(event, settings=replace(event.settings,
                                                 dt=event.settings.dt / refine))
     return replace(event, step=None if event.step is None else event.step * refine)
-
-
-#: Columns of a replay's output rows: the joint_states row (9), the transmission error,
-#: the step (:meth:`Session.tick_quietly`).
-ROW = 11
-
-
-def row_of(o: Outputs) -> tuple[float, ...]:
-    """The ``ROW`` columns of ``o``."""
-    return (*o.position, *o.velocity, *o.effort, o.transmission_error, o.step)
 
 
 @dataclass
