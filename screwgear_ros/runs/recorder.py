@@ -273,7 +273,6 @@ class RunRecorder:
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self._drop_lock = threading.Lock()
         self._dropped = 0
-        self._written = 0
         # Messages queued = accepted − handled; each counter has one writing side
         # (accepted: write()/write_many() under _close_lock; handled: the writer thread).
         self._accepted = 0
@@ -285,7 +284,7 @@ class RunRecorder:
 
         self._topics = [{'name': t.name, 'type': t.msgtype,
                          'qos': [qos_profile(t.transient_local)]} for t in topics]
-        self._counts = [0] * len(topics)
+        self._counts = [0] * len(topics)     # written per topic = its next sequence number
         self._start_ns: int | None = None
         self._end_ns = 0
         self.path.mkdir(parents=True, exist_ok=True)
@@ -309,7 +308,6 @@ class RunRecorder:
                 {'offered_qos_profiles': qos_yaml(topic['qos']),
                  'topic_type_hash': message_definition(spec.msgtype)[1]})
             self._channels[spec.name] = (index, channel)
-        self._sequence = [0] * len(topics)
         self._thread = threading.Thread(target=self._run, name='run_recorder', daemon=True)
         self._thread.start()
         atexit.register(self.close)
@@ -324,7 +322,7 @@ class RunRecorder:
     @property
     def written(self) -> int:
         """Messages written to the MCAP file so far."""
-        return self._written
+        return sum(self._counts)      # the writer's counts; a list summed under the GIL
 
     @property
     def error(self) -> str | None:
@@ -428,9 +426,9 @@ class RunRecorder:
     def _write_batch(self, batch: tuple[tuple[str, int, Any], ...]) -> None:
         """Write one batch's messages in order (or count them dropped after an error
         or when close() gave up waiting)."""
-        channels, counts, sequence = self._channels, self._counts, self._sequence
+        channels, counts = self._channels, self._counts
         serialize, add = self._serialize, self._mcap.add
-        start, end, written = self._start_ns, self._end_ns, 0
+        start, end = self._start_ns, self._end_ns
         for topic, log_time, msg in batch:
             if self._abandon or self._error is not None:
                 self._count_drop(1)
@@ -438,20 +436,17 @@ class RunRecorder:
             index, channel_id = channels[topic]
             log_time = int(log_time)
             try:
-                add(channel_id, sequence[index], log_time, serialize(msg))
+                add(channel_id, counts[index], log_time, serialize(msg))   # sequence
             except Exception as exc:  # noqa: BLE001 - one bad message must not end the run
                 self._count_drop(1)
                 self._fail(exc)
                 continue
-            sequence[index] += 1
             counts[index] += 1
-            written += 1
             if start is None or log_time < start:
                 start = log_time
             if log_time > end:
                 end = log_time
         self._start_ns, self._end_ns = start, end
-        self._written += written
         self._handled += len(batch)
 
     def _fail(self, exc: BaseException) -> None:
