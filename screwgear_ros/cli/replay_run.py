@@ -361,8 +361,7 @@ class Replayer:
             if confirm:
                 self._sync(what)
         elif isinstance(event, ParameterChange):
-            values = {k: list(v) if isinstance(v, tuple) else v
-                      for k, v in schedule.changed_values(event).items()}
+            values = {k: _plain(v) for k, v in schedule.changed_values(event).items()}
             if values:
                 self.set_parameters(values, f'parameter change at step {event.step}')
         elif isinstance(event, Reset):
@@ -372,8 +371,8 @@ class Replayer:
         else:
             raise ReplayError(f'not a replayable event: {event!r}')
 
-    def answer(self, step: int) -> None:
-        """Answer the tick that published step ``step``: one Empty on ``<node>/tick``."""
+    def answer(self) -> None:
+        """Answer the last tick the node published: one Empty on ``<node>/tick``."""
         self.tick.publish(Empty())
 
 
@@ -405,7 +404,7 @@ def replay_lockstep(schedule: Schedule, replayer: Replayer, spawned: bool) -> in
         for event in due:
             replayer.perform(event, schedule, confirm=not _is_answer(event))
         if not (due and _is_answer(due[-1])):
-            replayer.answer(step)
+            replayer.answer()
         step = replayer.wait_step(step, STALL_TIMEOUT)
     return offset
 
@@ -463,7 +462,7 @@ def _spawn_node(schedule: Schedule, record: Path, ros_args: list[str], workdir: 
         raise ReplayError('table_sim is not on PATH (source the workspace or the venv)')
     values = {**schedule.start, 'record': str(record), 'real_time_factor': float(factor),
               'publish_clock': True, 'lockstep': lockstep}
-    values = {k: list(v) if isinstance(v, tuple) else v for k, v in values.items()}
+    values = {k: _plain(v) for k, v in values.items()}
     params_file = workdir / 'replay_params.yaml'
     params_file.write_text(yaml.safe_dump({'/**': {'ros__parameters': values}},
                                           sort_keys=False))
@@ -496,6 +495,13 @@ def _ros_args(argv: list[str]) -> list[str]:
     return argv[argv.index('--ros-args'):]
 
 
+def _refuse_unreproducible(schedule: Schedule, original: RecordedRun | None) -> None:
+    """ReplayError if a lockstep replay cannot reproduce this run (lockstep_problem)."""
+    problem = lockstep_problem(schedule, original)
+    if problem is not None:
+        raise ReplayError(f'a lockstep replay cannot reproduce this run: {problem}')
+
+
 def _plain(value: Any) -> Any:
     return list(value) if isinstance(value, (list, tuple)) else value
 
@@ -516,9 +522,7 @@ def _replay(args: argparse.Namespace, schedule: Schedule, original: RecordedRun 
         if record.exists():
             raise ReplayError(f'{record} exists; a recording never overwrites')
         if lockstep:
-            problem = lockstep_problem(schedule, original)
-            if problem is not None:
-                raise ReplayError(f'a lockstep replay cannot reproduce this run: {problem}')
+            _refuse_unreproducible(schedule, original)
         rate = args.rate if args.rate is not None else (0.0 if lockstep else 1.0)
         state['workdir'] = Path(tempfile.mkdtemp(prefix='replay_run_'))
         child, log = _spawn_node(schedule, record, ros_args, state['workdir'], lockstep,
@@ -541,9 +545,7 @@ def _replay(args: argparse.Namespace, schedule: Schedule, original: RecordedRun 
               'reproduce the recording', file=sys.stderr)
     replayer.set_dt(float(live.get('dt') or schedule.dt))
     if live.get('lockstep'):
-        problem = lockstep_problem(schedule, original)
-        if problem is not None:
-            raise ReplayError(f'a lockstep replay cannot reproduce this run: {problem}')
+        _refuse_unreproducible(schedule, original)
         replay_lockstep(schedule, replayer, spawned=False)
         return True
     print('replay_run: the running node is free-running (lockstep: false): events are sent '

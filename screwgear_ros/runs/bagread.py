@@ -189,13 +189,12 @@ def _relative(topic: str) -> str:
 
 
 class _Collector:
-    """Accumulates samples of one output topic."""
+    """Accumulates the samples of one single-valued output topic (active_path)."""
 
-    def __init__(self, width: int) -> None:
+    def __init__(self) -> None:
         self.steps: list[int] = []
         self.order: list[int] = []
         self.values: list[Any] = []
-        self.width = width
 
     def add(self, step: int, order: int, values: Any) -> None:
         self.steps.append(step)
@@ -203,10 +202,9 @@ class _Collector:
         self.values.append(values)
 
     def signal(self) -> Signal:
-        values = (np.asarray(self.values, dtype=np.float64).reshape(len(self.steps), self.width)
-                  if self.width else np.empty((len(self.steps), 0)))
         return Signal(np.asarray(self.steps, dtype=np.int64),
-                      np.asarray(self.order, dtype=np.int64), values)
+                      np.asarray(self.order, dtype=np.int64),
+                      np.asarray(self.values, dtype=np.float64).reshape(-1, 1))
 
 
 _RECORD = struct.Struct('<BQ')        # an MCAP record's opcode and length
@@ -528,7 +526,7 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
         return steps.astype(np.int64)
 
     events: list[tuple[int, Event]] = []
-    active_path = _Collector(1)
+    active_path = _Collector()
     for order, topic, msgtype, log_time, data in one_by_one:
         rel = _relative(topic)
         if order == first_order:

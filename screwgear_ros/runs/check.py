@@ -189,7 +189,7 @@ def reference_outputs(run: RecordedRun, replayed: ReplayedOutputs,
 
 
 def _solve_piece(piece: _Piece, dt: float, progress: Callable[[float], None] | None,
-                 first: int = 0, total: int | None = None) -> dict[int, np.ndarray]:
+                 first: int, total: int) -> dict[int, np.ndarray]:
     """Reference states at the piece's sample steps, restarting at every segment and
     at least every BLOCK_SECONDS. A :class:`ReferenceFailure` names the segment as
     number ``first + k`` of ``total`` in the run."""
@@ -212,7 +212,7 @@ def _solve_piece(piece: _Piece, dt: float, progress: Callable[[float], None] | N
             try:
                 out = solve(y, [Segment(a, seg.drive, seg.params)], dt, steps)
             except ReferenceFailure as exc:
-                raise exc.located(first + k, total or len(piece.segments),
+                raise exc.located(first + k, total,
                                   seg.start_step * dt, seg_end * dt) from None
             for s, state in zip(steps, out):
                 result[int(s)] = state
