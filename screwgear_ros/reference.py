@@ -150,7 +150,7 @@ def _segment(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray, dt: 
 def _segment_scipy(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray, dt: float,
                    seg: Segment, rtol: float, atol: float) -> tuple[np.ndarray, np.ndarray]:
     """The same with SciPy's solve_ivp DOP853 (for cross-checks)."""
-    from scipy.integrate import solve_ivp    # here: importing it costs check_run 0.3 s
+    from scipy.integrate import solve_ivp    # only this cross-check uses it
     model = pack(seg.params)
     drive = seg.drive
     ends_on_sample = len(samples) > 0 and samples[-1] == step_b
