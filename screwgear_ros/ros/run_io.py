@@ -154,10 +154,11 @@ class RunIO:
         with self._rendered_lock:
             self._rendered[(params, settings)] = rendered
 
-    def _texts(self, session: Session) -> tuple[str, str]:
-        """The texts of the parameters in force: prepared, or rendered now (the start,
+    def _texts(self, session: Session, params: TableParams,
+               settings: SimSettings) -> tuple[str, str]:
+        """The texts of these parameters: prepared, or rendered now (the start,
         in-process sessions)."""
-        key = (session.plant.params, session.settings)
+        key = (params, settings)
         with self._rendered_lock:
             rendered = self._rendered.pop(key, None)
         return rendered if rendered is not None else self.render(session, *key)
@@ -167,7 +168,7 @@ class RunIO:
     def start(self, session: Session) -> None:
         """The start of a run: its parameters, the URDF, the active path and the first
         outputs."""
-        self._parameters(session, session.step)
+        self._parameters(session, session.step, session.plant.params, session.settings)
         self._publish_path(session.outputs.active_path, session.step, session.plant.dt)
         self.outputs(session.outputs, session.plant.dt)
         self._markers(session)
@@ -178,7 +179,7 @@ class RunIO:
         t_ns = sim_time_ns(tick.start, dt)
         for event in tick.applied:
             if isinstance(event, ParameterChange):
-                self._parameters(session, tick.start)
+                self._parameters(session, tick.start, event.params, event.settings)
                 if list(session.settings.joint_names) != self.joint_names:
                     self.joint_names = list(session.settings.joint_names)
                     self._joint_states = cdr.joint_state_template(self.joint_names)
@@ -233,10 +234,11 @@ class RunIO:
         self._path = path
         self.send('active_path', sim_time_ns(step, dt), messages.active_path(path))
 
-    def _parameters(self, session: Session, step: int) -> None:
-        """Record the parameters in force at ``step``; publish and record their URDF if
-        it changed."""
-        text, urdf = self._texts(session)
+    def _parameters(self, session: Session, step: int, params: TableParams,
+                    settings: SimSettings) -> None:
+        """Record the parameters taking effect at ``step`` (each change of a tick its own,
+        in order); publish and record their URDF if it changed."""
+        text, urdf = self._texts(session, params, settings)
         t_ns = sim_time_ns(step, session.plant.dt)
         if self.recorder is not None:
             self.record('run_parameters', t_ns, String(data=text))
