@@ -27,6 +27,8 @@ from .status import MAX_PHASE_PER_STEP
 BASE_LINK = 'screwgear_base'
 #: Thickness of every disc (face width), m: a picture, not a model parameter.
 FACE_WIDTH = 0.06
+#: The mark on each disc: a bar from 55 % to 95 % of the radius, on top of the disc.
+MARK_FROM, MARK_TO = 0.55, 0.95
 #: Colours (r, g, b, a) shared by the URDF's materials and the markers.
 PALETTE = {
     'table': (0.55, 0.60, 0.68, 1.0),
@@ -99,4 +101,5 @@ def mesh_point(pinion: Wheel, table: Wheel) -> tuple[float, float]:
     return (table.centre[0] + table.radius * dx / d, table.centre[1] + table.radius * dy / d)
 
 
-__all__ = ['BASE_LINK', 'FACE_WIDTH', 'PALETTE', 'Wheel', 'wheels', 'mesh_point']
+__all__ = ['BASE_LINK', 'FACE_WIDTH', 'MARK_FROM', 'MARK_TO', 'PALETTE', 'Wheel', 'wheels',
+           'mesh_point']

@@ -16,7 +16,7 @@ from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..layout import BASE_LINK, FACE_WIDTH, PALETTE, mesh_point, wheels
+from ..layout import BASE_LINK, FACE_WIDTH, MARK_TO, PALETTE, mesh_point, wheels
 from ..params import TableParams
 from ..plant import Outputs
 from ..status import Contact, contact_states
@@ -57,7 +57,7 @@ def table_markers(params: TableParams, joint_names: list[str] | tuple[str, ...],
         markers.append(disc)
         theta = out.position[wheel.index]
         mark = _marker(MARKS, wheel.index, Marker.ARROW, stamp)
-        tip_x, tip_y = wheel.rim_point(theta, 0.95)
+        tip_x, tip_y = wheel.rim_point(theta, MARK_TO)
         mark.points = [Point(x=wheel.centre[0], y=wheel.centre[1], z=top),
                        Point(x=tip_x, y=tip_y, z=top)]
         mark.scale.x, mark.scale.y, mark.scale.z = (0.06 * wheel.radius, 0.14 * wheel.radius,

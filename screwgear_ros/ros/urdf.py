@@ -22,7 +22,7 @@ import sys
 import xml.etree.ElementTree as ET
 
 from ..commands import COMMAND_INTERFACE, COMMANDED_JOINT, load_limit
-from ..layout import BASE_LINK, FACE_WIDTH, PALETTE, Wheel, wheels
+from ..layout import BASE_LINK, FACE_WIDTH, MARK_FROM, MARK_TO, PALETTE, Wheel, wheels
 from ..params import SimSettings, TableParams
 
 ROBOT_NAME = 'screwgear_table'
@@ -37,8 +37,6 @@ PLANT_NAMESPACE = '/screwgear'
 #: command here: joint_states' effort includes the preload).
 TRIGGER_THRESHOLD = -1
 STATE_INTERFACES = ('position', 'velocity', 'effort')
-#: The mark on each disc: a bar from 55 % to 95 % of the radius, on top of the disc.
-MARK_FROM, MARK_TO = 0.55, 0.95
 
 
 def _num(value: float) -> str:
