@@ -10,7 +10,7 @@ recording of an in-process session, with no DDS.
 
 Besides the simulation's outputs it publishes and records what a viewer needs: the
 URDF on ``robot_description`` (at the start, and again when a parameter change alters
-it) and ``table_markers`` at most every ``marker_period`` s of wall time (about 30 Hz
+it) and ``table_markers`` at most every ``MARKER_PERIOD`` s of wall time (about 30 Hz
 whatever the simulation rate), so the tick's own cost stays small.
 
 Threads: :meth:`prepare` runs on the node's executor thread (it renders a parameter
@@ -101,8 +101,7 @@ class RunIO:
     """Outputs and recording of one session; see the module docstring."""
 
     def __init__(self, topics: Mapping[str, str], joint_names: Sequence[str],
-                 publishers: Mapping[str, Any] | None = None,
-                 marker_period: float | None = None) -> None:
+                 publishers: Mapping[str, Any] | None = None) -> None:
         self.topics = dict(topics)            # key → resolved name (topic_names)
         self.joint_names = list(joint_names)
         self._joint_states = cdr.joint_state_template(self.joint_names)
@@ -113,7 +112,6 @@ class RunIO:
         self.recorder: RunRecorder | None = None
         self.last_joint_states: Any = None    # for lockstep's re-send while waiting
         self._path = 0                        # active path last published
-        self.marker_period = MARKER_PERIOD if marker_period is None else marker_period
         self._next_markers = 0.0              # time.monotonic() of the next table_markers
         self.description = ''                 # robot_description last published
         # (params, settings) → (run_parameters YAML, URDF), rendered by prepare() on the
@@ -247,14 +245,14 @@ class RunIO:
             self.send('robot_description', t_ns, messages.robot_description(urdf))
 
     def _markers(self, session: Session) -> None:
-        """table_markers of the last outputs, once ``marker_period`` of wall time passed."""
+        """table_markers of the last outputs, once ``MARKER_PERIOD`` s of wall time passed."""
         if 'table_markers' not in self.topics or (
                 self.recorder is None and 'table_markers' not in self._publishers):
             return
         now = time.monotonic()
         if now < self._next_markers:
             return
-        self._next_markers = now + self.marker_period
+        self._next_markers = now + MARKER_PERIOD
         out = session.outputs
         t_ns = sim_time_ns(out.step, session.plant.dt)
         self.send('table_markers', t_ns, table_markers(session.plant.params, self.joint_names,
