@@ -112,29 +112,11 @@ def speed(repeat: int, window: float) -> None:
     """Issue 12's recording figures only (module docstring), bench_speed's way."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import bench_speed as bs
-    scenarios = {
-        'table_flat': lambda d: bs.start_table(d, 50e-6, 0.0, False),
-        'table_flat_rec': lambda d: bs.start_table(d, 50e-6, 0.0, True),
-        'table_f1': lambda d: bs.start_table(d, 20e-6, 1.0, False),
-        'table_f1_rec': lambda d: bs.start_table(d, 20e-6, 1.0, True),
-    }
+    recording = ('table_flat', 'table_flat_rec', 'table_f1', 'table_f1_rec')
     print(f'recording figures, {repeat} repeat(s) interleaved, {window:g} s windows, load '
           f'average {os.getloadavg()[0]:.2f}', flush=True)
-    seen: dict[str, list] = {k: [] for k in scenarios}
-    for r in range(repeat):
-        for name, start in scenarios.items():
-            o = bs.watched(start, window, 2.0)
-            seen[name].append(o)
-            print(f'  [{r + 1}/{repeat}] {name:<15s} factor {o.factor():6.3f}  CPU '
-                  f'{o.cpu:6.1%}', flush=True)
-    rows = [bs.Figure('flat out while recording: real-time factor', '',
-                      [o.factor() for o in seen['table_flat_rec']], 'not recording',
-                      [o.factor() for o in seen['table_flat']], 'cost', 'cost <= 10 %',
-                      ('<=', 10.0)),
-            bs.Figure('factor 1, dt 20 µs, recording: CPU', '% core',
-                      [o.cpu * 100 for o in seen['table_f1_rec']], 'not recording',
-                      [o.cpu * 100 for o in seen['table_f1']], 'difference',
-                      '<= +5 % core', ('<=', 5.0))]
+    seen = bs.run_scenarios({k: bs.SCENARIOS[k] for k in recording}, repeat, window, 2.0)
+    rows = bs.recording_rows(seen)
     print(f'load average at the end {os.getloadavg()[0]:.2f}')
     bs.print_table(rows)
 
