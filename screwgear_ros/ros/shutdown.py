@@ -9,6 +9,7 @@ ends they stop their own threads, then destroy nodes, then shut rclpy down.
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
 
@@ -16,12 +17,40 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
 def stop_on_signals() -> threading.Event:
-    """An event that SIGINT and SIGTERM set (and nothing else)."""
+    """An event that SIGINT and SIGTERM set (and nothing else). Main thread only.
+
+    The event is not set by a Python signal handler: such a handler runs on the main
+    thread between two bytecodes, possibly while that thread holds the event's own lock
+    (``Event.set``/``wait`` in ``close()``), or inside the handler of the previous
+    signal (a killed parent sends ``PR_SET_PDEATHSIG`` once per thread it loses), and
+    ``Event.set`` there waits forever for a lock its own thread holds. Seen: a node
+    orphaned by a killed replay_run hung with three nested handlers. Instead the C
+    handler writes the signal's number to a pipe (:func:`signal.set_wakeup_fd`, no lock,
+    async-signal-safe) and a daemon thread sets the event when it reads SIGINT or
+    SIGTERM there; the Python handlers do nothing.
+    """
     stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+    read, write = os.pipe()
+    os.set_blocking(write, False)
+    signal.set_wakeup_fd(write, warn_on_full_buffer=False)
+    for signum in STOP_SIGNALS:
+        signal.signal(signum, _noted)
+
+    def watch() -> None:
+        while True:
+            if any(number in STOP_SIGNALS for number in os.read(read, 64)):
+                stop.set()
+
+    threading.Thread(target=watch, name='stop on signals', daemon=True).start()
     return stop
+
+
+def _noted(signum: int, frame: object) -> None:
+    """Python's side of a stop signal: nothing (the wakeup pipe carries it)."""
 
 
 def spin_until(node: Node, stop: threading.Event, period: float = 0.1) -> None:
@@ -32,4 +61,4 @@ def spin_until(node: Node, stop: threading.Event, period: float = 0.1) -> None:
         executor.spin_once(timeout_sec=period)
 
 
-__all__ = ['stop_on_signals', 'spin_until']
+__all__ = ['STOP_SIGNALS', 'stop_on_signals', 'spin_until']
