@@ -15,7 +15,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, Float64MultiArray
 from std_srvs.srv import Trigger
 
-from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
+from ros_procs import (STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process,
+                       wait_until)
 from screwgear_ros.events import Command, ParameterChange, Reset
 from screwgear_ros.runs.bagread import read_run
 
@@ -96,7 +97,8 @@ def test_command_timeout_stops_the_drive_when_the_commands_stop(tmp_path):
 
             js = peer.subscribe('/joint_states', JointState)
             peer.node.create_subscription(JointState, '/joint_states', answer, 100)
-            js.wait_for(lambda m: stamp_ns(m) >= 70 * TICK_NS, STARTUP_TIMEOUT, '70 ticks')
+            # `seen` itself: js's subscription can take tick 70 before `answer`'s does
+            wait_until(lambda: 70 * TICK_NS in seen, STARTUP_TIMEOUT, '70 ticks answered')
             drive = {t // TICK_NS: m.effort[0] - 350.0 for t, m in seen.items()}
             assert [drive[k] for k in (1, 49, 50)] == [120.0, 120.0, 120.0]
             assert [drive[k] for k in (51, 60, 70)] == [0.0, 0.0, 0.0]
