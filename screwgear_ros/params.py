@@ -183,6 +183,15 @@ class TableParams:
         return {p.name: plain(getattr(self, p.name)) for p in declared(TableParams)}
 
 
+#: Lockstep: the inputs whose message also answers a tick (the controller's per-tick output:
+#: an effort controller's, or ros2_control's topic hardware interface's), and the node's
+#: private topic (``~/tick``, std_msgs/Empty) a tool answers with when it commands nothing.
+ANSWER_TOPICS = ('cmd_effort', 'joint_commands')
+TICK_TOPIC = 'tick'
+#: How the node's texts name the answers.
+ANSWERS = f"{', '.join(ANSWER_TOPICS)} or ~/{TICK_TOPIC}"
+
+
 @dataclass(frozen=True)
 class SimSettings:
     """How the node runs the model: step, pacing, outputs, recording."""
@@ -206,8 +215,8 @@ class SimSettings:
     publish_clock: bool = parameter(True, '', '', 'publish simulation time on /clock',
                                     read_only=True)
     lockstep: bool = parameter(False, '', '', 'integrate the next tick only after the '
-                               "controller's answer (cmd_effort, joint_commands or ~/tick) "
-                               'to the last joint_states', read_only=True)
+                               f"controller's answer ({ANSWERS}) to the last joint_states",
+                               read_only=True)
     joint_names: tuple[str, ...] = parameter(('pinion_1', 'table', 'pinion_3'), '', '',
                                              'joint_states names of pinion 1, table, pinion 3')
 

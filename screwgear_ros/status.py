@@ -13,7 +13,7 @@ from enum import StrEnum
 
 from .pacing import PacerStats
 from .model import Z1, Z3, ContactBranch, contact_branches, mesh_phase, pack
-from .params import TableParams, natural_frequency
+from .params import ANSWERS, TableParams, natural_frequency
 from .plant import Outputs
 
 #: Diagnostic levels (diagnostic_msgs/DiagnosticStatus).
@@ -114,8 +114,7 @@ def diagnostic_values(params: TableParams, outputs: Outputs,
         if health.waiting > 0.0:
             level = WARN
             problems.append(f'lockstep: waiting {health.waiting:.0f} s for the controller\'s '
-                            'answer (cmd_effort, joint_commands or ~/tick) to the last '
-                            'joint_states')
+                            f'answer ({ANSWERS}) to the last joint_states')
         if not health.lockstep and health.requested_factor > 0.0 and (
                 health.achieved_factor < 0.95 * health.requested_factor):
             level = WARN

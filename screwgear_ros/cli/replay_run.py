@@ -75,7 +75,8 @@ from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
 from ..events import Command, Event, ParameterChange, Reset, describe
-from ..ros.messages import ANSWER_TOPICS, INPUT_TYPES, input_message
+from ..params import ANSWER_TOPICS, TICK_TOPIC
+from ..ros.messages import INPUT_TYPES, input_message
 from ..ros.shutdown import stop_on_signals
 from ..runs.bagread import BagError, RecordedRun, read_run
 from ..runs.compare import compare_runs, exact_comparison, format_comparison, format_exact
@@ -164,7 +165,7 @@ class Replayer:
         self._clock_sub = None
         self.inputs = {topic: self.node.create_publisher(kind, topic, RELIABLE)
                        for topic, kind in INPUT_TYPES.items()}
-        self.tick = self.node.create_publisher(Empty, f'{node_name}/tick', RELIABLE)
+        self.tick = self.node.create_publisher(Empty, f'{node_name}/{TICK_TOPIC}', RELIABLE)
         self.node.create_subscription(JointState, 'joint_states', self._on_joint_states,
                                       RELIABLE)
         self.node.create_subscription(JointState, 'mesh_state', self._on_mesh_state, RELIABLE)

@@ -48,12 +48,12 @@ from std_srvs.srv import Trigger
 from ..commands import carries_no_command, command_value
 from ..events import Command, ParameterChange, Reset
 from ..pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns
-from ..params import ParameterError, split_parameters
+from ..params import ANSWER_TOPICS, ANSWERS, TICK_TOPIC, ParameterError, split_parameters
 from ..ratelimit import RateLimiter
 from ..warmup import compiled_now
 from ..session import Session, Tick
 from ..ros import messages, parameters
-from ..ros.messages import ANSWER_TOPICS, INPUT_TYPES, LATCHED_OUTPUTS, OUTPUT_TYPES
+from ..ros.messages import INPUT_TYPES, LATCHED_OUTPUTS, OUTPUT_TYPES
 from ..ros.run_io import RunIO
 from ..ros.shutdown import spin_until, stop_on_signals
 from ..status import (MAX_PHASE_PER_STEP, Health, diagnostic_values, mesh_phase_per_step,
@@ -64,7 +64,6 @@ STATUS_PERIOD = 5.0         # s of wall time between status log lines
 LOCKSTEP_POLL = 0.1         # s of wall time between checks for shutdown while waiting
 LOCKSTEP_RESEND = 0.5       # s of wall time before the last joint_states is sent again
 LOCKSTEP_NOTICE = 3.0       # s of wall time without an answer before the node says so
-_ANSWERS = ', '.join(ANSWER_TOPICS) + ' or ~/tick'
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
@@ -94,7 +93,7 @@ class TableSim(Node):
         subs = {topic: self.create_subscription(INPUT_TYPES[topic], topic,
                                                 partial(self._on_command, topic), 10)
                 for topic in ordered}
-        self.create_subscription(Empty, '~/tick', self._on_tick, 10)
+        self.create_subscription(Empty, f'~/{TICK_TOPIC}', self._on_tick, 10)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         started = time.perf_counter()
@@ -126,7 +125,7 @@ class TableSim(Node):
             f'{s.publish_rate:g} Hz ({s.steps_per_publish} steps per tick), real-time factor '
             f'{s.real_time_factor:g}'
             + (', lockstep: each tick waits for the controller\'s answer '
-               f'({_ANSWERS}) to the last joint_states' if s.lockstep else '')
+               f'({ANSWERS}) to the last joint_states' if s.lockstep else '')
             + (f', recording to {s.record}' if s.record else ''))
         self._thread.start()
 
@@ -243,7 +242,7 @@ class TableSim(Node):
                 self._health.waiting = now - started
                 self.get_logger().warning(
                     f'lockstep: waiting for the controller since {now - started:.0f} s: '
-                    f'no {_ANSWERS} has answered joint_states at t = '
+                    f'no {ANSWERS} has answered joint_states at t = '
                     f'{self.session.outputs.time:.6f} s')
             if noticed and meter.elapsed() >= DIAGNOSTICS_PERIOD:
                 self._health.waiting = now - started

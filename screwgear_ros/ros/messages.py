@@ -20,10 +20,6 @@ MESH_NAMES = ['mesh_1', 'mesh_3']
 #: The message class of each input topic of :data:`screwgear_ros.commands.INPUT_TOPICS`.
 INPUT_TYPES = {'cmd_torque': Float64, 'cmd_direction': Int8, 'cmd_effort': Float64MultiArray,
                'load_torque': Float64, 'joint_commands': JointState}
-#: Inputs whose message also answers a tick in lockstep (the controller's per-tick
-#: output: an effort controller's, or ros2_control's topic hardware interface's);
-#: their subscriptions are created after the other inputs' (see table_sim).
-ANSWER_TOPICS = ('cmd_effort', 'joint_commands')
 #: The node's outputs: key → (topic, relative unless absolute, message class).
 OUTPUT_TYPES = {
     'joint_states': ('joint_states', JointState),
@@ -87,7 +83,7 @@ def diagnostics(name: str, hardware_id: str, level: int, message: str,
     return msg
 
 
-__all__ = ['MESH_NAMES', 'INPUT_TYPES', 'ANSWER_TOPICS', 'OUTPUT_TYPES', 'LATCHED_OUTPUTS',
+__all__ = ['MESH_NAMES', 'INPUT_TYPES', 'OUTPUT_TYPES', 'LATCHED_OUTPUTS',
            'PRIVATE_TYPES',
            'type_name', 'input_message', 'stamp', 'active_path', 'robot_description',
            'diagnostics']
