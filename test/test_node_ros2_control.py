@@ -477,3 +477,30 @@ def test_lockstep_takes_the_plugins_message_as_the_answer_and_shows_every_tick(t
     assert [(c.step, c.value.effort) for c in commands] == [
         (k * 20, (answers[k],)) for k in range(1, len(answers))]
     assert list(run.joint_states.steps) == [k * 20 for k in range(len(answers) + 1)]
+
+
+def test_markers_reach_a_viewer_that_comes_while_the_node_waits(tmp_path):
+    """Not recording, the node builds table_markers only for a subscriber. One that
+    subscribes while the node waits in lockstep (no marker published yet: nobody was
+    listening) gets the waiting tick's markers from the re-send, and the next tick's
+    after it answers."""
+    sim = start_process('table_sim', params={'lockstep': True, 'real_time_factor': 0.0},
+                        workdir=tmp_path / 'sim')
+    try:
+        with Peer('test_markers_viewer') as peer:
+            js = peer.subscribe('/joint_states', JointState)
+            pub = peer.publisher('/joint_commands', JointState, PLUGIN_QOS)
+            first = js.wait_for(lambda m: stamp_ns(m) == 0, STARTUP_TIMEOUT, 'tick 0')
+            markers = peer.subscribe('/table_markers', MarkerArray, LATCHED)
+            array = markers.wait_for(lambda a: True, 30.0, 'the waiting tick\'s markers')
+            assert stamp_ns(array.markers[0]) == 0
+            assert_markers_show(array.markers, first.position, 1)
+            time.sleep(0.05)                        # past the marker period
+            pub.publish(plugin_message(100.0, peer))
+            state = js.wait_for(lambda m: stamp_ns(m) == 1_000_000, 30.0, 'tick 1')
+            array = markers.wait_for(lambda a: stamp_ns(a.markers[0]) == 1_000_000, 30.0,
+                                     'the markers of tick 1')
+            assert_markers_show(array.markers, state.position, 1)
+        assert_clean_exit(sim, signal.SIGINT)
+    finally:
+        sim.kill()

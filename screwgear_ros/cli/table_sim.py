@@ -237,6 +237,7 @@ class TableSim(Node):
             if now - resent >= LOCKSTEP_RESEND:
                 resent = now
                 self.io.resend('joint_states', self.io.last_joint_states)
+                self.io.resend_markers(self.session)
             if now - started >= LOCKSTEP_NOTICE and not noticed:
                 noticed = True
                 self._health.waiting = now - started

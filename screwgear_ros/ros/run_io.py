@@ -11,7 +11,9 @@ recording of an in-process session, with no DDS.
 Besides the simulation's outputs it publishes and records what a viewer needs: the
 URDF on ``robot_description`` (at the start, and again when a parameter change alters
 it) and ``table_markers`` at most every ``MARKER_PERIOD`` s of wall time (about 30 Hz
-whatever the simulation rate), so the tick's own cost stays small.
+whatever the simulation rate), and only when they are recorded or somebody subscribes
+(lockstep's wait re-sends them to a viewer that came meanwhile), so the tick's own cost
+stays small.
 
 Threads: :meth:`prepare` runs on the node's executor thread (it renders a parameter
 change's run_parameters YAML and URDF before the change is submitted, and hands them
@@ -245,18 +247,39 @@ class RunIO:
             self.send('robot_description', t_ns, messages.robot_description(urdf))
 
     def _markers(self, session: Session) -> None:
-        """table_markers of the last outputs, once ``MARKER_PERIOD`` s of wall time passed."""
-        if 'table_markers' not in self.topics or (
-                self.recorder is None and 'table_markers' not in self._publishers):
+        """table_markers of the last outputs, once ``MARKER_PERIOD`` s of wall time passed,
+        if they are recorded or somebody subscribes to them. Building and publishing them
+        takes about 0.25 ms of the pacing thread, on one tick in 30: with nobody to see
+        them that was most of the node's p99 jitter at factor 1 (bench_speed: 0.72 ms with
+        them, 0.43 ms without, 0.33 ms for a bare 1 kHz publisher)."""
+        if 'table_markers' not in self.topics:
             return
         now = time.monotonic()
         if now < self._next_markers:
             return
         self._next_markers = now + MARKER_PERIOD
+        if self.recorder is None and not self._watched('table_markers'):
+            return
+        self._send_markers(session, record=True)
+
+    def resend_markers(self, session: Session) -> None:
+        """Lockstep's re-send while waiting: the last outputs' table_markers to whoever
+        subscribes now (a viewer opened while the table waits), unrecorded."""
+        if 'table_markers' in self.topics and self._watched('table_markers'):
+            self._send_markers(session, record=False)
+
+    def _watched(self, key: str) -> bool:
+        publisher = self._publishers.get(key)
+        return publisher is not None and publisher.get_subscription_count() > 0
+
+    def _send_markers(self, session: Session, record: bool) -> None:
         out = session.outputs
         t_ns = sim_time_ns(out.step, session.plant.dt)
-        self.send('table_markers', t_ns, table_markers(session.plant.params, self.joint_names,
-                                                       out, messages.stamp(t_ns)))
+        msg = table_markers(session.plant.params, self.joint_names, out, messages.stamp(t_ns))
+        if record:
+            self.send('table_markers', t_ns, msg)
+        else:
+            self.resend('table_markers', msg)
 
 
 __all__ = ['topic_names', 'serialize', 'RunIO']
