@@ -10,9 +10,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import StrEnum
+from functools import lru_cache
 
 from .pacing import PacerStats
-from .model import Z1, Z3, ContactBranch, contact_branches, mesh_phase, pack
+from .model import Z1, Z3, ContactBranch, PackedModel, contact_branches, mesh_phase, pack
 from .params import ANSWERS, TableParams, natural_frequency
 from .plant import Outputs
 
@@ -24,10 +25,17 @@ OK, WARN, ERROR = 0, 1, 2
 MAX_PHASE_PER_STEP = 2.0 * math.pi / 20.0
 
 
+@lru_cache(maxsize=4)
+def _packed(params: TableParams) -> PackedModel:
+    """The compiled model's view of ``params``, packed once per parameter set (the
+    diagnostics and every table_markers ask; read only here)."""
+    return pack(params)
+
+
 def mesh_phase_rates(params: TableParams, outputs: Outputs) -> tuple[float, float]:
     """φ̇ of mesh 1 and mesh 3 at ``outputs``, rad/s, by the model's mesh phase
     (:func:`screwgear_ros.model.mesh_phase`: z·ω in `angle` phase, ω_e in `time`)."""
-    p = pack(params).p
+    p = _packed(params).p
     (th1, _, th3), (w1, _, w3) = outputs.position, outputs.velocity
     return (mesh_phase(th1, w1, p[Z1], outputs.time, p)[1],
             mesh_phase(th3, w3, p[Z3], outputs.time, p)[1])
@@ -70,7 +78,7 @@ class Contact(StrEnum):
 def contact_states(params: TableParams, outputs: Outputs) -> tuple[Contact, Contact]:
     """Contact of mesh 1 and mesh 3 at ``outputs``: the branches the model's contact law
     is on there (:func:`screwgear_ros.model.contact_branches`)."""
-    m = pack(params)
+    m = _packed(params)
     branch_1, branch_3 = contact_branches(outputs.time, *outputs.position, *outputs.velocity,
                                           m.p, m.ste_amp, m.ste_phase)
     return Contact.of(branch_1), Contact.of(branch_3)
