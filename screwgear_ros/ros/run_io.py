@@ -111,6 +111,12 @@ class RunIO:
         self._float64 = cdr.float64_template()
         self._clock = cdr.clock_template()
         self._publishers = dict(publishers or {})
+        # What every tick sends, in this order: fixed once the endpoints exist
+        # (publish_clock is read-only), so outputs() looks nothing up per tick.
+        self._tick_keys = (('clock',) if 'clock' in self.topics else ()) + (
+            'joint_states', 'mesh_state', 'transmission_error')
+        self._tick_publishers = [self._publishers.get(k) for k in self._tick_keys]
+        self._tick_topics = [self.topics[k] for k in self._tick_keys]
         self.recorder: RunRecorder | None = None
         self.last_joint_states: Any = None    # for lockstep's re-send while waiting
         self._path = 0                        # active path last published
@@ -200,24 +206,21 @@ class RunIO:
         t_ns = sim_time_ns(out.step, dt)
         self.last_joint_states = self._joint_states.encode(t_ns, out.position, out.velocity,
                                                            out.effort)
-        tick = [('joint_states', self.last_joint_states),
-                ('mesh_state', self._mesh_state.encode(t_ns, out.delta, out.delta_rate,
-                                                       out.mesh_force)),
-                ('transmission_error', self._float64.encode(t_ns, (out.transmission_error,)))]
-        if 'clock' in self.topics:
-            tick.insert(0, ('clock', self._clock.encode(t_ns)))
-        for key, msg in tick:
-            publisher = self._publishers.get(key)
+        tick = [self.last_joint_states,
+                self._mesh_state.encode(t_ns, out.delta, out.delta_rate, out.mesh_force),
+                self._float64.encode(t_ns, (out.transmission_error,))]
+        if self._tick_keys[0] == 'clock':
+            tick.insert(0, self._clock.encode(t_ns))
+        for publisher, msg in zip(self._tick_publishers, tick):
             if publisher is not None:
                 publisher.publish(msg)
         if self.recorder is not None:     # the tick's messages with one queue put
-            self.recorder.write_many([(self.topics[key], t_ns, msg) for key, msg in tick])
+            self.recorder.write_many([(topic, t_ns, msg)
+                                      for topic, msg in zip(self._tick_topics, tick)])
 
     def send(self, key: str, t_ns: int, msg: Any) -> None:
         """Publish ``msg`` on the topic ``key`` and record it at ``t_ns``."""
-        publisher = self._publishers.get(key)
-        if publisher is not None:
-            publisher.publish(msg)
+        self.resend(key, msg)
         self.record(key, t_ns, msg)
 
     def resend(self, key: str, msg: Any) -> None:
@@ -260,26 +263,24 @@ class RunIO:
         self._next_markers = now + MARKER_PERIOD
         if self.recorder is None and not self._watched('table_markers'):
             return
-        self._send_markers(session, record=True)
+        self.send('table_markers', *self._marker_message(session))
 
     def resend_markers(self, session: Session) -> None:
         """Lockstep's re-send while waiting: the last outputs' table_markers to whoever
         subscribes now (a viewer opened while the table waits), unrecorded."""
         if 'table_markers' in self.topics and self._watched('table_markers'):
-            self._send_markers(session, record=False)
+            self.resend('table_markers', self._marker_message(session)[1])
 
     def _watched(self, key: str) -> bool:
         publisher = self._publishers.get(key)
         return publisher is not None and publisher.get_subscription_count() > 0
 
-    def _send_markers(self, session: Session, record: bool) -> None:
+    def _marker_message(self, session: Session) -> tuple[int, Any]:
+        """(log time, table_markers) of the session's last outputs."""
         out = session.outputs
         t_ns = sim_time_ns(out.step, session.plant.dt)
-        msg = table_markers(session.plant.params, self.joint_names, out, messages.stamp(t_ns))
-        if record:
-            self.send('table_markers', t_ns, msg)
-        else:
-            self.resend('table_markers', msg)
+        return t_ns, table_markers(session.plant.params, self.joint_names, out,
+                                   messages.stamp(t_ns))
 
 
 __all__ = ['topic_names', 'serialize', 'RunIO']
