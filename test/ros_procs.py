@@ -197,6 +197,7 @@ class Peer:
         from rclpy.context import Context
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.signals import SignalHandlerOptions
+        from screwgear_ros.ros.shutdown import spin_executor_until
 
         self.context = Context()
         rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
@@ -204,16 +205,13 @@ class Peer:
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._spin, daemon=True, name=f'{name} spin')
+        # close() stops this loop before it shuts the executor down (shutting it down
+        # under a spin raised "'NoneType' object has no attribute 'trigger'" on a busy
+        # machine)
+        self._thread = threading.Thread(target=spin_executor_until,
+                                        args=(self.executor, self._stop, 0.05), daemon=True,
+                                        name=f'{name} spin')
         self._thread.start()
-
-    def _spin(self) -> None:
-        """Serve callbacks until close() asks to stop. Never shut the executor down under
-        a spinning thread: rclpy then destroys guard conditions the spin still uses
-        (AttributeError: 'NoneType' object has no attribute 'trigger', seen on a busy
-        machine), so close() stops this loop first."""
-        while not self._stop.is_set():
-            self.executor.spin_once(timeout_sec=0.05)
 
     def __enter__(self) -> 'Peer':
         return self

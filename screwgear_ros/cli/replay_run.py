@@ -77,7 +77,7 @@ from std_srvs.srv import Trigger
 from ..events import Command, Event, ParameterChange, Reset, describe
 from ..params import ANSWER_TOPICS, TICK_TOPIC
 from ..ros.messages import INPUT_TYPES, input_message
-from ..ros.shutdown import stop_on_signals
+from ..ros.shutdown import spin_executor_until, stop_on_signals
 from ..runs.bagread import BagError, RecordedRun, read_run
 from ..runs.compare import compare_runs, exact_comparison, format_comparison, format_exact
 from ..runs.replay import Schedule, load_scenario, schedule_from_run
@@ -174,13 +174,10 @@ class Replayer:
         self.executor = rclpy.executors.SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._spin, daemon=True, name='replay_run spin')
+        self._thread = threading.Thread(target=spin_executor_until,
+                                        args=(self.executor, self._stop, 0.05), daemon=True,
+                                        name='replay_run spin')
         self._thread.start()
-
-    def _spin(self) -> None:
-        """Serve callbacks until close() sets ``_stop`` (checked every 50 ms)."""
-        while not self._stop.is_set():
-            self.executor.spin_once(timeout_sec=0.05)
 
     def close(self) -> None:
         """Stop the spin loop and join its thread, then shut the executor down, destroy
@@ -362,7 +359,7 @@ class Replayer:
             if confirm:
                 self._sync(what)
         elif isinstance(event, ParameterChange):
-            values = {k: _plain(v) for k, v in schedule.changed_values(event).items()}
+            values = schedule.changed_values(event)     # ROS values already
             if values:
                 self.set_parameters(values, f'parameter change at step {event.step}')
         elif isinstance(event, Reset):
@@ -462,8 +459,7 @@ def _spawn_node(schedule: Schedule, record: Path, ros_args: list[str], workdir: 
     if exe is None:
         raise ReplayError('table_sim is not on PATH (source the workspace or the venv)')
     values = {**schedule.start, 'record': str(record), 'real_time_factor': float(factor),
-              'publish_clock': True, 'lockstep': lockstep}
-    values = {k: _plain(v) for k, v in values.items()}
+              'publish_clock': True, 'lockstep': lockstep}     # ROS values already
     params_file = workdir / 'replay_params.yaml'
     params_file.write_text(yaml.safe_dump({'/**': {'ros__parameters': values}},
                                           sort_keys=False))

@@ -13,7 +13,7 @@ import os
 import signal
 import threading
 
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import Executor, SingleThreadedExecutor
 from rclpy.node import Node
 
 
@@ -57,8 +57,16 @@ def spin_until(node: Node, stop: threading.Event, period: float = 0.1) -> None:
     """Serve ``node``'s callbacks until ``stop`` is set (checked every ``period`` s)."""
     executor = SingleThreadedExecutor()
     executor.add_node(node)
+    spin_executor_until(executor, stop, period)
+
+
+def spin_executor_until(executor: Executor, stop: threading.Event,
+                        period: float = 0.1) -> None:
+    """Serve ``executor``'s callbacks until ``stop`` is set (checked every ``period`` s).
+    A shell that spins on a thread sets ``stop`` and joins it before it shuts the
+    executor down: rclpy destroys guard conditions a running spin still uses."""
     while not stop.is_set():
         executor.spin_once(timeout_sec=period)
 
 
-__all__ = ['STOP_SIGNALS', 'stop_on_signals', 'spin_until']
+__all__ = ['STOP_SIGNALS', 'stop_on_signals', 'spin_executor_until', 'spin_until']
