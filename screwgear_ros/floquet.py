@@ -4,9 +4,9 @@ The homogeneous equation x'' + 2ζ·x' + [κ + k_a'·cos(Ωτ + ϕ_k)]·x = 0 is
 with period T = 2π/Ω. Its monodromy matrix M maps (x, x') at τ = 0 to τ = T; its
 eigenvalues μ (the Floquet multipliers) decide stability exactly: every solution
 decays when max |μ| < 1. M is found by integrating the fundamental matrix (the
-solutions from (1, 0) and (0, 1)) over one period with the batch RK4 of
-:mod:`screwgear_ros.batch` (the same right-hand side, forcing set to zero),
-vectorized over any grid of (ζ, k_a', Ω, κ, ϕ_k). Liouville's formula gives
+solutions from (1, 0) and (0, 1)) over one period with RK4 (:func:`screwgear_ros.rk.step`
+on :func:`screwgear_ros.normalized.rhs`, forcing set to zero) in a compiled kernel,
+parallel over any grid of (ζ, k_a', Ω, κ, ϕ_k). Liouville's formula gives
 det M = exp(−2ζT) exactly, a check on the integration.
 
 The same M gives the periodic steady state of the forced equation when the

@@ -20,7 +20,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from rosbags.typesys import Stores, get_typestore
 
 from bag_runs import copy_bag, installed_check_run, nudge_table_angle, record_session
 from screwgear_ros.runs.bagread import read_run
@@ -28,7 +27,6 @@ from screwgear_ros.runs.check import SAFETY, SAFETY_FIXED_STEP, check_run
 from screwgear_ros.runs.replay import load_scenario
 
 DATA = Path(__file__).parent / 'data'
-STORE = get_typestore(Stores.ROS2_JAZZY)
 
 
 

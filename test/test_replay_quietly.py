@@ -98,14 +98,20 @@ def test_command_timeout_comes_due_between_commands(divisor: int) -> None:
     assert timeouts == 3          # after 0.3013 s, 1.3013 s and 2.3013 s
 
 
+def _diverging() -> tuple[TableParams, SimSettings]:
+    """A model that diverges: a parametric pump of the mesh stiffness at twice the
+    natural frequency, no mesh damping (test_node_fault's)."""
+    unstable = TableParams(mode=Mode.CONVENTIONAL, backlash=0.0, mesh_phase=MeshPhase.TIME,
+                           mesh_stiffness_amplitude=5.0e6, mesh_damping=0.0)
+    return (replace(unstable, mesh_frequency=2.0 * natural_frequency(unstable)),
+            SimSettings(dt=50e-6, publish_rate=200.0, command_timeout=0.0))
+
+
 def test_a_fault_and_a_reset() -> None:
     """A model that diverges (a parametric pump of the mesh stiffness, no mesh damping:
     test_node_fault's); tick_quietly stops after the tick that faulted, the plant stands
     still, then a detuning change and a reset revive it, all as tick() does."""
-    unstable = TableParams(mode=Mode.CONVENTIONAL, backlash=0.0, mesh_phase=MeshPhase.TIME,
-                           mesh_stiffness_amplitude=5.0e6, mesh_damping=0.0)
-    params = replace(unstable, mesh_frequency=2.0 * natural_frequency(unstable))
-    settings = SimSettings(dt=50e-6, publish_rate=200.0, command_timeout=0.0)
+    params, settings = _diverging()
     probe = Session(params, settings)
     rows = np.empty((4000, ROW))
     done = probe.tick_quietly(4000, rows)
@@ -158,10 +164,7 @@ def test_a_recorded_fault_replays_bit_for_bit(tmp_path: Path) -> None:
     """A recording of the diverging model: the tick that faults leaves the time where it
     was, and so do the next two, then a detuning change and a reset revive it. It
     replays in-process to the same bits, the fault inside a quiet stretch."""
-    unstable = TableParams(mode=Mode.CONVENTIONAL, backlash=0.0, mesh_phase=MeshPhase.TIME,
-                           mesh_stiffness_amplitude=5.0e6, mesh_damping=0.0)
-    params = replace(unstable, mesh_frequency=2.0 * natural_frequency(unstable))
-    settings = SimSettings(dt=50e-6, publish_rate=200.0, command_timeout=0.0)
+    params, settings = _diverging()
     # Recorded as the node does (record_session's RunIO), the reviving events submitted
     # three ticks after the fault (time stands still meanwhile), as a service call would.
     session = Session(params, settings)
