@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import struct
 from functools import lru_cache
 from typing import Any, Mapping, Sequence
 
@@ -22,6 +23,14 @@ ROS_DISTRO = 'jazzy'
 MCAP_PROFILE = 'ros2'
 SCHEMA_ENCODING = 'ros2msg'
 MESSAGE_ENCODING = 'cdr'
+#: MCAP framing that the recorder writes and the bulk reader parses (MCAP specification,
+#: little endian): the file's magic, a record's opcode and length, and a Message
+#: record's opcode, length and fixed fields (channel id, sequence, log time, publish
+#: time), its data following them.
+MCAP_MAGIC = b'\x89MCAP0\r\n'
+MCAP_RECORD = struct.Struct('<BQ')
+MCAP_MESSAGE = struct.Struct('<BQHIQQ')
+MCAP_MESSAGE_FIELDS = MCAP_MESSAGE.size - MCAP_RECORD.size     # 22 bytes
 
 
 @lru_cache(maxsize=1)

@@ -27,6 +27,7 @@ from typing import Any, Iterator
 import numpy as np
 import yaml
 from mcap.exceptions import InvalidMagic, McapError
+from mcap.opcode import Opcode
 from mcap.data_stream import ReadDataStream
 from mcap.records import Channel, Chunk, Footer, Message, Schema
 from mcap.stream_reader import StreamReader
@@ -35,7 +36,7 @@ from ..commands import INPUT_TOPICS, command_value
 from ..events import Command, Event, ParameterChange, Reset
 from ..run_parameters import RunParameters, RunParametersError, load
 from ..ros.cdr import Template, float64_template, joint_state_template
-from .bagformat import typestore
+from .bagformat import MCAP_MAGIC, MCAP_MESSAGE, MCAP_MESSAGE_FIELDS, MCAP_RECORD, typestore
 
 OUTPUT_TOPICS = {
     'joint_states': 'sensor_msgs/msg/JointState',
@@ -207,9 +208,6 @@ class _Collector:
                       np.asarray(self.values, dtype=np.float64).reshape(-1, 1))
 
 
-_RECORD = struct.Struct('<BQ')        # an MCAP record's opcode and length
-_OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE = 0x03, 0x04, 0x05
-_MESSAGE_HEAD = 22                    # channel u16, sequence u32, log time u64, publish time u64
 #: Output topics of fixed layout, read in bulk (clock: log times only, nothing decoded).
 BULK_TOPICS = ('joint_states', 'transmission_error', 'mesh_state', 'clock')
 
@@ -302,19 +300,19 @@ class _Scan:
         at: list[int] = []
         records: list[Schema | Channel] = []
         pos = 0
-        unpack = _RECORD.unpack_from
+        unpack = MCAP_RECORD.unpack_from
         while pos < end:
             opcode, length = unpack(data, pos)
             body = pos + 9
             if body + length > end:
                 raise ValueError(f'a record of {length} bytes runs past the end of its chunk')
-            if opcode == _OP_MESSAGE:
-                if length < _MESSAGE_HEAD:
+            if opcode == Opcode.MESSAGE:
+                if length < MCAP_MESSAGE_FIELDS:
                     raise ValueError(f'a message record of {length} bytes')
                 at.append(pos)
-            elif opcode in (_OP_SCHEMA, _OP_CHANNEL):
+            elif opcode in (Opcode.SCHEMA, Opcode.CHANNEL):
                 stream = ReadDataStream(io.BytesIO(data[body:body + length]))
-                records.append(Schema.read(stream) if opcode == _OP_SCHEMA
+                records.append(Schema.read(stream) if opcode == Opcode.SCHEMA
                                else Channel.read(stream))
             pos = body + length
         for record in records:          # the chunk is whole: take what it declares
@@ -323,10 +321,10 @@ class _Scan:
             return
         buf = np.frombuffer(data, dtype=np.uint8)
         starts = np.array(at, dtype=np.int64)
-        size = _gather(buf, starts + 1, 8).view('<u8')[:, 0].astype(np.int64) - _MESSAGE_HEAD
+        size = _gather(buf, starts + 1, 8).view('<u8')[:, 0].astype(np.int64) - MCAP_MESSAGE_FIELDS
         channel = _gather(buf, starts + 9, 2).view('<u2')[:, 0]
         log_time = _gather(buf, starts + 15, 8).view('<u8')[:, 0]
-        starts += 9 + _MESSAGE_HEAD
+        starts += MCAP_MESSAGE.size
         order = self.count + np.arange(len(at), dtype=np.int64)
         unknown = set(np.unique(channel).tolist()) - set(self.channels)
         if unknown:
@@ -345,8 +343,6 @@ class _Scan:
         self.count += len(at)
 
 
-_MAGIC = b'\x89MCAP0\r\n'
-_OP_FOOTER, _OP_CHUNK = 0x02, 0x06
 _CHUNK_HEAD = struct.Struct('<QQQII')   # start, end time, uncompressed size, CRC, len(compression)
 #: Longest record read, bytes (a corrupt length is taken for a cut file, not allocated).
 RECORD_SIZE_LIMIT = 1 << 30
@@ -372,19 +368,19 @@ def scan(mcap_path: Path, status: dict[str, Any]) -> _Scan:
     unread (they only repeat what the data section says)."""
     result = _Scan()
     data = memoryview(mcap_path.read_bytes())
-    if bytes(data[:len(_MAGIC)]) != _MAGIC:
-        if not _MAGIC.startswith(bytes(data)):
+    if bytes(data[:len(MCAP_MAGIC)]) != MCAP_MAGIC:
+        if not MCAP_MAGIC.startswith(bytes(data)):
             raise BagError('not_a_bag', f'{mcap_path} is not an MCAP file')
         status['truncated'] = (f'{mcap_path.name} ends after {len(data)} bytes, within its '
                                'magic: the recording was not closed (killed?)')
         return result
-    pos, end = len(_MAGIC), len(data)
+    pos, end = len(MCAP_MAGIC), len(data)
     while True:
         if pos + 9 > end:
             status['truncated'] = (f'{mcap_path.name} ends without its summary after {pos} '
                                    'bytes: the recording was not closed (killed?)')
             break
-        opcode, length = _RECORD.unpack_from(data, pos)
+        opcode, length = MCAP_RECORD.unpack_from(data, pos)
         body = pos + 9
         if length > RECORD_SIZE_LIMIT or body + length > end:
             status['truncated'] = (f'{mcap_path.name} ends without its summary after {pos} '
@@ -393,15 +389,15 @@ def scan(mcap_path: Path, status: dict[str, Any]) -> _Scan:
             break
         record = data[body:body + length]
         try:
-            if opcode == _OP_CHUNK:
+            if opcode == Opcode.CHUNK:
                 result.chunk(_chunk(record))
-            elif opcode == _OP_MESSAGE:
+            elif opcode == Opcode.MESSAGE:
                 result.message(Message.read(ReadDataStream(io.BytesIO(record)), length))
-            elif opcode == _OP_SCHEMA:
+            elif opcode == Opcode.SCHEMA:
                 result._schema(Schema.read(ReadDataStream(io.BytesIO(record))))
-            elif opcode == _OP_CHANNEL:
+            elif opcode == Opcode.CHANNEL:
                 result._channel(Channel.read(ReadDataStream(io.BytesIO(record))))
-            elif opcode == _OP_FOOTER:
+            elif opcode == Opcode.FOOTER:
                 break
         except BagError:
             raise

@@ -50,7 +50,8 @@ from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, M
                           MetadataIndex, McapRecord, Schema, Statistics, SummaryOffset)
 
 from .. import __version__
-from .bagformat import (MCAP_PROFILE, MESSAGE_ENCODING, SCHEMA_ENCODING, message_definition,
+from .bagformat import (MCAP_MAGIC, MCAP_MESSAGE, MCAP_MESSAGE_FIELDS, MCAP_PROFILE,
+                        MESSAGE_ENCODING, SCHEMA_ENCODING, message_definition,
                         metadata_document, metadata_yaml, qos_profile, qos_yaml)
 
 #: Default bound of the queue between the node and the writer thread, messages.
@@ -64,11 +65,6 @@ BATCH_PERIOD = 0.01
 
 _STOP = object()
 
-_MAGIC = b'\x89MCAP0\r\n'
-# A Message record's opcode, length and fixed fields: channel id, sequence, log time,
-# publish time (MCAP specification, little endian); its data follows.
-_MESSAGE = struct.Struct('<BQHIQQ')
-_MESSAGE_FIELDS = 2 + 4 + 8 + 8
 _MESSAGE_INDEX = struct.Struct('<BQHI')     # opcode, length, channel id, bytes of entries
 _FOOTER_START = struct.Struct('<BQQQ')      # opcode, length, summary start, offsets start
 
@@ -112,7 +108,7 @@ class _McapWriter:
         return offset, len(data)
 
     def start(self, profile: str, library: str) -> None:
-        self._stream.write(_MAGIC)
+        self._stream.write(MCAP_MAGIC)
         self._record(Header(profile=profile, library=library))
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
@@ -145,7 +141,7 @@ class _McapWriter:
             self._chunk_start = log_time
         if log_time > self._chunk_end or not self._chunk_messages:
             self._chunk_end = log_time
-        chunk += _MESSAGE.pack(Opcode.MESSAGE, _MESSAGE_FIELDS + len(data), channel_id,
+        chunk += MCAP_MESSAGE.pack(Opcode.MESSAGE, MCAP_MESSAGE_FIELDS + len(data), channel_id,
                                sequence, log_time, log_time)
         chunk += data
         index = self._index[channel_id]
@@ -230,7 +226,7 @@ class _McapWriter:
         self._stream.write(summary)
         self._record(Footer(summary_start=summary_start, summary_offset_start=offsets_start,
                             summary_crc=crc))
-        self._stream.write(_MAGIC)
+        self._stream.write(MCAP_MAGIC)
 
 
 @dataclass(frozen=True)
