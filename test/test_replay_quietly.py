@@ -21,8 +21,8 @@ from screwgear_ros.ros.run_io import RunIO, topic_names
 from screwgear_ros.events import Command, ParameterChange, Reset
 from screwgear_ros.params import MeshPhase, Mode, SimSettings, TableParams, natural_frequency
 from screwgear_ros.runs.bagread import read_run
-from screwgear_ros.runs.replay import ROW, Schedule, load_scenario, replay_in_process, row_of
-from screwgear_ros.session import Session
+from screwgear_ros.runs.replay import Schedule, load_scenario, replay_in_process
+from screwgear_ros.session import ROW, Session, row_of
 
 DATA = Path(__file__).parent / 'data'
 BAGS = ['steady_drive', 'reversals_anti_backlash', 'reversals_conventional',

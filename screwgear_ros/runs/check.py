@@ -44,7 +44,8 @@ from ..plant import DriveInput, Plant
 from ..reference import RTOL, ReferenceFailure, Segment, solve
 from ..events import ParameterChange, Reset
 from .bagread import BagError, RecordedRun
-from .replay import ROW, ReplayedOutputs, replay_in_process, row_of
+from ..session import ROW, row_of
+from .replay import ReplayedOutputs, replay_in_process
 
 #: Tolerance = SAFETY × Richardson estimate of RK4's error (contact changes located).
 SAFETY = 1.5

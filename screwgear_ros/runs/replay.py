@@ -93,34 +93,30 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
         due = k < len(events) and takes[k] <= i
         done = 0 if due else session.tick_quietly(
             (int(takes[k]) if k < len(events) else n) - i, rows[i:])
-        if done:
-            made = rows[i:i + done, 10].astype(np.int64)
-            off = np.flatnonzero(samples.steps[i:i + done] * refine != made)
-            if len(off):
-                raise BagError('invalid', f'joint_states sample {i + off[0]} is at step '
-                               f'{samples.steps[i + off[0]]}, but the tick that produced it '
-                               f'ends at step {made[off[0]] // refine}')
-            i += done
-            continue
-        while k < len(events) and takes[k] <= i:
-            event = _refined(events[k][1], refine)
-            if event.step != session.step:
-                raise BagError('invalid', f'{describe(events[k][1])} is recorded at '
-                               f'step {events[k][1].step}, but the node applied what '
-                               f'arrived then at step {session.step // refine}')
-            session.submit(event)
-            k += 1
-        tick = session.tick()
-        if tick.rejected:
-            raise BagError('invalid', f'step {tick.start // refine}: a recorded command the '
-                           f'node must have refused: {tick.rejected[0]}')
-        if session.step != samples.steps[i] * refine:
-            raise BagError('invalid', f'joint_states sample {i} is at step {samples.steps[i]}, '
-                           f'but the tick that produced it ends at step {session.step // refine}')
-        rows[i] = row_of(tick.outputs)
-        replayed.ticks.append(tick)
-        replayed.tick_samples.append(i)
-        i += 1
+        if not done:     # events due, or command_timeout at the next step: one tick()
+            while k < len(events) and takes[k] <= i:
+                event = _refined(events[k][1], refine)
+                if event.step != session.step:
+                    raise BagError('invalid', f'{describe(events[k][1])} is recorded at '
+                                   f'step {events[k][1].step}, but the node applied what '
+                                   f'arrived then at step {session.step // refine}')
+                session.submit(event)
+                k += 1
+            tick = session.tick()
+            if tick.rejected:
+                raise BagError('invalid', f'step {tick.start // refine}: a recorded command '
+                               f'the node must have refused: {tick.rejected[0]}')
+            rows[i] = row_of(tick.outputs)
+            replayed.ticks.append(tick)
+            replayed.tick_samples.append(i)
+            done = 1
+        made = rows[i:i + done, 10].astype(np.int64)
+        off = np.flatnonzero(samples.steps[i:i + done] * refine != made)
+        if len(off):
+            raise BagError('invalid', f'joint_states sample {i + off[0]} is at step '
+                           f'{samples.steps[i + off[0]]}, but the tick that produced it '
+                           f'ends at step {made[off[0]] // refine}')
+        i += done
     replayed.fault = session.plant.fault
     return replayed
 
@@ -237,5 +233,5 @@ def load_scenario(path: str | Path) -> Schedule:
     return schedule
 
 
-__all__ = ['ROW', 'row_of', 'ReplayedOutputs', 'replay_in_process', 'NOT_REPLAYED',
+__all__ = ['ReplayedOutputs', 'replay_in_process', 'NOT_REPLAYED',
            'ros_values', 'Schedule', 'schedule_from_run', 'load_scenario']
