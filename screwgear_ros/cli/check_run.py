@@ -22,7 +22,6 @@ import sys
 from tqdm import tqdm
 
 from ..model import EquilibriumNotFound
-from ..params import ParameterError
 from ..reference import ReferenceFailure
 from ..runs.bagread import BagError, read_run
 from ..runs.check import check_run, format_report
@@ -70,7 +69,7 @@ def main(argv: list[str] | None = None) -> int:
     except figure_errors as exc:
         print(f'check_run: {exc}', file=sys.stderr)
         return EXIT_UNUSABLE
-    except (ParameterError, EquilibriumNotFound, ValueError) as exc:
+    except (EquilibriumNotFound, ValueError) as exc:   # ParameterError is a ValueError
         print(f'check_run: cannot check {args.bag}: the recorded parameters cannot be '
               f'simulated: {exc}', file=sys.stderr)
         return EXIT_UNUSABLE
