@@ -1,9 +1,10 @@
 """Read a recorded run back: inputs as applied, parameter changes, resets, outputs.
 
-The MCAP file is read record by record in file order with ``mcap``'s stream reader,
-so messages with equal log times keep the order the node wrote them in (which is
-the order it applied them), and a bag whose writer was killed reads up to its last
-complete chunk. Messages are decoded with the ROS 2 Jazzy CDR codec of ``rosbags``,
+The MCAP file is read record by record in file order (:func:`scan`; ``mcap``'s
+record classes for schemas, channels and chunks, :func:`iter_messages` with ``mcap``'s
+stream reader for tools that want every message), so messages with equal log times keep
+the order the node wrote them in (which is the order it applied them), and a bag whose
+writer was killed reads up to its last complete chunk. Messages are decoded with the ROS 2 Jazzy CDR codec of ``rosbags``,
 except the ~4 per tick of fixed layout (joint_states, transmission_error, mesh_state,
 clock): a chunk's message records are located in one pass and those messages are
 decoded in bulk with NumPy, on the layout the node writes them in
@@ -303,7 +304,7 @@ class _Scan:
         unpack = MCAP_RECORD.unpack_from
         while pos < end:
             opcode, length = unpack(data, pos)
-            body = pos + 9
+            body = pos + MCAP_RECORD.size
             if body + length > end:
                 raise ValueError(f'a record of {length} bytes runs past the end of its chunk')
             if opcode == Opcode.MESSAGE:
@@ -321,21 +322,22 @@ class _Scan:
             return
         buf = np.frombuffer(data, dtype=np.uint8)
         starts = np.array(at, dtype=np.int64)
-        size = _gather(buf, starts + 1, 8).view('<u8')[:, 0].astype(np.int64) - MCAP_MESSAGE_FIELDS
+        size = (_gather(buf, starts + 1, 8).view('<u8')[:, 0].astype(np.int64)
+                - MCAP_MESSAGE_FIELDS)
         channel = _gather(buf, starts + 9, 2).view('<u2')[:, 0]
         log_time = _gather(buf, starts + 15, 8).view('<u8')[:, 0]
         starts += MCAP_MESSAGE.size
         order = self.count + np.arange(len(at), dtype=np.int64)
-        unknown = set(np.unique(channel).tolist()) - set(self.channels)
+        present = np.unique(channel).tolist()
+        unknown = set(present) - set(self.channels)
         if unknown:
             raise ValueError(f'messages on channels {sorted(unknown)}, which no channel '
                              'record declares')
-        for c in np.unique(channel).tolist():
+        for c in present:
             mine = np.flatnonzero(channel == c)
             sizes = size[mine]
             topic, msgtype = self.channels[c]
-            if (_wanted(_relative(topic), msgtype) == 'bulk' and len(mine)
-                    and np.all(sizes == sizes[0])):
+            if _wanted(_relative(topic), msgtype) == 'bulk' and np.all(sizes == sizes[0]):
                 part: np.ndarray | list[bytes] = _gather(buf, starts[mine], int(sizes[0]))
             else:
                 part = [data[a:a + n] for a, n in zip(starts[mine].tolist(), sizes.tolist())]
