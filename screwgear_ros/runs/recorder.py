@@ -90,13 +90,10 @@ class _McapWriter:
         self._channels: list[Channel] = []
         self._chunk = bytearray()
         self._index: dict[int, list[int]] = {}     # channel id → log time, offset, ...
-        self._chunk_start = self._chunk_end = 0
-        self._chunk_messages = 0
+        self._chunk_start = self._chunk_end = 0    # log times of the open chunk
         self._chunk_indexes: list[ChunkIndex] = []
         self._metadata_indexes: list[MetadataIndex] = []
-        self._counts: dict[int, int] = {}
-        self._messages = 0
-        self._start = self._end = 0
+        self._counts: dict[int, int] = {}          # channel id → messages in written chunks
 
     def _record(self, record: McapRecord) -> tuple[int, int]:
         """Write a record to the file; its offset and length."""
@@ -137,9 +134,9 @@ class _McapWriter:
         """One message (publish time = log time) into the open chunk."""
         chunk = self._chunk
         offset = len(chunk)
-        if not self._chunk_messages or log_time < self._chunk_start:
+        if not offset or log_time < self._chunk_start:
             self._chunk_start = log_time
-        if log_time > self._chunk_end or not self._chunk_messages:
+        if not offset or log_time > self._chunk_end:
             self._chunk_end = log_time
         chunk += MCAP_MESSAGE.pack(Opcode.MESSAGE, MCAP_MESSAGE_FIELDS + len(data), channel_id,
                                sequence, log_time, log_time)
@@ -147,13 +144,12 @@ class _McapWriter:
         index = self._index[channel_id]
         index.append(log_time)
         index.append(offset)
-        self._chunk_messages += 1
         if len(chunk) >= self._chunk_size:
             self._finish_chunk()
 
     def _finish_chunk(self) -> None:
         """Write the open chunk and its message indexes (nothing if it is empty)."""
-        if not self._chunk_messages:
+        if not self._chunk:
             return
         records = bytes(self._chunk)
         data = self._compress(records) if self._compress is not None else records
@@ -179,12 +175,6 @@ class _McapWriter:
             message_index_offsets=offsets, message_index_length=self._stream.tell() - index_start,
             compression=chunk.compression, compressed_size=len(data),
             uncompressed_size=len(records)))
-        if not self._messages or self._chunk_start < self._start:
-            self._start = self._chunk_start
-        if not self._messages or self._chunk_end > self._end:
-            self._end = self._chunk_end
-        self._messages += self._chunk_messages
-        self._chunk_messages = 0
         self._chunk.clear()
 
     def flush(self) -> None:
@@ -209,11 +199,13 @@ class _McapWriter:
 
         group(Opcode.SCHEMA, self._schemas)
         group(Opcode.CHANNEL, self._channels)
+        chunks = self._chunk_indexes
         group(Opcode.STATISTICS, [Statistics(
-            message_count=self._messages, schema_count=len(self._schemas),
+            message_count=sum(self._counts.values()), schema_count=len(self._schemas),
             channel_count=len(self._channels), attachment_count=0,
-            metadata_count=len(self._metadata_indexes), chunk_count=len(self._chunk_indexes),
-            message_start_time=self._start, message_end_time=self._end,
+            metadata_count=len(self._metadata_indexes), chunk_count=len(chunks),
+            message_start_time=min((c.message_start_time for c in chunks), default=0),
+            message_end_time=max((c.message_end_time for c in chunks), default=0),
             channel_message_counts=dict(self._counts))])
         group(Opcode.CHUNK_INDEX, self._chunk_indexes)
         group(Opcode.METADATA_INDEX, self._metadata_indexes)
