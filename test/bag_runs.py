@@ -42,8 +42,9 @@ def record_session(path: str | Path, schedule: Schedule, namespace: str = '',
     while session.step < schedule.end_step:
         for event in schedule.due(session.step):
             if prepare and isinstance(event, ParameterChange):
-                io.prepare(session, event.params, event.settings)
-            session.submit(event)
+                io.submit_change(session, event)
+            else:
+                session.submit(event)
         io.tick(session, session.tick())
     recorder.close()
     return recorder

@@ -20,9 +20,9 @@ Who owns what: ``_values`` (the parameter values in force on the ROS side) belon
 the executor thread: main() spins a SingleThreadedExecutor, so the parameter
 callbacks never run concurrently. The session's queue is guarded by its own lock;
 the session, the RunIO, the pacer, the rate limiter and the health record belong
-to the pacing thread, except ``RunIO.prepare``, which the parameter callback calls to
-render a change's YAML and URDF off the pacing thread (it hands them over under its
-own lock). ``_gate`` is thread-safe, and so is ``_stop`` (a threading.Event that the
+to the pacing thread, except ``RunIO.submit_change``, which the parameter callback
+calls to render a change's YAML and URDF off the pacing thread and submit it (the texts
+are handed over under RunIO's own lock). ``_gate`` is thread-safe, and so is ``_stop`` (a threading.Event that the
 signal thread of :func:`~screwgear_ros.ros.shutdown.stop_on_signals`, a failed pacing
 thread and ``close()`` set; never a signal handler). Nothing is ever set to None.
 """
@@ -168,8 +168,7 @@ class TableSim(Node):
         except ParameterError as error:
             return SetParametersResult(successful=False, reason=str(error))
         self._values = candidate
-        self.io.prepare(self.session, params, settings)   # its YAML and URDF, here
-        self.session.submit(ParameterChange(params, settings))
+        self.io.submit_change(self.session, ParameterChange(params, settings))  # texts here
         return SetParametersResult(successful=True)
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:

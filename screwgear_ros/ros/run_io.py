@@ -15,9 +15,9 @@ whatever the simulation rate), and only when they are recorded or somebody subsc
 (lockstep's wait re-sends them to a viewer that came meanwhile), so the tick's own cost
 stays small.
 
-Threads: :meth:`prepare` runs on the node's executor thread (it renders a parameter
-change's run_parameters YAML and URDF before the change is submitted, and hands them
-over under ``_rendered_lock``); :meth:`topic_specs` and :meth:`open_recorder` run before
+Threads: :meth:`submit_change` and its :meth:`prepare` run on the node's executor
+thread (they render a parameter change's run_parameters YAML and URDF before the change
+is submitted, and hand them over under ``_rendered_lock``); :meth:`topic_specs` and :meth:`open_recorder` run before
 the session ticks; every other method runs on the one thread that ticks the session
 (the node's pacing thread).
 """
@@ -159,6 +159,12 @@ class RunIO:
         rendered = self.render(session, params, settings)
         with self._rendered_lock:
             self._rendered[(params, settings)] = rendered
+
+    def submit_change(self, session: Session, change: ParameterChange) -> None:
+        """Executor thread: :meth:`prepare` the change's texts, then submit it to the
+        session (the one way a node submits a parameter change)."""
+        self.prepare(session, change.params, change.settings)
+        session.submit(change)
 
     def _texts(self, session: Session, params: TableParams,
                settings: SimSettings) -> tuple[str, str]:
