@@ -102,11 +102,22 @@ def installed_check_run(*args: object) -> subprocess.CompletedProcess:
 def truncated_copy(src: Path, dst: Path, keep: float = 0.6) -> Path:
     """A copy of the bag ``src`` at ``dst`` whose MCAP file is cut to ``keep`` of its
     length, as a killed writer leaves it."""
-    shutil.copytree(src, dst)
-    mcap_file, = dst.glob('*.mcap')
-    data = mcap_file.read_bytes()
-    mcap_file.write_bytes(data[:int(len(data) * keep)])
+    mcap_file, = Path(src).glob('*.mcap')
+    damaged_copy(src, dst, keep=int(mcap_file.stat().st_size * keep))
     return dst
+
+
+def damaged_copy(src: Path, dst: Path, keep: int | None = None,
+                 flip: int | None = None) -> Path:
+    """A copy of the bag ``src`` at ``dst`` whose MCAP file keeps its first ``keep``
+    bytes (None: all of them), with byte ``flip`` inverted; the copy's MCAP file."""
+    shutil.copytree(src, dst)
+    mcap_file, = Path(dst).glob('*.mcap')
+    data = bytearray(mcap_file.read_bytes())
+    if flip is not None:
+        data[flip] ^= 0xFF
+    mcap_file.write_bytes(bytes(data[:keep] if keep is not None else data))
+    return mcap_file
 
 
 def copy_bag(src: Path, dst: Path, edit: Edit | None = None) -> int:
@@ -142,4 +153,4 @@ def copy_bag(src: Path, dst: Path, edit: Edit | None = None) -> int:
 
 
 __all__ = ['record_session', 'reversal_run', 'nudge_table_angle', 'installed',
-           'installed_check_run', 'truncated_copy', 'copy_bag']
+           'installed_check_run', 'truncated_copy', 'damaged_copy', 'copy_bag']

@@ -10,7 +10,6 @@ order, a big-endian encoding) are shown to be decoded by rosbags instead, correc
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +17,7 @@ import pytest
 from mcap.reader import make_reader
 from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import copy_bag
+from bag_runs import copy_bag, damaged_copy
 from screwgear_ros.ros.cdr import float64_template, joint_state_template
 from screwgear_ros.runs.bagread import (OUTPUT_TOPICS, BagError, _bulk, iter_messages, read_run,
                                         scan)
@@ -105,23 +104,13 @@ def test_messages_in_another_layout_are_decoded_by_rosbags(tmp_path: Path) -> No
             _bulk([np.frombuffer(raws[t], np.uint8).reshape(1, -1)], template, 9, _refuse)
 
 
-def _cut(src: Path, dst: Path, keep: int | None = None, flip: int | None = None) -> Path:
-    shutil.copytree(src, dst)
-    mcap_file, = dst.glob('*.mcap')
-    data = bytearray(mcap_file.read_bytes())
-    if flip is not None:
-        data[flip] ^= 0xFF
-    mcap_file.write_bytes(bytes(data[:keep] if keep is not None else data))
-    return mcap_file
-
-
 @pytest.mark.parametrize('fraction', [0.004, 0.1, 0.37, 0.5, 0.83, 0.999])
 def test_a_cut_file_reads_what_mcaps_stream_reader_reads(tmp_path: Path, fraction: float) -> None:
     """A killed writer's file: the same messages as mcap's StreamReader yields (up to the
     last whole chunk), and the cut is reported."""
     src = DATA / 'reversals_anti_backlash'
     size = next(src.glob('*.mcap')).stat().st_size
-    mcap_file = _cut(src, tmp_path / 'cut', keep=int(size * fraction))
+    mcap_file = damaged_copy(src, tmp_path / 'cut', keep=int(size * fraction))
     theirs: dict = {}
     count = sum(1 for _ in iter_messages(mcap_file, theirs))
     ours: dict = {}
@@ -143,9 +132,9 @@ def test_a_damaged_chunk_ends_the_readable_part(tmp_path: Path) -> None:
     with open(next(src.glob('*.mcap')), 'rb') as stream:
         chunks = make_reader(stream).get_summary().chunk_indexes
     middle = chunks[len(chunks) // 2]
-    mcap_file = _cut(src, tmp_path / 'bad',
+    mcap_file = damaged_copy(src, tmp_path / 'bad',
                      flip=middle.chunk_start_offset + middle.chunk_length - 20)
-    before = _cut(src, tmp_path / 'before', keep=middle.chunk_start_offset)
+    before = damaged_copy(src, tmp_path / 'before', keep=middle.chunk_start_offset)
     count = sum(1 for _ in iter_messages(before, {}))
     ours: dict = {}
     assert scan(mcap_file, ours).count == count > 0
