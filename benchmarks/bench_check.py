@@ -34,14 +34,12 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-from bag_runs import record_session  # noqa: E402
+from bag_runs import copy_bag, record_session  # noqa: E402
 
 import yaml  # noqa: E402
 
 from screwgear_ros.events import Command  # noqa: E402
-from screwgear_ros.runs import RunRecorder, TopicSpec  # noqa: E402
 from screwgear_ros.runs.bagformat import typestore  # noqa: E402
-from screwgear_ros.runs.bagread import iter_messages  # noqa: E402
 from screwgear_ros.params import SimSettings, TableParams  # noqa: E402
 from screwgear_ros.runs.replay import Schedule  # noqa: E402
 
@@ -118,20 +116,16 @@ def for_old(bag: Path, dst: Path, python: str) -> Path:
                          check=True).stdout
     known = set(json.loads(out.strip().splitlines()[-1]))
     store = typestore()
-    messages = list(iter_messages(next(bag.glob('*.mcap')), {}))
-    topics = {topic: TopicSpec(topic, msgtype, False)     # QoS plays no part in a check
-              for topic, msgtype, _, _ in messages}
-    recorder = RunRecorder(dst, list(topics.values()), bytes, queue_size=len(messages) + 1)
-    for topic, msgtype, log_time, raw in messages:
+
+    def only_known(topic: str, msgtype: str, log_time: int, raw: bytes) -> tuple[int, bytes]:
         if topic.endswith('/run_parameters'):
             document = yaml.safe_load(store.deserialize_cdr(raw, msgtype).data)
             text = yaml.safe_dump({k: v for k, v in document.items() if k in known},
                                   sort_keys=False)
             raw = bytes(store.serialize_cdr(store.types[msgtype](data=text), msgtype))
-        recorder.write(topic, log_time, raw)
-    recorder.close()
-    if recorder.dropped:
-        sys.exit(f'copying {bag} for the old check_run dropped {recorder.dropped} messages')
+        return log_time, raw
+
+    copy_bag(bag, dst, only_known)
     return dst
 
 

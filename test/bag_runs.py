@@ -144,7 +144,8 @@ def copy_bag(src: Path, dst: Path, edit: Edit | None = None) -> int:
                     spec.name, spec.msgtype, record.log_time, record.data)
                 if kept is not None:
                     messages.append((spec.name, *kept))
-    recorder = RunRecorder(dst, list(channels.values()), bytes)
+    recorder = RunRecorder(dst, list(channels.values()), bytes,
+                           queue_size=len(messages) + 1)     # all in memory already
     for topic, log_time, data in messages:
         recorder.write(topic, log_time, data)
     recorder.close()
