@@ -48,9 +48,13 @@ class _Writer:
 
     def __init__(self) -> None:
         self.buf = bytearray(_CDR_LE)
+        self.free: list[tuple[int, int]] = [(2, 4)]   # the encapsulation options
 
     def _align(self, size: int) -> None:
-        self.buf += bytes(-(len(self.buf) - len(_CDR_LE)) % size)
+        pad = -(len(self.buf) - len(_CDR_LE)) % size
+        if pad:
+            self.free.append((len(self.buf), len(self.buf) + pad))
+            self.buf += bytes(pad)
 
     def _reserve(self, size: int, codec: struct.Struct) -> Field:
         self._align(size)
@@ -92,14 +96,17 @@ class _Writer:
 
 class Template:
     """The CDR bytes of one message layout, with the places of its varying fields:
-    the stamp (or None) and one run of doubles per value argument of :meth:`encode`."""
+    the stamp (or None) and one run of doubles per value argument of :meth:`encode`;
+    ``free``: the byte ranges [start, end) no decoder reads (the encapsulation options
+    and the alignment padding, which rclpy leaves uninitialized)."""
 
     def __init__(self, msgtype: str, data: bytes, stamp: Field | None,
-                 fields: Sequence[Field]) -> None:
+                 fields: Sequence[Field], free: Sequence[tuple[int, int]] = ()) -> None:
         self.msgtype = msgtype
         self.bytes = bytes(data)
         self.stamp = stamp
         self.fields = list(fields)
+        self.free = list(free)
 
     def encode(self, time_ns: int, *runs: Sequence[float]) -> bytes:
         """The message's CDR bytes with this stamp (ns) and these values."""
@@ -120,21 +127,21 @@ def joint_state_template(names: Sequence[str]) -> Template:
     w.string('')
     w.strings(list(names))
     runs = [w.double_sequence(len(names)) for _ in range(3)]
-    return Template('sensor_msgs/msg/JointState', w.buf, stamp, runs)
+    return Template('sensor_msgs/msg/JointState', w.buf, stamp, runs, w.free)
 
 
 def float64_template() -> Template:
     """std_msgs/Float64."""
     w = _Writer()
     data = w.doubles(1)
-    return Template('std_msgs/msg/Float64', w.buf, None, [data])
+    return Template('std_msgs/msg/Float64', w.buf, None, [data], w.free)
 
 
 def clock_template() -> Template:
     """rosgraph_msgs/Clock."""
     w = _Writer()
     stamp = w.stamp()
-    return Template('rosgraph_msgs/msg/Clock', w.buf, stamp, [])
+    return Template('rosgraph_msgs/msg/Clock', w.buf, stamp, [], w.free)
 
 
 __all__ = ['Template', 'joint_state_template', 'float64_template', 'clock_template']

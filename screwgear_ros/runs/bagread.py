@@ -412,23 +412,14 @@ def scan(mcap_path: Path, status: dict[str, Any]) -> _Scan:
 
 
 def _fixed_bytes(template: Template) -> np.ndarray:
-    """Mask of the template's bytes that fix the layout: all but the stamp, the values, and
-    the bytes no decoder reads (alignment padding, which rclpy leaves uninitialized): a
-    byte is one of those if ``rosbags`` decodes the template with it flipped into the
-    very message it decodes the template into (both serialized again compared)."""
-    store = typestore()
+    """Mask of the template's bytes that fix the layout: all but the stamp, the values and
+    the bytes no decoder reads (:attr:`Template.free`: the encapsulation options and the
+    alignment padding, which rclpy leaves uninitialized)."""
     fixed = np.ones(len(template.bytes), dtype=bool)
     for f in ([template.stamp] if template.stamp is not None else []) + template.fields:
         fixed[f.offset:f.offset + f.codec.size] = False
-    for i in np.flatnonzero(fixed).tolist():
-        flipped = bytearray(template.bytes)
-        flipped[i] ^= 0xFF
-        try:
-            again = store.serialize_cdr(store.deserialize_cdr(bytes(flipped), template.msgtype),
-                                        template.msgtype)
-        except Exception:  # noqa: BLE001 - the decoder refuses it: the byte matters
-            continue
-        fixed[i] = bytes(again) != template.bytes
+    for start, end in template.free:
+        fixed[start:end] = False
     return fixed
 
 
