@@ -1,7 +1,8 @@
 """Serialize once: what the node's CDR templates encode for every tick's values is what
 rclpy's own deserializer reads back, and the bytes equal rosbags' serialization of the
 same message (rosbags pads with zeros; rclpy leaves its padding bytes uninitialized, so
-only its decoding is compared)."""
+only its decoding is compared). The markers' templates decode to what table_markers
+draws, serialized by rclpy."""
 
 from __future__ import annotations
 
@@ -9,13 +10,20 @@ import math
 import random
 
 import numpy as np
-from rclpy.serialization import deserialize_message
+from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.typesys import Stores, get_typestore
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
+from visualization_msgs.msg import MarkerArray
 
-from screwgear_ros.ros.cdr import clock_template, float64_template, joint_state_template
+from screwgear_ros.params import SimSettings, TableParams
+from screwgear_ros.plant import DriveInput, Outputs, Plant
+from screwgear_ros.ros.cdr import (clock_template, float64_template, joint_state_template,
+                                   template_of)
+from screwgear_ros.ros.markers import MarkerEncoder, table_markers
+from screwgear_ros.ros.messages import stamp
+from screwgear_ros.status import Contact, contact_states
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 T = STORE.types
@@ -71,16 +79,74 @@ def test_float64_and_clock_encodings():
             T['rosgraph_msgs/msg/Clock'](clock=_time(t_ns)), 'rosgraph_msgs/msg/Clock'))
 
 
+def test_template_of_writes_what_rclpy_serializes_for_every_kind_of_field():
+    """The generic writer against rclpy's serializer: fixed arrays (Imu's covariances),
+    byte sequences, strings of every padding, nested messages in sequences; equal bytes
+    outside the padding (which rclpy leaves uninitialized) and equal decoding."""
+    from geometry_msgs.msg import Point, PoseArray, Pose
+    from sensor_msgs.msg import CompressedImage, Imu
+    rng = random.Random(11)
+    imu = Imu(orientation_covariance=_values(rng, 9), linear_acceleration_covariance=[-0.0] * 9)
+    imu.header.frame_id = 'imu_link'
+    for msg in (imu, CompressedImage(format='png', data=bytes(range(7))),
+                PoseArray(poses=[Pose(position=Point(x=v)) for v in _values(rng, 3)]),
+                JointState(name=['ab', 'abc', 'abcd', 'abcde'], position=[0.5], velocity=[1.0],
+                           effort=[1.5, -2.0])):
+        template, rclpy_bytes = template_of(msg), serialize_message(msg)
+        assert len(template.bytes) == len(rclpy_bytes)
+        read = np.ones(len(rclpy_bytes), dtype=bool)
+        for start, end in template.free:
+            read[start:end] = False
+        assert np.array_equal(np.frombuffer(template.bytes, np.uint8)[read],
+                              np.frombuffer(rclpy_bytes, np.uint8)[read]), type(msg).__name__
+        assert deserialize_message(template.bytes, type(msg)) == msg
+
+
+def _reversals(params: TableParams, torque: float, steps: int = 400) -> list[Outputs]:
+    """Outputs every 40 steps of ``steps`` forward at ``torque``, then as many reversed,
+    then forward again: both active paths, and in conventional mode the backlash gap."""
+    plant = Plant(params, 5e-5)
+    found = [plant.outputs()]
+    for direction in (1, -1, 1):
+        plant.set_input(DriveInput(torque, direction, 0.0))
+        found += [plant.advance_outputs(40) for _ in range(steps // 40)]
+    return found
+
+
+def test_marker_encodings_decode_to_what_table_markers_draws():
+    """Through every look met in both modes' reversals (active pinion, contact of each
+    mesh: on either flank, in the gap, disengaged), and for another table (the template
+    follows the parameters and joint names it was made for)."""
+    rng = random.Random(5)
+    looks = set()
+    for params, names in ((TableParams(), SimSettings().joint_names),
+                          (TableParams(mode='conventional', preload_torque=0.0),
+                           ['p1', 'the_table', 'p3']),
+                          (TableParams().replace(radius_table=0.3), NAMES)):
+        encoder = MarkerEncoder(params, names)
+        for out in _reversals(params, 200.0):
+            t_ns = rng.randrange(0, 10 ** 13)
+            drawn = serialize_message(table_markers(params, names, out, stamp(t_ns)))
+            assert deserialize_message(encoder.encode(out, t_ns), MarkerArray) == \
+                deserialize_message(drawn, MarkerArray)
+            looks.add((out.active_path, *contact_states(params, out)))
+    assert {look[0] for look in looks} == {1, 3}, looks
+    assert {contact for look in looks for contact in look[1:]} >= {
+        Contact.FORWARD, Contact.REVERSE, Contact.GAP, Contact.DISENGAGED}, looks
+
+
 def test_the_free_bytes_are_exactly_those_no_decoder_reads():
     """Template.free (the encapsulation options and the alignment padding, which the bulk
     bag reader ignores): a byte there, flipped, still decodes in rosbags to the message
-    of the template; any other byte outside the stamp and values, flipped, does not."""
-    templates = [float64_template(), clock_template()] + [
+    of the template; any other byte outside the stamps and values, flipped, does not."""
+    markers = MarkerEncoder(TableParams(), NAMES)
+    markers.encode(Plant(TableParams(), 5e-5).outputs(), 0)
+    templates = [float64_template(), clock_template(), *markers._templates.values()] + [
         joint_state_template(names) for names in
         (NAMES, ['a'], ['mesh_1', 'mesh_3'], ['ab', 'abc', 'abcd', 'abcde'], [])]
     for template in templates:
         varying = np.zeros(len(template.bytes), dtype=bool)
-        for f in ([template.stamp] if template.stamp is not None else []) + template.fields:
+        for f in [*template.stamps, *template.fields]:
             varying[f.offset:f.offset + f.codec.size] = True
         free = np.zeros(len(template.bytes), dtype=bool)
         for start, end in template.free:

@@ -1,54 +1,77 @@
 """Serialize once: CDR bytes of the node's fixed-layout outputs, written in place.
 
 A ``joint_states`` message always has the same names and three values per array, a
-``Float64`` one value, a ``Clock`` one stamp: their CDR layout never changes. A
-:class:`Template` is the serialization of one such message with zeros in its varying
-fields, and the offsets where each tick's numbers go. Encoding a tick is then a copy of
-the template and a few ``struct.pack_into`` calls (no message objects, no rclpy
-serializer), and the same bytes are published (rclpy publishes ``bytes`` as a serialized
-message) and handed to the recorder.
+``Float64`` one value, a ``Clock`` one stamp, a ``table_markers`` array the same markers
+for as long as its colours and texts stay: their CDR layout does not change. A
+:class:`Template` is the serialization of one such message, and the offsets where its
+varying fields go (the stamps and runs of doubles). Encoding is then a copy of the
+template and a few ``struct.pack_into`` calls (no message objects, no rclpy serializer),
+and the same bytes are published (rclpy publishes ``bytes`` as a serialized message)
+and handed to the recorder.
 
-The layout is written here by :class:`_Writer`, from the plain CDR rules (XCDR1 little
-endian, as ROS 2 publishes: a 4-byte encapsulation header, then each primitive aligned
-to its size counted from the end of that header; a string is its uint32 length with the
-NUL, its UTF-8 bytes and the NUL; a sequence its uint32 count and its elements, the
-first element aligned only if there is one), with zero padding. Building a template
-so costs microseconds; rosbags' typestore, which serializes any message, costs the
-node's start a tenth of a second and more to load. Tests decode every encoding with
-rclpy's own deserializer and compare the bytes with rosbags' serialization of the same
-message (rosbags pads with zeros too; rclpy leaves padding bytes uninitialized, so only
-its decoding is compared).
+:func:`template_of` writes the template of a prototype message, walking its fields in
+the order of the message definition (rclpy's ``get_fields_and_field_types``), so the
+layout is never restated here. The CDR rules are the plain ones (XCDR1 little endian,
+as ROS 2 publishes): a 4-byte encapsulation header, then each primitive aligned to its
+size counted from the end of that header; a string is its uint32 length with the NUL,
+its UTF-8 bytes and the NUL; a sequence its uint32 count and its elements, the first
+element aligned only if there is one; a nested message its fields, with no alignment of
+its own; padding is zeros. Building a template so costs microseconds to a millisecond;
+rosbags' typestore, which serializes any message, costs the node's start a tenth of a
+second and more to load. Tests decode every encoding with rclpy's own deserializer and
+compare the bytes with rosbags' serialization of the same message (rosbags pads with
+zeros too; rclpy leaves padding bytes uninitialized, so only its decoding is compared).
 
 :func:`joint_state_template`, :func:`float64_template` and :func:`clock_template` build
-the three layouts the node publishes every tick.
+the three layouts the node publishes every tick; :mod:`screwgear_ros.ros.markers` builds
+the markers' from the MarkerArray it draws.
 """
 
 from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Any, Sequence
+
+from builtin_interfaces.msg import Time
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+
+from .messages import type_name
 
 _STAMP = struct.Struct('<iI')          # builtin_interfaces/Time: int32 sec, uint32 nanosec
-_UINT32 = struct.Struct('<I')
 #: CDR encapsulation header: plain CDR, little endian, no options.
 _CDR_LE = b'\x00\x01\x00\x00'
+#: rosidl primitive type → struct code (the size is the alignment); rclpy holds an octet
+#: as one byte of bytes. (char and wstring are not supported: no layout here has them.)
+_PRIMITIVES = {'boolean': '?', 'octet': 'c', 'uint8': 'B', 'int8': 'b',
+               'int16': 'h', 'uint16': 'H', 'int32': 'i', 'uint32': 'I', 'int64': 'q',
+               'uint64': 'Q', 'float': 'f', 'double': 'd'}
+
+#: Where a field sits in a message: field names and sequence indices from the top.
+Path = tuple[str | int, ...]
 
 
 @dataclass(frozen=True)
 class Field:
-    """Where a run of doubles (or the stamp) sits in the template."""
+    """Where a run of doubles (or a stamp) sits in the template."""
 
     offset: int
     codec: struct.Struct
 
 
 class _Writer:
-    """Appends CDR fields to a buffer; alignment counts from the end of the header."""
+    """Appends a message's fields to a CDR buffer and notes where each one went:
+    ``spans[path]`` = (start, end) of every field, ``leaves`` the (offset, struct code)
+    of every primitive, ``free`` the bytes no decoder reads (encapsulation options and
+    alignment padding)."""
 
     def __init__(self) -> None:
         self.buf = bytearray(_CDR_LE)
         self.free: list[tuple[int, int]] = [(2, 4)]   # the encapsulation options
+        self.spans: dict[Path, tuple[int, int]] = {}
+        self.leaves: list[tuple[int, str]] = []
 
     def _align(self, size: int) -> None:
         pad = -(len(self.buf) - len(_CDR_LE)) % size
@@ -56,92 +79,128 @@ class _Writer:
             self.free.append((len(self.buf), len(self.buf) + pad))
             self.buf += bytes(pad)
 
-    def _reserve(self, size: int, codec: struct.Struct) -> Field:
-        self._align(size)
-        field = Field(len(self.buf), codec)
-        self.buf += bytes(codec.size)
-        return field
+    def _primitive(self, code: str, value: Any) -> None:
+        codec = struct.Struct('<' + code)
+        self._align(codec.size)
+        self.leaves.append((len(self.buf), code))
+        self.buf += codec.pack(value)
 
-    def uint32(self, value: int) -> None:
-        self._align(4)
-        self.buf += _UINT32.pack(value)
-
-    def string(self, text: str) -> None:
+    def _string(self, text: str) -> None:
         data = text.encode('utf-8') + b'\0'
-        self.uint32(len(data))
+        self._primitive('I', len(data))
         self.buf += data
 
-    def strings(self, texts: Sequence[str]) -> None:
-        """sequence<string>."""
-        self.uint32(len(texts))
-        for text in texts:
-            self.string(text)
+    def value(self, kind: str, value: Any, path: Path) -> None:
+        """One field of rosidl type ``kind`` (as ``get_fields_and_field_types`` names it);
+        its span starts at its first primitive (after that one's alignment)."""
+        first = len(self.leaves)
+        if kind in _PRIMITIVES:
+            self._primitive(_PRIMITIVES[kind], value)
+        elif kind == 'string' or kind.startswith('string<='):
+            self._string(value)
+        elif kind.startswith('sequence<'):
+            element = kind[len('sequence<'):-1].split(',')[0]
+            self._primitive('I', len(value))
+            for i, item in enumerate(value):
+                self.value(element, item, path + (i,))
+        elif kind.endswith(']'):                      # fixed array T[N]: no count
+            element = kind[:kind.index('[')]
+            for i, item in enumerate(value):
+                self.value(element, item, path + (i,))
+        elif '/' in kind:
+            self.message(value, path)
+        else:
+            raise TypeError(f'cdr: {kind!r} at {path} is not a supported field type')
+        start = self.leaves[first][0] if len(self.leaves) > first else len(self.buf)
+        self.spans[path] = (start, len(self.buf))
 
-    def stamp(self) -> Field:
-        """builtin_interfaces/Time, to be filled in."""
-        return self._reserve(4, _STAMP)
+    def message(self, msg: Any, path: Path = ()) -> None:
+        """All fields of ``msg`` in their declared order."""
+        fields = type(msg).get_fields_and_field_types()
+        if not fields:    # rosidl serializes a placeholder byte that Python does not show
+            raise TypeError(f'cdr: {type(msg).__name__} at {path} has no fields')
+        first = len(self.leaves)
+        for name, kind in fields.items():
+            self.value(kind, getattr(msg, name), path + (name,))
+        self.spans[path] = (self.leaves[first][0], len(self.buf))
 
-    def doubles(self, n: int) -> Field:
-        """``n`` float64 in a row (a float64 field when ``n`` is 1), to be filled in."""
-        codec = struct.Struct(f'<{n}d')
-        if n == 0:
-            return Field(len(self.buf), codec)
-        return self._reserve(8, codec)
+    def run(self, paths: Sequence[Path]) -> Field:
+        """The doubles from the start of ``paths[0]`` to the end of ``paths[-1]``, which
+        must hold nothing but doubles (no padding, no other field)."""
+        if not paths:
+            return Field(0, struct.Struct('<0d'))
+        start, end = self.spans[paths[0]][0], self.spans[paths[-1]][1]
+        inside = [code for offset, code in self.leaves if start <= offset < end]
+        if set(inside) != {'d'} or 8 * len(inside) != end - start:
+            raise ValueError(f'cdr: {paths[0]}..{paths[-1]} is not a run of doubles')
+        return Field(start, struct.Struct(f'<{len(inside)}d'))
 
-    def double_sequence(self, n: int) -> Field:
-        """sequence<float64> of ``n`` values, to be filled in."""
-        self.uint32(n)
-        return self.doubles(n)
+    def stamp(self, path: Path) -> Field:
+        """The builtin_interfaces/Time at ``path``."""
+        start, end = self.spans[path]
+        if [code for offset, code in self.leaves if start <= offset < end] != ['i', 'I']:
+            raise ValueError(f'cdr: {path} is not a builtin_interfaces/Time')
+        return Field(start, _STAMP)
 
 
 class Template:
     """The CDR bytes of one message layout, with the places of its varying fields:
-    the stamp (or None) and one run of doubles per value argument of :meth:`encode`;
-    ``free``: the byte ranges [start, end) no decoder reads (the encapsulation options
-    and the alignment padding, which rclpy leaves uninitialized)."""
+    its stamps (each set to the same time; none for an unstamped message) and one run
+    of doubles per value argument of :meth:`encode`; ``free``: the byte ranges
+    [start, end) no decoder reads (the encapsulation options and the alignment padding,
+    which rclpy leaves uninitialized)."""
 
-    def __init__(self, msgtype: str, data: bytes, stamp: Field | None,
+    def __init__(self, msgtype: str, data: bytes, stamps: Sequence[Field],
                  fields: Sequence[Field], free: Sequence[tuple[int, int]] = ()) -> None:
         self.msgtype = msgtype
         self.bytes = bytes(data)
-        self.stamp = stamp
+        self.stamps = tuple(stamps)
         self.fields = list(fields)
         self.free = list(free)
 
     def encode(self, time_ns: int, *runs: Sequence[float]) -> bytes:
-        """The message's CDR bytes with this stamp (ns) and these values."""
+        """The message's CDR bytes with these stamps (ns) and these values."""
         buf = bytearray(self.bytes)
-        if self.stamp is not None:
+        if self.stamps:
             sec, nanosec = divmod(time_ns, 1_000_000_000)
-            self.stamp.codec.pack_into(buf, self.stamp.offset, sec, nanosec)
+            for stamp in self.stamps:
+                _STAMP.pack_into(buf, stamp.offset, sec, nanosec)
         for f, values in zip(self.fields, runs):
             f.codec.pack_into(buf, f.offset, *values)
         return bytes(buf)
 
 
+def template_of(msg: Any, stamps: Sequence[Path] = (),
+                runs: Sequence[Sequence[Path]] = ()) -> Template:
+    """The template of ``msg``'s layout: its CDR bytes, the builtin_interfaces/Time at
+    each of ``stamps``, and one run of doubles per entry of ``runs`` (the fields from its
+    first path to its last, nothing but doubles)."""
+    w = _Writer()
+    w.message(msg)
+    return Template(type_name(type(msg)), w.buf, [w.stamp(p) for p in stamps],
+                    [w.run(paths) for paths in runs], w.free)
+
+
 def joint_state_template(names: Sequence[str]) -> Template:
     """sensor_msgs/JointState with these names and one position, velocity and effort each
-    (std_msgs/Header stamp, frame_id ''; name; position; velocity; effort)."""
-    w = _Writer()
-    stamp = w.stamp()
-    w.string('')
-    w.strings(list(names))
-    runs = [w.double_sequence(len(names)) for _ in range(3)]
-    return Template('sensor_msgs/msg/JointState', w.buf, stamp, runs, w.free)
+    (frame_id '')."""
+    n = len(names)
+    prototype = JointState(name=list(names), position=[0.0] * n, velocity=[0.0] * n,
+                           effort=[0.0] * n)
+    return template_of(prototype, [('header', 'stamp')],
+                       [[(key, 0), (key, n - 1)] if n else []
+                        for key in ('position', 'velocity', 'effort')])
 
 
 def float64_template() -> Template:
     """std_msgs/Float64."""
-    w = _Writer()
-    data = w.doubles(1)
-    return Template('std_msgs/msg/Float64', w.buf, None, [data], w.free)
+    return template_of(Float64(), runs=[[('data',)]])
 
 
 def clock_template() -> Template:
     """rosgraph_msgs/Clock."""
-    w = _Writer()
-    stamp = w.stamp()
-    return Template('rosgraph_msgs/msg/Clock', w.buf, stamp, [], w.free)
+    return template_of(Clock(clock=Time()), [('clock',)])
 
 
-__all__ = ['Template', 'joint_state_template', 'float64_template', 'clock_template']
+__all__ = ['Field', 'Template', 'template_of', 'joint_state_template',
+           'float64_template', 'clock_template']

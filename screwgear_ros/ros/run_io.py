@@ -13,7 +13,8 @@ URDF on ``robot_description`` (at the start, and again when a parameter change a
 it) and ``table_markers`` at most every ``MARKER_PERIOD`` s of wall time (about 30 Hz
 whatever the simulation rate), and only when they are recorded or somebody subscribes
 (lockstep's wait re-sends them to a viewer that came meanwhile), so the tick's own cost
-stays small.
+stays small; they too are CDR bytes, from a template per look
+(:class:`~screwgear_ros.ros.markers.MarkerEncoder`).
 
 Threads: :meth:`submit_change` and its :meth:`prepare` run on the node's executor
 thread (they render a parameter change's run_parameters YAML and URDF before the change
@@ -40,7 +41,7 @@ from ..params import SimSettings, TableParams
 from ..plant import Outputs
 from ..session import Session, Tick
 from . import cdr, messages
-from .markers import table_markers
+from .markers import MarkerEncoder
 from .messages import INPUT_TYPES, LATCHED_OUTPUTS, OUTPUT_TYPES, PRIVATE_TYPES, type_name
 from .urdf import robot_description
 
@@ -121,6 +122,7 @@ class RunIO:
         self.last_joint_states: Any = None    # for lockstep's re-send while waiting
         self._path = 0                        # active path last published
         self._next_markers = 0.0              # time.monotonic() of the next table_markers
+        self._marker_encoder: MarkerEncoder | None = None   # of the parameters in force
         self.description = ''                 # robot_description last published
         # (params, settings) → (run_parameters YAML, URDF), rendered by prepare() on the
         # executor thread before it submits the change; taken by the pacing thread.
@@ -257,10 +259,12 @@ class RunIO:
 
     def _markers(self, session: Session) -> None:
         """table_markers of the last outputs, once ``MARKER_PERIOD`` s of wall time passed,
-        if they are recorded or somebody subscribes to them. Building and publishing them
-        takes about 0.25 ms of the pacing thread, on one tick in 30: with nobody to see
-        them that was most of the node's p99 jitter at factor 1 (bench_speed: 0.72 ms with
-        them, 0.43 ms without, 0.33 ms for a bare 1 kHz publisher)."""
+        if they are recorded or somebody subscribes to them. Built as message objects
+        and serialized, they took about 0.25 ms of the pacing thread on one tick in 30,
+        the most of the node's p99 jitter at factor 1 (bench_speed: 0.72 ms with them,
+        0.43 ms without, 0.33 ms for a bare 1 kHz publisher), and the recorder serialized
+        them once more; encoded from a template they take a few microseconds, after
+        0.6 ms the first time a look appears."""
         if 'table_markers' not in self.topics:
             return
         now = time.monotonic()
@@ -281,12 +285,14 @@ class RunIO:
         publisher = self._publishers.get(key)
         return publisher is not None and publisher.get_subscription_count() > 0
 
-    def _marker_message(self, session: Session) -> tuple[int, Any]:
-        """(log time, table_markers) of the session's last outputs."""
-        out = session.outputs
+    def _marker_message(self, session: Session) -> tuple[int, bytes]:
+        """(log time, table_markers CDR) of the session's last outputs."""
+        out, params = session.outputs, session.plant.params
         t_ns = sim_time_ns(out.step, session.plant.dt)
-        return t_ns, table_markers(session.plant.params, self.joint_names, out,
-                                   messages.stamp(t_ns))
+        encoder = self._marker_encoder
+        if encoder is None or not encoder.draws(params, self.joint_names):
+            encoder = self._marker_encoder = MarkerEncoder(params, self.joint_names)
+        return t_ns, encoder.encode(out, t_ns)
 
 
 __all__ = ['topic_names', 'serialize', 'RunIO']

@@ -416,7 +416,7 @@ def _fixed_bytes(template: Template) -> np.ndarray:
     the bytes no decoder reads (:attr:`Template.free`: the encapsulation options and the
     alignment padding, which rclpy leaves uninitialized)."""
     fixed = np.ones(len(template.bytes), dtype=bool)
-    for f in ([template.stamp] if template.stamp is not None else []) + template.fields:
+    for f in [*template.stamps, *template.fields]:
         fixed[f.offset:f.offset + f.codec.size] = False
     for start, end in template.free:
         fixed[start:end] = False
@@ -449,8 +449,8 @@ def _bulk(parts: list[np.ndarray | list[bytes]], template: Template | None, widt
             values[i:i + k][fits] = np.hstack(
                 [np.ascontiguousarray(rows[:, f.offset:f.offset + f.codec.size]).view('<f8')
                  for f in template.fields])
-            if template.stamp is not None:
-                o = template.stamp.offset
+            if template.stamps:      # the header's: the layouts read here have one
+                o = template.stamps[0].offset
                 sec = np.ascontiguousarray(rows[:, o:o + 4]).view('<i4')[:, 0]
                 nanosec = np.ascontiguousarray(rows[:, o + 4:o + 8]).view('<u4')[:, 0]
                 stamps[i:i + k][fits] = sec.astype(np.int64) * 1_000_000_000 + nanosec
