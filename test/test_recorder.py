@@ -333,6 +333,33 @@ def test_write_many_keeps_order_and_counts_whole_batches(tmp_path: Path) -> None
         assert sum(m in read for m in batch) in (0, 3)
 
 
+def test_a_message_that_fails_to_serialize_keeps_what_came_before(tmp_path: Path) -> None:
+    """The first write error stops the writing: the messages before it are in the bag,
+    which is finalized and reads back; that message and every later one are counted as
+    dropped; ``error`` says what went wrong."""
+    def fussy(msg: object) -> bytes:
+        if isinstance(msg, Float64) and msg.data < 0.0:
+            raise ValueError('negative data refused')
+        return serialize_message(msg)
+
+    topic = TOPICS[1].name
+    recorder = RunRecorder(tmp_path / 'bag', TOPICS[:2], fussy)
+    for k in range(5):
+        recorder.write(topic, k, Float64(data=float(k)))
+    recorder.write_many([(topic, 5, Float64(data=5.0)), (topic, 6, Float64(data=-6.0)),
+                         (topic, 7, Float64(data=7.0))])
+    recorder.write(topic, 8, Float64(data=8.0))
+    recorder.close()
+    assert (recorder.written, recorder.dropped) == (6, 3)
+    assert recorder.error == 'ValueError: negative data refused'
+    store = get_typestore(Stores.ROS2_JAZZY)
+    with Reader(tmp_path / 'bag') as reader:
+        assert [c.msgcount for c in reader.connections if c.topic == topic] == [6]
+        read = [(t, store.deserialize_cdr(raw, c.msgtype).data)
+                for c, t, raw in reader.messages()]
+    assert read == [(k, float(k)) for k in range(6)]
+
+
 def test_a_write_racing_close_is_written_or_counted(tmp_path: Path) -> None:
     """The race: write() has checked that the recorder is open, close() then runs to the
     end, and only then does write() queue its message, behind the writer's stop mark.
