@@ -7,7 +7,8 @@ install (on a colcon install, run ``ros2 run screwgear_ros warmup`` once after t
 build), so the node's first start is as fast as every other.
 
 :func:`compiled_now` tells a caller (the node) whether something was compiled in this
-process, i.e. whether the cache was missing. It looks only at the kernel modules this
+process, i.e. whether the cache was missing. :func:`without_blas_probe` spares the
+node's start numba's probe of SciPy's BLAS, which the kernels do not use. It looks only at the kernel modules this
 process imported (a module never imported compiled nothing), so importing it costs the
 node nothing beyond what it runs: check_run's DOP853 (:mod:`screwgear_ros.dop853`, which
 imports SciPy, about half a second) and :mod:`screwgear_ros.normalized` are imported by
@@ -19,6 +20,8 @@ from __future__ import annotations
 import importlib
 import sys
 import time
+from contextlib import contextmanager
+from typing import Iterator
 
 from .events import Command
 from .params import MeshPhase, Mode, SimSettings, TableParams
@@ -42,6 +45,29 @@ def kernels(imported_only: bool = False) -> list:
 def compiled_now() -> int:
     """How many kernel signatures this process compiled instead of loading them."""
     return sum(sum(k.stats.cache_misses.values()) for k in kernels(imported_only=True))
+
+
+@contextmanager
+def without_blas_probe() -> Iterator[None]:
+    """Within: ``scipy.linalg`` cannot be imported, unless it already was.
+
+    The first compiled function a process loads starts numba's CPU target, which imports
+    ``scipy.linalg.cython_blas`` to learn whether ``np.dot`` and ``np.linalg`` can be
+    compiled (``numba.np.arraymath``; an ImportError means no). Importing
+    ``scipy.linalg`` costs 0.14 s of the node's 0.55 s to its first joint_states, and no
+    kernel calls BLAS (the NumPy linear algebra of parameter checks and reports is
+    NumPy's own). ``None`` in ``sys.modules`` is Python's way to make an import fail;
+    it is lifted on the way out, so a later import in the process works as usual.
+    """
+    if 'scipy.linalg' in sys.modules:
+        yield
+        return
+    sys.modules['scipy.linalg'] = None     # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        if sys.modules.get('scipy.linalg', 0) is None:
+            del sys.modules['scipy.linalg']
 
 
 def warm() -> int:

@@ -4,8 +4,10 @@ In a fresh interpreter, table_sim is constructed on real rclpy and its run start
 the first outputs (``RunIO.start``: the URDF, the active path, joint_states); then the
 modules only the tools need must still be unimported: check_run's DOP853 and the
 SciPy integrators, rosbags' typestore, the MCAP writer, matplotlib, the normalized
-model. And ``warmup.kernels()`` still finds every kernel module it compiles at
-install time, while ``compiled_now`` (which the node calls) imports none of them.
+model. Nor does it import SciPy's linear algebra, which numba's start probes for
+(``warmup.without_blas_probe``), and an import of it after the start works. And
+``warmup.kernels()`` still finds every kernel module it compiles at install time, while
+``compiled_now`` (which the node calls) imports none of them.
 """
 
 from __future__ import annotations
@@ -47,6 +49,21 @@ def _run(code: str, **env: str) -> str:
 
 def test_the_start_up_to_the_first_joint_states_loads_no_tool_module():
     assert _run(START.format(tools=TOOLS_ONLY)) == '[]'
+
+
+def test_the_start_skips_numbas_blas_probe_and_leaves_scipy_linalg_importable():
+    code = START.format(tools=('scipy.linalg',)) + (
+        'import scipy.linalg, numpy as np\n'
+        'from screwgear_ros.warmup import compiled_now\n'
+        'from numba.np.arraymath import _HAVE_BLAS\n'
+        'print([compiled_now(), float(scipy.linalg.det(np.eye(2) * 3.0)), _HAVE_BLAS])\n')
+    assert _run(code, NUMBA_DISABLE_JIT='0') == '[0, 9.0, False]'
+    # without the node, numba's probe finds SciPy's BLAS here: the test above shows a skip
+    assert _run('from screwgear_ros.session import Session\n'
+                'from screwgear_ros.params import TableParams, SimSettings\n'
+                'Session(TableParams(), SimSettings())\n'
+                'from numba.np.arraymath import _HAVE_BLAS\n'
+                'print(_HAVE_BLAS)\n', NUMBA_DISABLE_JIT='0') == 'True'
 
 
 def test_the_start_without_jit_loads_no_tool_module_either():

@@ -50,7 +50,7 @@ from ..events import Command, ParameterChange, Reset
 from ..pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns
 from ..params import ANSWER_TOPICS, ANSWERS, TICK_TOPIC, ParameterError, split_parameters
 from ..ratelimit import RateLimiter
-from ..warmup import compiled_now
+from ..warmup import compiled_now, without_blas_probe
 from ..session import Session, Tick
 from ..ros import messages, parameters
 from ..ros.messages import INPUT_TYPES, LATCHED_OUTPUTS, OUTPUT_TYPES
@@ -97,8 +97,9 @@ class TableSim(Node):
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         started = time.perf_counter()
-        self.session = Session(params, settings)
-        self.session.plant.advance(0)    # load (or compile) the integrator now, not in tick 1
+        with without_blas_probe():           # numba's first load, without SciPy's BLAS
+            self.session = Session(params, settings)
+            self.session.plant.advance(0)    # load (or compile) the integrator now, not in tick 1
         if compiled_now():
             self.get_logger().info(
                 f'compiled the numba model in {time.perf_counter() - started:.1f} s: its cache '
