@@ -7,12 +7,14 @@ install (on a colcon install, run ``ros2 run screwgear_ros warmup`` once after t
 build), so the node's first start is as fast as every other.
 
 :func:`compiled_now` tells a caller (the node) whether something was compiled in this
-process, i.e. whether the cache was missing. :func:`without_blas_probe` spares the
-node's start numba's probe of SciPy's BLAS, which the kernels do not use. It looks only at the kernel modules this
+process, i.e. whether the cache was missing. It looks only at the kernel modules this
 process imported (a module never imported compiled nothing), so importing it costs the
 node nothing beyond what it runs: check_run's DOP853 (:mod:`screwgear_ros.dop853`, which
 imports SciPy, about half a second) and :mod:`screwgear_ros.normalized` are imported by
 :func:`warm`, not here.
+
+:func:`without_blas_probe` spares the node's start numba's probe of SciPy's BLAS, which
+the kernels do not use.
 """
 
 from __future__ import annotations
@@ -52,12 +54,22 @@ def without_blas_probe() -> Iterator[None]:
     """Within: ``scipy.linalg`` cannot be imported, unless it already was.
 
     The first compiled function a process loads starts numba's CPU target, which imports
-    ``scipy.linalg.cython_blas`` to learn whether ``np.dot`` and ``np.linalg`` can be
-    compiled (``numba.np.arraymath``; an ImportError means no). Importing
+    ``scipy.linalg.cython_blas`` once to learn whether BLAS is there
+    (``numba.np.arraymath._HAVE_BLAS``; an ImportError means no). Importing
     ``scipy.linalg`` costs 0.14 s of the node's 0.55 s to its first joint_states, and no
-    kernel calls BLAS (the NumPy linear algebra of parameter checks and reports is
-    NumPy's own). ``None`` in ``sys.modules`` is Python's way to make an import fail;
-    it is lifted on the way out, so a later import in the process works as usual.
+    kernel calls BLAS (the linear algebra of parameter checks and reports is NumPy's,
+    outside the kernels). ``None`` in ``sys.modules`` is Python's way to make an import
+    fail; it is lifted on the way out, so a later import in the process works as usual.
+
+    What it leaves behind, and why that is safe here:
+
+    * ``_HAVE_BLAS`` stays False in this process: a kernel compiled later with
+      ``np.convolve`` or ``np.correlate`` would take numba's loop instead of BLAS;
+    * a kernel compiled *within* (the cache was missing) that calls ``np.dot`` or
+      ``np.linalg`` would fail to compile: none does, and a test compiles the node's
+      kernels within it into an empty cache;
+    * it is process-wide: the node enters it before any other thread of its own runs
+      Python that imports (its signal thread only reads a pipe).
     """
     if 'scipy.linalg' in sys.modules:
         yield

@@ -172,6 +172,43 @@ def test_markers_are_throttled_by_wall_time_not_by_ticks(tmp_path, monkeypatch, 
     assert np.array_equal(replay_in_process(run).joint_states, run.joint_states.values)
 
 
+def test_recorded_markers_follow_a_change_of_the_tables_geometry(tmp_path, monkeypatch):
+    """A marker per tick, through a parameter change that resizes the table: each one
+    decodes (rosbags, from the bag) to the disc and marks of the parameters in force at
+    its stamp, with the mark of every wheel where that tick's joint_states puts it."""
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys import Stores, get_typestore
+    from screwgear_ros.events import ParameterChange
+    from screwgear_ros.ros import run_io
+    before = TableParams()
+    after = before.replace(radius_table=1.5 * before.radius_table)
+    schedule = Schedule(before, SimSettings(), [
+        Command('joint_commands', JointCommand(tuple(JOINTS), effort=(30.0,)), 100),
+        ParameterChange(after, SimSettings(), 600)], end_step=1_200)
+    monkeypatch.setattr(run_io, 'MARKER_PERIOD', 0.0)
+    record_session(tmp_path / 'run', schedule)
+    store = get_typestore(Stores.ROS2_JAZZY)
+    positions, arrays = {}, {}
+    with Reader(tmp_path / 'run') as reader:
+        for c, t, raw in reader.messages():
+            if c.topic == '/joint_states':
+                positions[t] = list(store.deserialize_cdr(raw, c.msgtype).position)
+            elif c.topic == '/table_markers':
+                arrays[t] = store.deserialize_cdr(raw, c.msgtype).markers
+    assert len(arrays) == 1_200 // schedule.settings.steps_per_publish + 1
+    step_ns = round(schedule.settings.dt * 1e9)
+    for t, markers in arrays.items():
+        params = after if t > 600 * step_ns else before     # the tick ending at 600: before
+        found = by_key(markers)
+        table = found[(DISCS, 1)]
+        assert table.scale.x == pytest.approx(2.0 * params.radius_table)
+        for wheel in wheels(params, JOINTS):
+            mark = found[(MARKS, wheel.index)]
+            assert (mark.points[0].x, mark.points[0].y) == pytest.approx(wheel.centre)
+            assert wrapped(mark_direction(mark) - wheel.turn * positions[t][wheel.index]) == \
+                pytest.approx(0.0, abs=1e-9)
+
+
 # ---------------------------------------------------------------- the node over DDS
 
 class TopicSystem:

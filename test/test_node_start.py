@@ -51,14 +51,22 @@ def test_the_start_up_to_the_first_joint_states_loads_no_tool_module():
     assert _run(START.format(tools=TOOLS_ONLY)) == '[]'
 
 
-def test_the_start_skips_numbas_blas_probe_and_leaves_scipy_linalg_importable():
-    code = START.format(tools=('scipy.linalg',)) + (
-        'import scipy.linalg, numpy as np\n'
-        'from screwgear_ros.warmup import compiled_now\n'
-        'from numba.np.arraymath import _HAVE_BLAS\n'
-        'print([compiled_now(), float(scipy.linalg.det(np.eye(2) * 3.0)), _HAVE_BLAS])\n')
-    assert _run(code, NUMBA_DISABLE_JIT='0') == '[0, 9.0, False]'
-    # without the node, numba's probe finds SciPy's BLAS here: the test above shows a skip
+#: After START with tools=('scipy.linalg',): whether numba's target saw BLAS, and that
+#: scipy.linalg imports and works afterwards; with it, how many kernels were compiled.
+AFTER_START = ('import scipy.linalg, numpy as np\n'
+               'from screwgear_ros.warmup import compiled_now\n'
+               'from numba.np.arraymath import _HAVE_BLAS\n'
+               'print([loaded, _HAVE_BLAS, float(scipy.linalg.det(np.eye(2) * 3.0)), '
+               'compiled_now() > 0])\n')
+
+
+def test_the_start_skips_numbas_blas_probe_and_leaves_scipy_linalg_importable(tmp_path):
+    start = START.format(tools=('scipy.linalg',)).replace('print(loaded)\n', '')
+    assert _run(start + AFTER_START, NUMBA_DISABLE_JIT='0') == "[[], False, 9.0, False]"
+    # with an empty cache the node compiles its kernels within the block, and they work
+    assert _run(start + AFTER_START, NUMBA_DISABLE_JIT='0',
+                NUMBA_CACHE_DIR=str(tmp_path)) == "[[], False, 9.0, True]"
+    # without the node, numba's probe finds SciPy's BLAS here: the tests above show a skip
     assert _run('from screwgear_ros.session import Session\n'
                 'from screwgear_ros.params import TableParams, SimSettings\n'
                 'Session(TableParams(), SimSettings())\n'

@@ -333,6 +333,26 @@ def test_write_many_keeps_order_and_counts_whole_batches(tmp_path: Path) -> None
         assert sum(m in read for m in batch) in (0, 3)
 
 
+def test_bytes_are_written_as_they_are(tmp_path: Path) -> None:
+    """A message handed over as bytes is its CDR: the serializer is never asked, and a
+    second reader decodes exactly those bytes."""
+    def refuse(msg: object) -> bytes:
+        raise AssertionError(f'serialize called for {msg!r}')
+
+    topic = TOPICS[1].name
+    data = [serialize_message(Float64(data=v)) for v in (0.5, -1e300, 7.25)]
+    recorder = RunRecorder(tmp_path / 'bag', TOPICS[1:2], refuse)
+    recorder.write(topic, 0, data[0])
+    recorder.write_many([(topic, 1, data[1]), (topic, 2, data[2])])
+    recorder.close()
+    assert (recorder.written, recorder.dropped, recorder.error) == (3, 0, None)
+    store = get_typestore(Stores.ROS2_JAZZY)
+    with Reader(tmp_path / 'bag') as reader:
+        read = [(t, bytes(raw), store.deserialize_cdr(raw, c.msgtype).data)
+                for c, t, raw in reader.messages()]
+    assert read == [(0, data[0], 0.5), (1, data[1], -1e300), (2, data[2], 7.25)]
+
+
 def test_a_message_that_fails_to_serialize_keeps_what_came_before(tmp_path: Path) -> None:
     """The first write error stops the writing: the messages before it are in the bag,
     which is finalized and reads back; that message and every later one are counted as

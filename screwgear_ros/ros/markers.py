@@ -12,7 +12,7 @@ stamped with the simulation time of the outputs it shows, so RViz (fixed frame
 bytes from :class:`MarkerEncoder`: between two states with the same colours and texts
 (the active path, both contacts) only the stamps and the marks' points change, so each
 such look is drawn once, as a :class:`~screwgear_ros.ros.cdr.Template`, and then encoded
-in a few microseconds instead of being built (0.1 ms) and serialized (0.07 ms) again.
+in a few microseconds instead of being built (0.11 ms) and serialized (0.07 ms) again.
 """
 
 from __future__ import annotations
@@ -97,9 +97,9 @@ class MarkerEncoder:
 
     One template per look (:func:`_look`: the active pinion and each mesh's contact
     branch; a run meets a few of them), drawn by :func:`table_markers` the first time
-    the look appears; encoding fills in every
-    marker's stamp and the marks' points. Not thread-safe: it belongs to its caller's
-    thread (the node's pacing thread).
+    the look appears; encoding fills in every marker's stamp and the marks' points. A
+    parameter change needs a new encoder (:meth:`draws` says whether this one fits).
+    Not thread-safe: it belongs to its caller's thread (the node's pacing thread).
     """
 
     def __init__(self, params: TableParams, joint_names: list[str] | tuple[str, ...]) -> None:

@@ -75,16 +75,14 @@ def _message_class(key: str) -> type:
 
 
 def serialize(msg: Any) -> bytes:
-    """CDR of ``msg`` as the recorder writes it (on its writer thread); bytes (the
-    outputs, serialized once by RunIO) pass through.
+    """CDR of ``msg`` as the recorder writes it (on its writer thread; the outputs and
+    markers RunIO serialized once reach the recorder as bytes and skip this).
 
     rmw_fastrtps (Jazzy) returns a serialized message as long as its size estimate,
     which for a JointState with an empty array (a joint_commands message: no position
     or velocity command) leaves 8 bytes of junk at the end; rosbags refuses more than
     3 and DDS ignores them. Such a message is cut to its CDR length.
     """
-    if isinstance(msg, bytes):
-        return msg
     data = serialize_message(msg)
     if isinstance(msg, JointState) and not (len(msg.position) and len(msg.velocity)
                                             and len(msg.effort)):

@@ -9,7 +9,7 @@ except the ~4 per tick of fixed layout (joint_states, transmission_error, mesh_s
 clock): a chunk's message records are located in one pass and those messages are
 decoded in bulk with NumPy, on the layout the node writes them in
 (:class:`screwgear_ros.ros.cdr.Template`: a message is decoded that way only if every
-byte outside its stamp and values equals the template's, which fixes where they are;
+byte outside its stamps and values equals the template's, which fixes where they are;
 any other message of these topics goes through ``rosbags`` as before). Topics the
 check does not read are skipped undecoded. Topics are matched on their relative name,
 so a namespaced table reads the same. Log times are simulation times:
@@ -412,7 +412,7 @@ def scan(mcap_path: Path, status: dict[str, Any]) -> _Scan:
 
 
 def _fixed_bytes(template: Template) -> np.ndarray:
-    """Mask of the template's bytes that fix the layout: all but the stamp, the values and
+    """Mask of the template's bytes that fix the layout: all but the stamps, the values and
     the bytes no decoder reads (:attr:`Template.free`: the encapsulation options and the
     alignment padding, which rclpy leaves uninitialized)."""
     fixed = np.ones(len(template.bytes), dtype=bool)

@@ -1,8 +1,8 @@
 """Record a run as a rosbag2 directory with MCAP storage, off the real-time path.
 
 :class:`RunRecorder` takes messages from the node's pacing thread through a bounded
-queue and writes them on its own writer thread (serialization included), so a slow
-disk never stalls the integrator: when the queue is full a message is dropped and
+queue and writes them on its own writer thread (serializing those that are not CDR bytes
+yet), so a slow disk never stalls the integrator: when the queue is full a message is dropped and
 counted, never waited for.
 
 What recording costs the node is mostly how often the two threads meet, not the MCAP
@@ -235,10 +235,11 @@ class TopicSpec:
 class RunRecorder:
     """Writes one run to a new rosbag2/MCAP directory on a background thread.
 
-    ``serialize(msg) -> bytes`` turns a message into CDR (the node passes
-    ``rclpy.serialization.serialize_message``); it runs on the writer thread, so a
-    message handed to :meth:`write` or :meth:`write_many` belongs to the recorder
-    from then on and must not be modified afterwards.
+    A message handed over as ``bytes`` is its CDR and is written as it is (the node's
+    outputs and markers, serialized once); any other goes through ``serialize(msg) ->
+    bytes`` (the node passes :func:`screwgear_ros.ros.run_io.serialize`) on the writer
+    thread, so a message handed to :meth:`write` or :meth:`write_many` belongs to the
+    recorder from then on and must not be modified afterwards.
 
     The queue holds batches (tuples of ``(topic, log time, message)``, one per
     :meth:`write` or :meth:`write_many`); its bound ``queue_size`` counts messages
