@@ -1,9 +1,9 @@
 """Record a run as a rosbag2 directory with MCAP storage, off the real-time path.
 
 :class:`RunRecorder` takes messages from the node's pacing thread through a bounded
-queue and writes them on its own writer thread (serializing those that are not CDR bytes
-yet), so a slow disk never stalls the integrator: when the queue is full a message is dropped and
-counted, never waited for.
+queue and writes them on its own writer thread (serializing those that are not CDR
+bytes yet), so a slow disk never stalls the integrator: when the queue is full a message
+is dropped and counted, never waited for.
 
 What recording costs the node is mostly how often the two threads meet, not the MCAP
 writing: a queue put that wakes the writer, and the writer taking the interpreter
@@ -66,7 +66,7 @@ BATCH_PERIOD = 0.01
 _STOP = object()
 
 _MESSAGE_INDEX = struct.Struct('<BQHI')     # opcode, length, channel id, bytes of entries
-_MESSAGE = int(Opcode.MESSAGE)              # per message: a plain int packs faster
+_MESSAGE_OPCODE = int(Opcode.MESSAGE)       # per message: a plain int packs faster
 _pack_message = MCAP_MESSAGE.pack
 _FOOTER_START = struct.Struct('<BQQQ')      # opcode, length, summary start, offsets start
 
@@ -142,8 +142,8 @@ class _McapWriter:
             self._chunk_start = log_time
         elif log_time > self._chunk_end:
             self._chunk_end = log_time
-        chunk += _pack_message(_MESSAGE, MCAP_MESSAGE_FIELDS + len(data), channel_id, sequence,
-                               log_time, log_time)
+        chunk += _pack_message(_MESSAGE_OPCODE, MCAP_MESSAGE_FIELDS + len(data), channel_id,
+                               sequence, log_time, log_time)
         chunk += data
         self._index[channel_id] += (log_time, offset)
         if len(chunk) >= self._chunk_size:
@@ -179,6 +179,16 @@ class _McapWriter:
             uncompressed_size=len(records)))
         self._chunk.clear()
 
+    def time_range(self) -> tuple[int, int]:
+        """First and last log time of the messages added so far, written or in the open
+        chunk; (0, 0) before any."""
+        chunks = [(c.message_start_time, c.message_end_time) for c in self._chunk_indexes]
+        if self._chunk:
+            chunks.append((self._chunk_start, self._chunk_end))
+        if not chunks:
+            return 0, 0
+        return min(start for start, _ in chunks), max(end for _, end in chunks)
+
     def flush(self) -> None:
         """Write the open chunk and hand everything to the operating system."""
         self._finish_chunk()
@@ -201,13 +211,12 @@ class _McapWriter:
 
         group(Opcode.SCHEMA, self._schemas)
         group(Opcode.CHANNEL, self._channels)
-        chunks = self._chunk_indexes
+        start, end = self.time_range()
         group(Opcode.STATISTICS, [Statistics(
             message_count=sum(self._counts.values()), schema_count=len(self._schemas),
             channel_count=len(self._channels), attachment_count=0,
-            metadata_count=len(self._metadata_indexes), chunk_count=len(chunks),
-            message_start_time=min((c.message_start_time for c in chunks), default=0),
-            message_end_time=max((c.message_end_time for c in chunks), default=0),
+            metadata_count=len(self._metadata_indexes), chunk_count=len(self._chunk_indexes),
+            message_start_time=start, message_end_time=end,
             channel_message_counts=dict(self._counts))])
         group(Opcode.CHUNK_INDEX, self._chunk_indexes)
         group(Opcode.METADATA_INDEX, self._metadata_indexes)
@@ -276,15 +285,12 @@ class RunRecorder:
         self._topics = [{'name': t.name, 'type': t.msgtype,
                          'qos': [qos_profile(t.transient_local)]} for t in topics]
         self._counts = [0] * len(topics)     # written per topic = its next sequence number
-        self._start_ns: int | None = None
-        self._end_ns = 0
         self.path.mkdir(parents=True, exist_ok=True)
         self._mcap_name = f'{self.path.name}_0.mcap'
         self._custom = {'screwgear_ros.package_version': __version__}
-        self._write_metadata_yaml()
-
         self._file = open(self.path / self._mcap_name, 'xb')
         self._mcap = _McapWriter(self._file, int(chunk_size), compression)
+        self._write_metadata_yaml()
         self._mcap.start(profile=MCAP_PROFILE, library=f'screwgear_ros-{__version__}')
         self._mcap.add_metadata('rosbag2', {'serialized_metadata': self._serialized_metadata()})
         schemas: dict[str, int] = {}
@@ -419,7 +425,6 @@ class RunRecorder:
         or when close() gave up waiting)."""
         channels, counts = self._channels, self._counts
         serialize, add = self._serialize, self._mcap.add
-        start, end = self._start_ns, self._end_ns
         written = 0
         if not self._abandon and self._error is None:
             for topic, log_time, msg in batch:
@@ -433,13 +438,8 @@ class RunRecorder:
                     break
                 counts[index] += 1
                 written += 1
-                if start is None or log_time < start:
-                    start = log_time
-                if log_time > end:
-                    end = log_time
         if written < len(batch):
             self._count_drop(len(batch) - written)
-        self._start_ns, self._end_ns = start, end
         self._handled += len(batch)
 
     def _fail(self, exc: BaseException) -> None:
@@ -466,9 +466,8 @@ class RunRecorder:
         self._write_metadata_yaml()
 
     def _document(self) -> dict[str, Any]:
-        start = self._start_ns if self._start_ns is not None else 0
-        return metadata_document(self._mcap_name, self._topics, self._counts, start,
-                                 self._end_ns, self._custom)
+        return metadata_document(self._mcap_name, self._topics, self._counts,
+                                 *self._mcap.time_range(), self._custom)
 
     def _serialized_metadata(self) -> str:
         return yaml.safe_dump(self._document(), default_flow_style=False, sort_keys=False)
