@@ -4,8 +4,8 @@ The MCAP file is read record by record in file order (:func:`scan`; ``mcap``'s
 record classes for schemas, channels and chunks, :func:`iter_messages` with ``mcap``'s
 stream reader for tools that want every message), so messages with equal log times keep
 the order the node wrote them in (which is the order it applied them), and a bag whose
-writer was killed reads up to its last complete chunk. Messages are decoded with the ROS 2 Jazzy CDR codec of ``rosbags``,
-except the ~4 per tick of fixed layout (joint_states, transmission_error, mesh_state,
+writer was killed reads up to its last complete chunk. Messages are decoded with the
+ROS 2 Jazzy CDR codec of ``rosbags``, except the ~4 per tick of fixed layout (joint_states, transmission_error, mesh_state,
 clock): a chunk's message records are located in one pass and those messages are
 decoded in bulk with NumPy, on the layout the node writes them in
 (:class:`screwgear_ros.ros.cdr.Template`: a message is decoded that way only if every
@@ -209,6 +209,11 @@ class _Collector:
                       np.asarray(self.values, dtype=np.float64).reshape(-1, 1))
 
 
+#: Where a Message record's length, channel id and log time sit (MCAP_MESSAGE: opcode,
+#: length, channel id, sequence, log time, publish time).
+_LENGTH_AT = struct.calcsize('<B')
+_CHANNEL_AT = MCAP_RECORD.size
+_LOG_TIME_AT = struct.calcsize('<BQHI')
 #: Output topics of fixed layout, read in bulk (clock: log times only, nothing decoded).
 BULK_TOPICS = ('joint_states', 'transmission_error', 'mesh_state', 'clock')
 
@@ -322,10 +327,10 @@ class _Scan:
             return
         buf = np.frombuffer(data, dtype=np.uint8)
         starts = np.array(at, dtype=np.int64)
-        size = (_gather(buf, starts + 1, 8).view('<u8')[:, 0].astype(np.int64)
+        size = (_gather(buf, starts + _LENGTH_AT, 8).view('<u8')[:, 0].astype(np.int64)
                 - MCAP_MESSAGE_FIELDS)
-        channel = _gather(buf, starts + 9, 2).view('<u2')[:, 0]
-        log_time = _gather(buf, starts + 15, 8).view('<u8')[:, 0]
+        channel = _gather(buf, starts + _CHANNEL_AT, 2).view('<u2')[:, 0]
+        log_time = _gather(buf, starts + _LOG_TIME_AT, 8).view('<u8')[:, 0]
         starts += MCAP_MESSAGE.size
         order = self.count + np.arange(len(at), dtype=np.int64)
         present = np.unique(channel).tolist()
@@ -378,12 +383,12 @@ def scan(mcap_path: Path, status: dict[str, Any]) -> _Scan:
         return result
     pos, end = len(MCAP_MAGIC), len(data)
     while True:
-        if pos + 9 > end:
+        if pos + MCAP_RECORD.size > end:
             status['truncated'] = (f'{mcap_path.name} ends without its summary after {pos} '
                                    'bytes: the recording was not closed (killed?)')
             break
         opcode, length = MCAP_RECORD.unpack_from(data, pos)
-        body = pos + 9
+        body = pos + MCAP_RECORD.size
         if length > RECORD_SIZE_LIMIT or body + length > end:
             status['truncated'] = (f'{mcap_path.name} ends without its summary after {pos} '
                                    f'bytes (a record of {length} bytes is cut short): the '
