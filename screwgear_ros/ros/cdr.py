@@ -124,21 +124,25 @@ class _Writer:
             self.value(kind, getattr(msg, name), path + (name,))
         self.spans[path] = (self.leaves[first][0], len(self.buf))
 
+    def _codes(self, start: int, end: int) -> str:
+        """The struct codes of the primitives written in [start, end)."""
+        return ''.join(code for offset, code in self.leaves if start <= offset < end)
+
     def run(self, paths: Sequence[Path]) -> Field:
         """The doubles from the start of ``paths[0]`` to the end of ``paths[-1]``, which
         must hold nothing but doubles (no padding, no other field)."""
         if not paths:
             return Field(0, struct.Struct('<0d'))
         start, end = self.spans[paths[0]][0], self.spans[paths[-1]][1]
-        inside = [code for offset, code in self.leaves if start <= offset < end]
-        if set(inside) != {'d'} or 8 * len(inside) != end - start:
+        codec = struct.Struct('<' + self._codes(start, end))
+        if set(codec.format[1:]) != {'d'} or codec.size != end - start:
             raise ValueError(f'cdr: {paths[0]}..{paths[-1]} is not a run of doubles')
-        return Field(start, struct.Struct(f'<{len(inside)}d'))
+        return Field(start, codec)
 
     def stamp(self, path: Path) -> Field:
         """The builtin_interfaces/Time at ``path``."""
         start, end = self.spans[path]
-        if [code for offset, code in self.leaves if start <= offset < end] != ['i', 'I']:
+        if '<' + self._codes(start, end) != _STAMP.format:
             raise ValueError(f'cdr: {path} is not a builtin_interfaces/Time')
         return Field(start, _STAMP)
 
