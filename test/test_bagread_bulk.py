@@ -133,7 +133,7 @@ def test_a_damaged_chunk_ends_the_readable_part(tmp_path: Path) -> None:
         chunks = make_reader(stream).get_summary().chunk_indexes
     middle = chunks[len(chunks) // 2]
     mcap_file = damaged_copy(src, tmp_path / 'bad',
-                     flip=middle.chunk_start_offset + middle.chunk_length - 20)
+                             flip=middle.chunk_start_offset + middle.chunk_length - 20)
     before = damaged_copy(src, tmp_path / 'before', keep=middle.chunk_start_offset)
     count = sum(1 for _ in iter_messages(before, {}))
     ours: dict = {}

@@ -51,8 +51,9 @@ def test_the_start_up_to_the_first_joint_states_loads_no_tool_module():
     assert _run(START.format(tools=TOOLS_ONLY)) == '[]'
 
 
-#: After START with tools=('scipy.linalg',): whether numba's target saw BLAS, and that
-#: scipy.linalg imports and works afterwards; with it, how many kernels were compiled.
+#: After START with tools=('scipy.linalg',): what the start loaded of it, whether numba's
+#: target saw BLAS, that scipy.linalg imports and works afterwards, whether the start
+#: compiled any kernel.
 AFTER_START = ('import scipy.linalg, numpy as np\n'
                'from screwgear_ros.warmup import compiled_now\n'
                'from numba.np.arraymath import _HAVE_BLAS\n'

@@ -22,9 +22,10 @@ callbacks never run concurrently. The session's queue is guarded by its own lock
 the session, the RunIO, the pacer, the rate limiter and the health record belong
 to the pacing thread, except ``RunIO.submit_change``, which the parameter callback
 calls to render a change's YAML and URDF off the pacing thread and submit it (the texts
-are handed over under RunIO's own lock). ``_gate`` is thread-safe, and so is ``_stop`` (a threading.Event that the
-signal thread of :func:`~screwgear_ros.ros.shutdown.stop_on_signals`, a failed pacing
-thread and ``close()`` set; never a signal handler). Nothing is ever set to None.
+are handed over under RunIO's own lock). ``_gate`` is thread-safe, and so is ``_stop``
+(a threading.Event that the signal thread of
+:func:`~screwgear_ros.ros.shutdown.stop_on_signals`, a failed pacing thread and
+``close()`` set; never a signal handler). Nothing is ever set to None.
 """
 
 from __future__ import annotations

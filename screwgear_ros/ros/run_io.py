@@ -18,9 +18,9 @@ stays small; they too are CDR bytes, from a template per look
 
 Threads: :meth:`submit_change` and its :meth:`prepare` run on the node's executor
 thread (they render a parameter change's run_parameters YAML and URDF before the change
-is submitted, and hand them over under ``_rendered_lock``); :meth:`topic_specs` and :meth:`open_recorder` run before
-the session ticks; every other method runs on the one thread that ticks the session
-(the node's pacing thread).
+is submitted, and hand them over under ``_rendered_lock``); :meth:`topic_specs` and
+:meth:`open_recorder` run before the session ticks; every other method runs on the one
+thread that ticks the session (the node's pacing thread).
 """
 
 from __future__ import annotations
