@@ -29,9 +29,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from scipy.integrate._ivp import dop853_coefficients as _tableau
 
+from .jit import allocating_kernel, kernel
 from .model import rhs
 
 #: Stages of the 8th-order step (the 13th evaluation is f at the new point, reused).
@@ -57,7 +57,7 @@ MAX_STEPS = 50_000_000
 N = 6
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _f(t, y, out, k, p, ste_amp, ste_phase, torque, direction, load):
     """out[k, :] = f(t, y) through the model's compiled rhs."""
     d = rhs(t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase,
@@ -70,13 +70,13 @@ def _f(t, y, out, k, p, ste_amp, ste_phase, torque, direction, load):
     out[k, 5] = d[5]
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _spacing(t):
     """Distance from t to the next larger float (t ≥ 0 here)."""
     return np.nextafter(t, np.inf) - t
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _initial_step(t0, y0, k, t_span, p, ste_amp, ste_phase, torque, direction, load,
                   rtol, atol, y1):
     """Hairer's starting step (Solving ODEs I, §II.4), k[0] = f(t0, y0) given; uses
@@ -110,7 +110,7 @@ def _initial_step(t0, y0, k, t_span, p, ste_amp, ste_phase, torque, direction, l
     return h
 
 
-@njit(cache=True, error_model="numpy")
+@allocating_kernel
 def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load,
               rtol, atol, a, b, c, e3, e5, max_steps):
     """Integrate y' = rhs(t, y) from (t0, y0) through the sorted times ``t_out``

@@ -48,9 +48,9 @@ from dataclasses import dataclass
 from typing import Iterable, Mapping, Sequence
 
 import numpy as np
-from numba import njit
 
 from .events import Command, Event
+from .jit import kernel
 from .model import (B, C, CONVENTIONAL, CT, I1, I2, I3, MODE, PHASE, PHASE_TIME, R1, R3, TP,
                     Z1, Z3, applied_torques, branch_force, branch_penetration, contact_branch,
                     mesh_motion, mesh_phase, mesh_stiffness_slope, pack)
@@ -232,7 +232,7 @@ def audit(trace: Trace) -> EnergyAudit:
     return EnergyAudit(t, kinetic, potential, **works)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _powers(t: np.ndarray, y: np.ndarray, p: np.ndarray, ste_amp: np.ndarray,
             ste_phase: np.ndarray, torque: float, direction: float, power: np.ndarray,
             stored: np.ndarray) -> None:

@@ -23,6 +23,7 @@ from tqdm import tqdm
 
 from . import normalized, rk
 from .batch import Coefficients, integrate
+from .jit import OPTIONS, inline_kernel
 
 #: Default largest step in τ: 0.05 of the unit natural period 2π (~126 steps per
 #: natural period; RK4 error over a period ~1e-7).
@@ -42,7 +43,7 @@ _rhs = njit(error_model='numpy', inline='always')(
     getattr(normalized.rhs, 'py_func', normalized.rhs))     # plain with NUMBA_DISABLE_JIT=1
 
 
-@njit(cache=True, error_model='numpy', inline='always')
+@inline_kernel
 def _fundamental_slope(tau: float, y: tuple[float, float, float, float],
                        args: tuple) -> tuple[float, float, float, float]:
     """d/dτ of two solutions of the equation side by side, y = (x, x', x̃, x̃'):
@@ -57,7 +58,7 @@ def _fundamental_slope(tau: float, y: tuple[float, float, float, float],
 _THREAD_CHUNK = 16
 
 
-@njit(cache=True, error_model='numpy', parallel=True)
+@njit(parallel=True, **OPTIONS)
 def _monodromy_kernel(coefficients: np.ndarray, n_steps: int, out: np.ndarray) -> None:
     """out[i] = M of the homogeneous equation with the packed coefficients
     ``coefficients[i]`` (:data:`normalized.KERNEL` layout, forcing zero): ``n_steps``

@@ -32,9 +32,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from . import rk
+from .jit import inline_kernel, kernel
 from .model import (ContactBranch, DrivePiece, active_speed, contact_branches, drive_piece,
                     motion, outputs)
 
@@ -50,7 +50,7 @@ MAX_BISECTIONS = 60
 BY_LAW = (ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE)
 
 
-@njit(cache=True, error_model="numpy", inline='always')
+@inline_kernel
 def _slope(t, y, args):
     """dy/dt with the meshes and the drive held on the pieces args[6] = (branch of mesh 1,
     branch of mesh 3, drive piece)."""
@@ -60,7 +60,7 @@ def _slope(t, y, args):
     return (y[3], y[4], y[5], a1, a2, a3)
 
 
-@njit(cache=True, error_model="numpy", inline='always')
+@inline_kernel
 def _law(t, y, p, ste_amp, ste_phase, torque, direction, load):
     """dy/dt by the contact law and drive line themselves, and the pieces they are on."""
     a1, a2, a3, _, _, _, _, _, branch_1, branch_3, drive = motion(
@@ -69,7 +69,7 @@ def _law(t, y, p, ste_amp, ste_phase, torque, direction, load):
     return (y[3], y[4], y[5], a1, a2, a3), (branch_1, branch_3, drive)
 
 
-@njit(cache=True, error_model="numpy", inline='always')
+@inline_kernel
 def _pieces(t, y, p, ste_amp, ste_phase, torque, direction):
     """The pieces the law is on at (t, y), without the slope."""
     branch_1, branch_3 = contact_branches(t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp,
@@ -77,12 +77,12 @@ def _pieces(t, y, p, ste_amp, ste_phase, torque, direction):
     return branch_1, branch_3, drive_piece(torque, active_speed(y[3], y[5], direction, p), p)
 
 
-@njit(cache=True, error_model="numpy", inline='always')
+@inline_kernel
 def _same(a, b):
     return a[0] == b[0] and a[1] == b[1] and a[2] == b[2]
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _locate(t, h, y0, f0, y1, f1, p, ste_amp, ste_phase, torque, direction, held, after):
     """First instant t + θ·h at which the law leaves the ``held`` pieces, on the Hermite
     interpolant of the step (y0, f0) → (y1, f1), by bisection: (θ just past the change,
@@ -101,7 +101,7 @@ def _locate(t, h, y0, f0, y1, f1, p, ste_amp, ste_phase, torque, direction, held
     return hi, after
 
 
-@njit(cache=True, error_model="numpy", inline='always')
+@inline_kernel
 def _located_step(t0, t_end, dt, y, slope, held, p, ste_amp, ste_phase, torque, direction,
                   load):
     """One step from t0 to t_end = t0 + dt with changes located (module docstring).
@@ -130,7 +130,7 @@ def _located_step(t0, t_end, dt, y, slope, held, p, ste_amp, ste_phase, torque, 
     return y, slope, held, MAX_CHANGES    # not reached
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def advance(state: np.ndarray, step0: int, n: int, dt: float, p: np.ndarray,
             ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float, direction: float,
             load: float, locate: bool = True) -> int:
@@ -162,7 +162,7 @@ def advance(state: np.ndarray, step0: int, n: int, dt: float, p: np.ndarray,
 OBSERVED = 15
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def observe(state: np.ndarray, out: np.ndarray, t: float, p: np.ndarray, ste_amp: np.ndarray,
             ste_phase: np.ndarray, torque: float, direction: float, load: float) -> None:
     """``out`` (float64[OBSERVED]) = the state, then :func:`~screwgear_ros.model.outputs`
@@ -174,7 +174,7 @@ def observe(state: np.ndarray, out: np.ndarray, t: float, p: np.ndarray, ste_amp
         out[6 + k] = o[k]
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def advance_observed(state: np.ndarray, backup: np.ndarray, out: np.ndarray, step0: int,
                      n: int, dt: float, p: np.ndarray, ste_amp: np.ndarray,
                      ste_phase: np.ndarray, torque: float, direction: float, load: float,
@@ -201,7 +201,7 @@ def advance_observed(state: np.ndarray, backup: np.ndarray, out: np.ndarray, ste
     return located
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def trajectory(state: np.ndarray, step0: int, dt: float, stride: int, out: np.ndarray,
                p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
                direction: float, load: float, locate: bool = True) -> int:

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 from enum import IntEnum
 
 import numpy as np
-from numba import njit
 
 from .declare import kernel_fields
+from .jit import kernel
 from .params import (MeshFormulation, MeshPhase, Mode, TableParams, effective_stiffness,
                      ste_slope)
 
@@ -96,7 +96,7 @@ def pack(params: TableParams) -> PackedModel:
                        np.array(params.ste_phases, dtype=np.float64))
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def mesh_phase(theta_pinion: float, omega_pinion: float, teeth: float, t: float,
                p: np.ndarray) -> tuple[float, float]:
     """Mesh phase φ (rad) and its rate φ̇ (rad/s): z·θ (`angle`) or ω_e·t (`time`)."""
@@ -105,7 +105,7 @@ def mesh_phase(theta_pinion: float, omega_pinion: float, teeth: float, t: float,
     return teeth * theta_pinion, teeth * omega_pinion
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def static_transmission_error(phi: float, ste_amp: np.ndarray,
                               ste_phase: np.ndarray) -> tuple[float, float]:
     """ε(φ) = Σ ε_n·sin(n·φ + ϕ_n), m, and its derivative dε/dφ, m/rad."""
@@ -118,13 +118,13 @@ def static_transmission_error(phi: float, ste_amp: np.ndarray,
     return eps, deps
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def mesh_stiffness(phi: float, p: np.ndarray) -> float:
     """K(φ) = k_eff + k_a·cos(φ + ϕ_k), N/m."""
     return p[K_EFF] + p[K_A] * math.cos(phi + p[PHI_K])
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def contact_branch(delta: float, delta_dot: float, stiffness: float, damping: float,
                    backlash: float) -> ContactBranch:
     """The branch of the contact law a mesh is on at total transmission error δ (m) and
@@ -145,7 +145,7 @@ def contact_branch(delta: float, delta_dot: float, stiffness: float, damping: fl
     return ContactBranch.GAP
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def branch_force(branch: ContactBranch, delta: float, delta_dot: float, stiffness: float,
                  damping: float, backlash: float) -> float:
     """Mesh force F, N, on a given branch of the contact law (smooth in the state)."""
@@ -158,7 +158,7 @@ def branch_force(branch: ContactBranch, delta: float, delta_dot: float, stiffnes
     return 0.0
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def mesh_force(delta: float, delta_dot: float, stiffness: float, damping: float,
                backlash: float) -> float:
     """Mesh force F along the line of action, N, for total transmission error δ (m).
@@ -172,7 +172,7 @@ def mesh_force(delta: float, delta_dot: float, stiffness: float, damping: float,
                         delta, delta_dot, stiffness, damping, backlash)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def mesh_state(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,
                theta2: float, omega2: float, t: float, p: np.ndarray, ste_amp: np.ndarray,
                ste_phase: np.ndarray) -> tuple[float, float, float]:
@@ -186,7 +186,7 @@ def mesh_state(theta_pinion: float, omega_pinion: float, radius_pinion: float, t
     return delta, delta_dot, mesh_force(delta, delta_dot, stiffness, p[C], p[B])
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def mesh_motion(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,
                 theta2: float, omega2: float, t: float, p: np.ndarray, ste_amp: np.ndarray,
                 ste_phase: np.ndarray) -> tuple[float, float, float, float, float]:
@@ -199,7 +199,7 @@ def mesh_motion(theta_pinion: float, omega_pinion: float, radius_pinion: float, 
     return phi, deps, delta, delta_dot, mesh_stiffness(phi, p)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def branch_penetration(branch: ContactBranch, delta: float, backlash: float) -> float:
     """f(δ), m, on a given branch: δ (linear), δ ∓ b on or lifting off a flank, 0 in
     the gap (on the branch :func:`contact_branch` gives, the spring's deflection at δ)."""
@@ -212,13 +212,13 @@ def branch_penetration(branch: ContactBranch, delta: float, backlash: float) -> 
     return 0.0
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def mesh_stiffness_slope(phi: float, p: np.ndarray) -> float:
     """dK/dφ = −k_a·sin(φ + ϕ_k), N/m per rad."""
     return -p[K_A] * math.sin(phi + p[PHI_K])
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def mesh_load(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,
               theta2: float, omega2: float, t: float, p: np.ndarray, ste_amp: np.ndarray,
               ste_phase: np.ndarray) -> tuple[float, float]:
@@ -230,7 +230,7 @@ def mesh_load(theta_pinion: float, omega_pinion: float, radius_pinion: float, te
     return force, load
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def mesh_load_on(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,
                  theta2: float, omega2: float, t: float, p: np.ndarray, ste_amp: np.ndarray,
                  ste_phase: np.ndarray,
@@ -257,7 +257,7 @@ def mesh_load_on(theta_pinion: float, omega_pinion: float, radius_pinion: float,
                    + 0.5 * teeth * mesh_stiffness_slope(phi, p) * f * f), branch
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def drive_line(torque: float, speed: float, p: np.ndarray) -> float:
     """Drive torque delivered, N·m, for command ``torque`` at the active pinion's speed
     ``speed`` (rad/s, positive in the sense it drives): the smaller of the command and
@@ -267,7 +267,7 @@ def drive_line(torque: float, speed: float, p: np.ndarray) -> float:
     return drive_on(drive_piece(torque, speed, p), torque, speed, p)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def drive_piece(torque: float, speed: float, p: np.ndarray) -> DrivePiece:
     """The piece of :func:`drive_line` that delivers command ``torque`` at ``speed``."""
     if p[WNL] <= 0.0 or torque <= 0.0:
@@ -275,7 +275,7 @@ def drive_piece(torque: float, speed: float, p: np.ndarray) -> DrivePiece:
     return DrivePiece.COMMAND if torque <= p[TS] * (1.0 - speed / p[WNL]) else DrivePiece.LINE
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def drive_on(piece: DrivePiece, torque: float, speed: float, p: np.ndarray) -> float:
     """Drive torque delivered, N·m, on a given piece of :func:`drive_line`."""
     if piece == DrivePiece.LINE:
@@ -283,7 +283,7 @@ def drive_on(piece: DrivePiece, torque: float, speed: float, p: np.ndarray) -> f
     return torque
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def active_speed(w1: float, w3: float, direction: float, p: np.ndarray) -> float:
     """Speed of the driving pinion in the sense it drives, rad/s: d·ω1 (`conventional`),
     ω1 (path 1) or −ω3 (path 3, `anti_backlash`)."""
@@ -292,7 +292,7 @@ def active_speed(w1: float, w3: float, direction: float, p: np.ndarray) -> float
     return w1 if direction > 0.0 else -w3
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def applied_torques(t: float, w1: float, w3: float, torque: float, direction: float,
                     p: np.ndarray) -> tuple[float, float]:
     """Torques (T1, T3) on pinions 1 and 3, N·m, with the drive's torque–speed line:
@@ -300,7 +300,7 @@ def applied_torques(t: float, w1: float, w3: float, torque: float, direction: fl
     return applied_torques_on(DrivePiece.FROM_STATE, t, w1, w3, torque, direction, p)[:2]
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def applied_torques_on(piece: DrivePiece, t: float, w1: float, w3: float, torque: float,
                        direction: float, p: np.ndarray) -> tuple[float, float, DrivePiece]:
     """:func:`applied_torques` with the drive on ``piece`` (DrivePiece.FROM_STATE: the
@@ -312,7 +312,7 @@ def applied_torques_on(piece: DrivePiece, t: float, w1: float, w3: float, torque
     return t1, t3, piece
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def drive_torques(t: float, torque: float, direction: float,
                   p: np.ndarray) -> tuple[float, float]:
     """Torques (T1, T3) on pinions 1 and 3, N·m, for the commanded drive.
@@ -329,7 +329,7 @@ def drive_torques(t: float, torque: float, direction: float,
     return p[TP], -p[TP] - drive
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def motion(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
            p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
            direction: float, load: float, branch_1: ContactBranch, branch_3: ContactBranch,
@@ -360,7 +360,7 @@ def motion(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w
             branch_1, branch_3, drive)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def rhs(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
         p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
         direction: float, load: float) -> tuple[float, float, float, float, float, float]:
@@ -371,7 +371,7 @@ def rhs(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: 
     return w1, w2, w3, a1, a2, a3
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def contact_branches(t: float, th1: float, th2: float, th3: float, w1: float, w2: float,
                      w3: float, p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray
                      ) -> tuple[ContactBranch, ContactBranch]:
@@ -383,7 +383,7 @@ def contact_branches(t: float, th1: float, th2: float, th3: float, w1: float, w2
     return contact_branch(d1, dd1, k1, p[C], p[B]), contact_branch(d3, dd3, k3, p[C], p[B])
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def outputs(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
             p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
             direction: float, load: float

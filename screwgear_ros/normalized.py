@@ -17,10 +17,10 @@ from typing import Any, Mapping
 
 import numpy as np
 import yaml
-from numba import njit
 
 from . import rk
 from .declare import ParameterError, kernel_fields, parameter, validate, yaml_lines
+from .jit import inline_kernel, kernel
 from .params import (TableParams, effective_stiffness, equivalent_mass, mean_mesh_force,
                      natural_frequency)
 
@@ -105,7 +105,7 @@ def from_table(p: TableParams, drive_torque: float, length_scale: float = 1e-6,
         initial_displacement=initial_displacement, initial_velocity=initial_velocity)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def rhs(tau: float, x: float, v: float, c: np.ndarray, fa: np.ndarray,
         phases: np.ndarray) -> tuple[float, float]:
     """(x', x'') of the normalized equation at dimensionless time τ."""
@@ -119,13 +119,13 @@ def rhs(tau: float, x: float, v: float, c: np.ndarray, fa: np.ndarray,
     return v, forcing - 2.0 * c[ZETA] * v - stiffness * x
 
 
-@njit(cache=True, error_model="numpy", inline='always')
+@inline_kernel
 def slope(tau: float, y: tuple[float, float], args: tuple) -> tuple[float, float]:
     """(x', x'') at τ of the state y = (x, x'); args = (c, fa, phases): :func:`rhs`."""
     return rhs(tau, y[0], y[1], args[0], args[1], args[2])
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def integrate(x0: float, v0: float, tau0: float, dtau: float, stride: int, out: np.ndarray,
               c: np.ndarray, fa: np.ndarray, phases: np.ndarray) -> None:
     """Fixed-step RK4 (:func:`screwgear_ros.rk.step`); out[j] = (x, x') after

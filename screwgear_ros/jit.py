@@ -1,0 +1,37 @@
+"""How the core's numba kernels are compiled: the options, declared once.
+
+Every kernel is cached (compiled once, at install time by :mod:`screwgear_ros.warmup`,
+and loaded by every later process) and uses NumPy's error model (a division by zero
+gives inf or nan, which the plant's fault check catches, instead of raising).
+
+A kernel that allocates no array (:data:`kernel`, :data:`inline_kernel`: the model, the
+node's RK4, the reference's steps) is also compiled without numba's reference counting
+of arrays (``_nrt=False``, numba's runtime switched off for it). Every array such a
+kernel touches was made by its caller, who keeps it alive for the whole call, so the
+counts it would keep change nothing, and keeping them cost most of an RK4 step: each
+call of one kernel from another, and each tuple of arrays, counted the arrays up and
+down with atomic instructions that numba's pruning cannot remove across the contact
+law's branches (numba issue #2350). The same step with and without the counts gives
+the same bits (test_jit); without them it takes about a quarter of the time (the
+paper's table at rest, dt 50 µs: 0.26 µs a step against 1.0 µs, in one process). A
+kernel that allocates (:data:`allocating_kernel`) keeps
+the runtime: numba refuses to compile an allocation without it, so a kernel that
+starts to allocate cannot keep the wrong decorator unnoticed.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+#: Options of every kernel.
+OPTIONS = {'cache': True, 'error_model': 'numpy'}
+#: Options of a kernel that allocates no array.
+NO_ALLOCATION = {**OPTIONS, '_nrt': False}
+
+#: Decorators: a kernel that allocates nothing, the same inlined into its callers (which
+#: compile it with their own options), and a kernel that allocates.
+kernel = njit(**NO_ALLOCATION)
+inline_kernel = njit(inline='always', **NO_ALLOCATION)
+allocating_kernel = njit(**OPTIONS)
+
+__all__ = ['OPTIONS', 'NO_ALLOCATION', 'kernel', 'inline_kernel', 'allocating_kernel']
