@@ -202,6 +202,28 @@ def advance_observed(state: np.ndarray, backup: np.ndarray, out: np.ndarray, ste
 
 
 @kernel
+def advance_ticks(state: np.ndarray, backup: np.ndarray, rows: np.ndarray, step0: int,
+                  ticks: int, n: int, dt: float, p: np.ndarray, ste_amp: np.ndarray,
+                  ste_phase: np.ndarray, torque: float, direction: float, load: float,
+                  locate: bool = True) -> tuple[int, int, bool]:
+    """``ticks`` ticks of n steps in one call: what as many calls of
+    :func:`advance_observed` do (the same calls, bit for bit), ``rows[i]`` (float64,
+    OBSERVED wide) getting tick i's ``out``. Stops after a tick that faults (its row
+    observes the state put back, at its first step). Returns (ticks done, changes
+    located by the ticks that did not fault, whether the last one faulted)."""
+    located = 0
+    step = step0
+    for i in range(ticks):
+        changes = advance_observed(state, backup, rows[i], step, n, dt, p, ste_amp, ste_phase,
+                                   torque, direction, load, locate)
+        if changes < 0:
+            return i + 1, located, True
+        located += changes
+        step += n
+    return ticks, located, False
+
+
+@kernel
 def trajectory(state: np.ndarray, step0: int, dt: float, stride: int, out: np.ndarray,
                p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
                direction: float, load: float, locate: bool = True) -> int:
@@ -214,8 +236,10 @@ def trajectory(state: np.ndarray, step0: int, dt: float, stride: int, out: np.nd
     for j in range(out.shape[0]):
         located += advance(state, step0 + j * stride, stride, dt, p, ste_amp, ste_phase,
                            torque, direction, load, locate)
-        out[j, :] = state
+        for i in range(6):
+            out[j, i] = state[i]
     return located
 
 
-__all__ = ['MAX_CHANGES', 'OBSERVED', 'advance', 'advance_observed', 'observe', 'trajectory']
+__all__ = ['MAX_CHANGES', 'OBSERVED', 'advance', 'advance_observed', 'advance_ticks', 'observe',
+           'trajectory']

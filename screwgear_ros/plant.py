@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .integrator import OBSERVED, advance_observed, observe
+from .integrator import OBSERVED, advance_observed, advance_ticks, observe
 from .model import PackedModel, active_path, equilibrium_state, pack
 from .params import TableParams, check_step
 
@@ -48,6 +48,12 @@ class Outputs:
     def transmission_error(self) -> float:
         """Total transmission error δ of the active path, m."""
         return self.delta[0] if self.active_path == 1 else self.delta[1]
+
+
+#: Columns of the observed vector (:data:`~screwgear_ros.integrator.OBSERVED` wide, as
+#: :meth:`Plant._unpack` reads it) holding δ1 and δ3, by active path: the transmission
+#: error of path 1 and of path 3.
+OBSERVED_DELTA = {1: 9, 3: 12}
 
 
 class Plant:
@@ -110,14 +116,41 @@ class Plant:
                                    float(self.input.direction), self.input.load,
                                    self.contact_location)
         if changes < 0:
-            self.fault = (f'state became non-finite between t = {self.time:.6f} s and '
-                          f'{(self.step + n) * self.dt:.6f} s; integration stopped at the '
-                          'last finite state (the parameters make the model itself unstable, '
-                          'e.g. a parametric resonance of the mesh stiffness)')
+            self.fault = self._fault(n)
             return False
         self.step += n
         self.contact_changes += changes
         return True
+
+    def _fault(self, n: int) -> str:
+        return (f'state became non-finite between t = {self.time:.6f} s and '
+                f'{(self.step + n) * self.dt:.6f} s; integration stopped at the last finite '
+                'state (the parameters make the model itself unstable, e.g. a parametric '
+                'resonance of the mesh stiffness)')
+
+    def advance_ticks(self, ticks: int, n: int, rows: np.ndarray) -> int:
+        """``ticks`` calls of :meth:`advance_outputs` (n steps each) in one compiled call
+        (:func:`screwgear_ros.integrator.advance_ticks`, the same calls bit for bit), for
+        replays: row i of ``rows`` (float64, at least ticks × OBSERVED) gets tick i's
+        observed vector (the state, then :func:`~screwgear_ros.model.outputs` of it;
+        :data:`OBSERVED_DELTA` has where δ1 and δ3 are). Stops after a tick that faults
+        (:attr:`fault` then says why). Returns the ticks done, 0 if the plant already
+        stands still."""
+        if self.fault is not None or ticks <= 0:
+            return 0
+        m = self._model
+        done, changes, faulted = advance_ticks(
+            self.state, self._backup, rows, self.step, ticks, n, self.dt, m.p, m.ste_amp,
+            m.ste_phase, self.input.torque, float(self.input.direction), self.input.load,
+            self.contact_location)
+        self.step += (done - 1) * n
+        if faulted:
+            self.fault = self._fault(n)
+        else:
+            self.step += n
+        self.contact_changes += changes
+        self._observed[:] = rows[done - 1]
+        return done
 
     def advance_outputs(self, n: int) -> Outputs:
         """:meth:`advance` n steps, then :meth:`outputs`, in one compiled call
@@ -132,6 +165,11 @@ class Plant:
                 self.input.torque, float(self.input.direction), self.input.load)
         return self._unpack()
 
+    def last_outputs(self) -> Outputs:
+        """The outputs the last advance observed (:meth:`outputs` without recomputing
+        them)."""
+        return self._unpack()
+
     def _unpack(self) -> Outputs:
         th1, th2, th3, w1, w2, w3, t1, table, t3, d1, dd1, f1, d3, dd3, f3 = \
             self._observed.tolist()
@@ -140,4 +178,4 @@ class Plant:
                        active_path(self._params.mode, self.input.direction))
 
 
-__all__ = ['DriveInput', 'Outputs', 'Plant']
+__all__ = ['DriveInput', 'OBSERVED_DELTA', 'Outputs', 'Plant']

@@ -25,9 +25,11 @@ import time
 from contextlib import contextmanager
 from typing import Iterator
 
+import numpy as np
+
 from .events import Command
 from .params import MeshPhase, Mode, SimSettings, TableParams
-from .session import Session
+from .session import ROW, Session
 from .status import contact_states, mesh_frequency_ratio
 
 #: The modules holding the core's compiled functions.
@@ -91,6 +93,7 @@ def warm() -> int:
                                           else 350.0), SimSettings())
             session.submit(Command('cmd_effort', [10.0]))
             session.tick()
+            session.tick_quietly(2, np.empty((2, ROW)))     # replays, check_run
             contact_states(session.plant.params, session.outputs)     # diagnostics, markers
             mesh_frequency_ratio(session.plant.params, session.outputs)
     from . import dop853, floquet, normalized
