@@ -161,17 +161,45 @@ class Template:
         self.stamps = tuple(stamps)
         self.fields = list(fields)
         self.free = list(free)
+        # The whole message as one struct: the bytes that never change between the
+        # varying fields are 's' items of it, so encode() is one pack call. _items: the
+        # pack arguments with those bytes in place; a stamp's two and a run's doubles
+        # are filled in at _stamp_items[i] and _run_items[k] = (first, count).
+        varying = sorted([(s.offset, s.codec, -1) for s in self.stamps]
+                         + [(f.offset, f.codec, k) for k, f in enumerate(self.fields)],
+                         key=lambda v: v[0])
+        formats, self._items, at = ['<'], [], 0
+        self._stamp_items: list[int] = []
+        self._run_items = [(0, 0)] * len(self.fields)
+        for offset, codec, run in varying:
+            count = len(codec.format) - 1           # one struct code per item
+            if not codec.size:
+                continue
+            if offset > at:
+                formats.append(f'{offset - at}s')
+                self._items.append(self.bytes[at:offset])
+            if run < 0:
+                self._stamp_items.append(len(self._items))
+            else:
+                self._run_items[run] = (len(self._items), count)
+            formats.append(codec.format[1:])
+            self._items.extend([0] * count)
+            at = offset + codec.size
+        if at < len(self.bytes):
+            formats.append(f'{len(self.bytes) - at}s')
+            self._items.append(self.bytes[at:])
+        self._whole = struct.Struct(''.join(formats))
 
     def encode(self, time_ns: int, *runs: Sequence[float]) -> bytes:
         """The message's CDR bytes with these stamps (ns) and these values."""
-        buf = bytearray(self.bytes)
-        if self.stamps:
+        items = self._items.copy()
+        if self._stamp_items:
             sec, nanosec = divmod(time_ns, 1_000_000_000)
-            for stamp in self.stamps:
-                _STAMP.pack_into(buf, stamp.offset, sec, nanosec)
-        for f, values in zip(self.fields, runs):
-            f.codec.pack_into(buf, f.offset, *values)
-        return bytes(buf)
+            for i in self._stamp_items:
+                items[i], items[i + 1] = sec, nanosec
+        for (i, count), values in zip(self._run_items, runs):
+            items[i:i + count] = values
+        return self._whole.pack(*items)
 
 
 def template_of(msg: Any, stamps: Sequence[Path] = (),
