@@ -18,6 +18,7 @@ import math
 import threading
 import time
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Callable
 
 
@@ -27,11 +28,16 @@ def sim_time_ns(step: int, dt: float) -> int:
     Exact (``step·dt_ns``) when dt is a whole number of nanoseconds, as every
     sensible step is; otherwise rounded to the nearest nanosecond.
     """
+    whole = _whole_ns(dt)
+    return step * whole if whole is not None else round(step * (dt * 1e9))
+
+
+@lru_cache(maxsize=16)
+def _whole_ns(dt: float) -> int | None:
+    """dt in whole nanoseconds, None if it is not one (asked per tick: remembered)."""
     dt_ns = dt * 1e9
     whole = round(dt_ns)
-    if abs(dt_ns - whole) <= 1e-6 * max(1.0, dt_ns):
-        return step * whole
-    return round(step * dt_ns)
+    return whole if abs(dt_ns - whole) <= 1e-6 * max(1.0, dt_ns) else None
 
 
 @dataclass
