@@ -68,7 +68,8 @@ class Plant:
         self.contact_location = bool(contact_location)
         self.contact_changes = 0        # located inside steps so far (contact_location)
         self.step = 0
-        self.input = DriveInput()
+        self._input = DriveInput()
+        self._path = active_path(params.mode, 1)     # of the parameters and the input
         self.state = (equilibrium_state(params) if initial_state is None
                       else np.array(initial_state, dtype=np.float64))
         self.fault: str | None = None
@@ -79,6 +80,11 @@ class Plant:
     @property
     def params(self) -> TableParams:
         return self._params
+
+    @property
+    def input(self) -> DriveInput:
+        """The input in force (:meth:`set_input` changes it)."""
+        return self._input
 
     @property
     def time(self) -> float:
@@ -96,10 +102,12 @@ class Plant:
         check_step(params, self.dt)
         self._params = params
         self._model = pack(params)
+        self._path = active_path(params.mode, self._input.direction)
 
     def set_input(self, drive: DriveInput) -> None:
         """Apply a validated input from the next step on."""
-        self.input = drive
+        self._input = drive
+        self._path = active_path(self._params.mode, drive.direction)
 
     def reset(self) -> None:
         """Back to the preload equilibrium at rest, keeping the simulation time."""
@@ -112,8 +120,8 @@ class Plant:
             return False
         m = self._model
         changes = advance_observed(self.state, self._backup, self._observed, self.step, n,
-                                   self.dt, m.p, m.ste_amp, m.ste_phase, self.input.torque,
-                                   float(self.input.direction), self.input.load,
+                                   self.dt, m.p, m.ste_amp, m.ste_phase, self._input.torque,
+                                   float(self._input.direction), self._input.load,
                                    self.contact_location)
         if changes < 0:
             self.fault = self._fault(n)
@@ -141,7 +149,7 @@ class Plant:
         m = self._model
         done, changes, faulted = advance_ticks(
             self.state, self._backup, rows, self.step, ticks, n, self.dt, m.p, m.ste_amp,
-            m.ste_phase, self.input.torque, float(self.input.direction), self.input.load,
+            m.ste_phase, self._input.torque, float(self._input.direction), self._input.load,
             self.contact_location)
         self.step += (done - 1) * n
         if faulted:
@@ -162,7 +170,7 @@ class Plant:
         """Joint and mesh quantities of the current state (and input)."""
         m = self._model
         observe(self.state, self._observed, self.time, m.p, m.ste_amp, m.ste_phase,
-                self.input.torque, float(self.input.direction), self.input.load)
+                self._input.torque, float(self._input.direction), self._input.load)
         return self._unpack()
 
     def last_outputs(self) -> Outputs:
@@ -175,7 +183,7 @@ class Plant:
             self._observed.tolist()
         return Outputs(self.time, self.step, (th1, th2, th3), (w1, w2, w3), (t1, table, t3),
                        (d1, d3), (dd1, dd3), (f1, f3),
-                       active_path(self._params.mode, self.input.direction))
+                       self._path)
 
 
 __all__ = ['DriveInput', 'OBSERVED_DELTA', 'Outputs', 'Plant']

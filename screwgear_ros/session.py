@@ -159,7 +159,7 @@ class Session:
 
     def _time_out(self, start: int, applied: list[Event], notices: list[str]) -> None:
         """command_timeout (module docstring), at the tick's first step."""
-        if any(isinstance(e, Command) for e in applied):
+        if applied and any(isinstance(e, Command) for e in applied):
             self._last_command, self.timed_out = start, False
             return
         if (self.timed_out or self._timeout_steps is None

@@ -184,7 +184,7 @@ def reference_outputs(run: RecordedRun, replayed: ReplayedOutputs,
             plant = plants[id(params)] = Plant(params, run.dt)
         plant.state[:] = states[piece][step]
         plant.step = step
-        plant.input = drive
+        plant.set_input(drive)
         rows[i] = row_of(plant.outputs())
     return rows[:, :9], rows[:len(run.transmission_error), 9]
 
