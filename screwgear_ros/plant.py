@@ -69,7 +69,7 @@ class Plant:
         self.contact_changes = 0        # located inside steps so far (contact_location)
         self.step = 0
         self._input = DriveInput()
-        self._path = active_path(params.mode, 1)     # of the parameters and the input
+        self._path = active_path(params.mode, self._input.direction)   # of both
         self.state = (equilibrium_state(params) if initial_state is None
                       else np.array(initial_state, dtype=np.float64))
         self.fault: str | None = None
