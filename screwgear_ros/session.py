@@ -45,6 +45,9 @@ from .integrator import OBSERVED
 from .plant import OBSERVED_DELTA, DriveInput, Outputs, Plant
 
 
+#: Ticks per compiled call of :meth:`Session.tick_quietly` (its scratch rows: 0.5 MB).
+QUIET_TICKS_PER_CALL = 4096
+
 #: Columns of an output row (:meth:`Session.tick_quietly`, replays): the joint_states
 #: row (θ, ω, effort of the three joints), the transmission error, the step.
 ROW = 11
@@ -96,6 +99,7 @@ class Session:
         self._last_command = self.start_step   # step of the last accepted command
         self._lock = threading.Lock()          # guards _pending only
         self._pending: list[Event] = []
+        self._observed: np.ndarray | None = None   # tick_quietly's rows, made on first use
         self.outputs: Outputs = self.plant.outputs()
 
     def _use(self, settings: SimSettings) -> None:
@@ -177,7 +181,8 @@ class Session:
     def tick_quietly(self, n: int, values: np.ndarray) -> int:
         """Up to ``n`` ticks that take no event, for replays that sample every tick: the
         plant does exactly what ``n`` calls of :meth:`tick` would make it do (the same
-        calls, bit for bit), without a :class:`Tick` each. Row i of ``values`` (float64,
+        calls, bit for bit), without a :class:`Tick` each, up to
+        ``QUIET_TICKS_PER_CALL`` ticks per compiled call (:meth:`Plant.advance_ticks`). Row i of ``values`` (float64,
         at least n × ROW) gets tick i's outputs: θ(3) rad, ω(3) rad/s, effort(3) N·m,
         transmission error m, and the step they are at (exact in float64; a faulted
         plant's time stands still); :attr:`outputs` is the last one's.
@@ -200,16 +205,23 @@ class Session:
             self.outputs = plant.advance_outputs(self._steps)
             values[:n, :ROW] = row_of(self.outputs)
             return n
-        step0 = plant.step
-        observed = np.empty((n, OBSERVED))
-        done = plant.advance_ticks(n, self._steps, observed)     # one compiled call
+        if self._observed is None:
+            self._observed = np.empty((QUIET_TICKS_PER_CALL, OBSERVED))
+        delta = OBSERVED_DELTA[self.outputs.active_path]     # no event: the path stays
+        done = 0
+        while done < n and plant.fault is None:
+            step0 = plant.step
+            k = plant.advance_ticks(min(n - done, QUIET_TICKS_PER_CALL), self._steps,
+                                    self._observed)                  # one compiled call
+            rows, observed = values[done:done + k], self._observed[:k]
+            rows[:, :9] = observed[:, :9]         # ROW (row_of): θ, ω, effort, TE, step
+            rows[:, 9] = observed[:, delta]
+            rows[:, 10] = step0 + self._steps * np.arange(1, k + 1)
+            if plant.fault is not None:      # the last tick faulted: its time stood still
+                rows[k - 1, 10] = plant.step
+            done += k
         self.outputs = plant.last_outputs()
-        values[:done, :9] = observed[:done, :9]
-        values[:done, 9] = observed[:done, OBSERVED_DELTA[self.outputs.active_path]]
-        values[:done, 10] = step0 + self._steps * np.arange(1, done + 1)
-        if plant.fault is not None:          # the last tick faulted: its time stood still
-            values[done - 1, 10] = plant.step
         return done
 
 
-__all__ = ['ROW', 'row_of', 'Session', 'Tick']
+__all__ = ['QUIET_TICKS_PER_CALL', 'ROW', 'row_of', 'Session', 'Tick']

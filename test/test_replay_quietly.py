@@ -22,7 +22,8 @@ from screwgear_ros.events import Command, ParameterChange, Reset
 from screwgear_ros.params import MeshPhase, Mode, SimSettings, TableParams, natural_frequency
 from screwgear_ros.runs.bagread import read_run
 from screwgear_ros.runs.replay import Schedule, load_scenario, replay_in_process
-from screwgear_ros.session import ROW, Session, row_of
+from screwgear_ros import session as session_module
+from screwgear_ros.session import QUIET_TICKS_PER_CALL, ROW, Session, row_of
 
 DATA = Path(__file__).parent / 'data'
 BAGS = ['steady_drive', 'reversals_anti_backlash', 'reversals_conventional',
@@ -74,8 +75,11 @@ def _both(schedule: Schedule, ticks: int) -> tuple[np.ndarray, np.ndarray, int, 
     return rows[0], rows[1], quietly, timeouts
 
 
+@pytest.mark.parametrize('block', [QUIET_TICKS_PER_CALL, 7])
 @pytest.mark.parametrize('name', BAGS)
-def test_the_test_scenarios_tick_quietly_as_by_tick(name: str) -> None:
+def test_the_test_scenarios_tick_quietly_as_by_tick(name: str, block: int, monkeypatch) -> None:
+    """Also with 7 ticks per compiled call: every quiet stretch spans many calls."""
+    monkeypatch.setattr(session_module, 'QUIET_TICKS_PER_CALL', block)
     schedule = load_scenario(DATA / 'scenarios' / f'{name}.yaml')
     ticks = schedule.end_step // schedule.settings.steps_per_publish
     a, b, quietly, _ = _both(schedule, ticks)
@@ -107,10 +111,13 @@ def _diverging() -> tuple[TableParams, SimSettings]:
             SimSettings(dt=50e-6, publish_rate=200.0, command_timeout=0.0))
 
 
-def test_a_fault_and_a_reset() -> None:
+@pytest.mark.parametrize('block', [QUIET_TICKS_PER_CALL, 7])
+def test_a_fault_and_a_reset(block: int, monkeypatch) -> None:
     """A model that diverges (a parametric pump of the mesh stiffness, no mesh damping:
     test_node_fault's); tick_quietly stops after the tick that faulted, the plant stands
-    still, then a detuning change and a reset revive it, all as tick() does."""
+    still, then a detuning change and a reset revive it, all as tick() does; also with 7
+    ticks per compiled call (the fault then comes in a later call than the first)."""
+    monkeypatch.setattr(session_module, 'QUIET_TICKS_PER_CALL', block)
     params, settings = _diverging()
     probe = Session(params, settings)
     rows = np.empty((4000, ROW))
