@@ -51,7 +51,7 @@ class Outputs:
 
 
 #: Columns of the observed vector (:data:`~screwgear_ros.integrator.OBSERVED` wide, as
-#: :meth:`Plant._unpack` reads it) holding δ1 and δ3, by active path: the transmission
+#: :meth:`Plant.last_outputs` reads it) holding δ1 and δ3, by active path: the transmission
 #: error of path 1 and of path 3.
 OBSERVED_DELTA = {1: 9, 3: 12}
 
@@ -151,11 +151,9 @@ class Plant:
             self.state, self._backup, rows, self.step, ticks, n, self.dt, m.p, m.ste_amp,
             m.ste_phase, self._input.torque, float(self._input.direction), self._input.load,
             self.contact_location)
-        self.step += (done - 1) * n
+        self.step += (done - faulted) * n       # a faulted tick's time stands still
         if faulted:
             self.fault = self._fault(n)
-        else:
-            self.step += n
         self.contact_changes += changes
         self._observed[:] = rows[done - 1]
         return done
@@ -164,26 +162,22 @@ class Plant:
         """:meth:`advance` n steps, then :meth:`outputs`, in one compiled call
         (:func:`screwgear_ros.integrator.advance_observed` computes the outputs of the
         state it leaves): what a tick does."""
-        return self._unpack() if self.advance(n) else self.outputs()
+        return self.last_outputs() if self.advance(n) else self.outputs()
 
     def outputs(self) -> Outputs:
         """Joint and mesh quantities of the current state (and input)."""
         m = self._model
         observe(self.state, self._observed, self.time, m.p, m.ste_amp, m.ste_phase,
                 self._input.torque, float(self._input.direction), self._input.load)
-        return self._unpack()
+        return self.last_outputs()
 
     def last_outputs(self) -> Outputs:
-        """The outputs the last advance observed (:meth:`outputs` without recomputing
-        them)."""
-        return self._unpack()
-
-    def _unpack(self) -> Outputs:
+        """The outputs the last advance (or :meth:`outputs`) observed, without computing
+        them again."""
         th1, th2, th3, w1, w2, w3, t1, table, t3, d1, dd1, f1, d3, dd3, f3 = \
             self._observed.tolist()
         return Outputs(self.time, self.step, (th1, th2, th3), (w1, w2, w3), (t1, table, t3),
-                       (d1, d3), (dd1, dd3), (f1, f3),
-                       self._path)
+                       (d1, d3), (dd1, dd3), (f1, f3), self._path)
 
 
 __all__ = ['DriveInput', 'OBSERVED_DELTA', 'Outputs', 'Plant']
