@@ -181,11 +181,11 @@ class Session:
     def tick_quietly(self, n: int, values: np.ndarray) -> int:
         """Up to ``n`` ticks that take no event, for replays that sample every tick: the
         plant does exactly what ``n`` calls of :meth:`tick` would make it do (the same
-        calls, bit for bit), without a :class:`Tick` each, up to
-        ``QUIET_TICKS_PER_CALL`` ticks per compiled call (:meth:`Plant.advance_ticks`). Row i of ``values`` (float64,
-        at least n × ROW) gets tick i's outputs: θ(3) rad, ω(3) rad/s, effort(3) N·m,
-        transmission error m, and the step they are at (exact in float64; a faulted
-        plant's time stands still); :attr:`outputs` is the last one's.
+        calls, bit for bit), without a :class:`Tick` each, up to ``QUIET_TICKS_PER_CALL``
+        ticks per compiled call (:meth:`Plant.advance_ticks`). Row i of ``values``
+        (float64, at least n × ROW) gets tick i's outputs: θ(3) rad, ω(3) rad/s,
+        effort(3) N·m, transmission error m, and the step they are at (exact in float64;
+        a faulted plant's time stands still); :attr:`outputs` is the last one's.
 
         Stops before a tick that would do more than integrate: events are queued, or
         ``command_timeout`` comes due at its first step (:meth:`tick` does that one); and

@@ -1,13 +1,13 @@
-"""Serialize once: CDR bytes of the node's fixed-layout outputs, written in place.
+"""Serialize once: CDR bytes of the node's fixed-layout outputs, from templates.
 
 A ``joint_states`` message always has the same names and three values per array, a
 ``Float64`` one value, a ``Clock`` one stamp, a ``table_markers`` array the same markers
 for as long as its colours and texts stay: their CDR layout does not change. A
 :class:`Template` is the serialization of one such message, and the offsets where its
-varying fields go (the stamps and runs of doubles). Encoding is then a copy of the
-template and a few ``struct.pack_into`` calls (no message objects, no rclpy serializer),
-and the same bytes are published (rclpy publishes ``bytes`` as a serialized message)
-and handed to the recorder.
+varying fields go (the stamps and runs of doubles). Encoding is then one
+``struct.pack`` of the whole message, the template's unchanging bytes included (no
+message objects, no rclpy serializer), and the same bytes are published (rclpy
+publishes ``bytes`` as a serialized message) and handed to the recorder.
 
 :func:`template_of` writes the template of a prototype message, walking its fields in
 the order of the message definition (rclpy's ``get_fields_and_field_types``), so the
@@ -172,9 +172,9 @@ class Template:
         self._stamp_items: list[int] = []
         self._run_items = [(0, 0)] * len(self.fields)
         for offset, codec, run in varying:
-            count = len(codec.format) - 1           # one struct code per item
             if not codec.size:
                 continue
+            count = len(codec.format) - 1           # one struct code per item
             if offset > at:
                 formats.append(f'{offset - at}s')
                 self._items.append(self.bytes[at:offset])

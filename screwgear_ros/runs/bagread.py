@@ -5,8 +5,9 @@ record classes for schemas, channels and chunks, :func:`iter_messages` with ``mc
 stream reader for tools that want every message), so messages with equal log times keep
 the order the node wrote them in (which is the order it applied them), and a bag whose
 writer was killed reads up to its last complete chunk. Messages are decoded with the
-ROS 2 Jazzy CDR codec of ``rosbags``, except the ~4 per tick of fixed layout (joint_states, transmission_error, mesh_state,
-clock): a chunk's message records are located in one pass and those messages are
+ROS 2 Jazzy CDR codec of ``rosbags``, except the ~4 per tick of fixed layout
+(joint_states, transmission_error, mesh_state, clock): a chunk's message records are
+located in one pass and those messages are
 decoded in bulk with NumPy, on the layout the node writes them in
 (:class:`screwgear_ros.ros.cdr.Template`: a message is decoded that way only if every
 byte outside its stamps and values equals the template's, which fixes where they are;
