@@ -188,7 +188,7 @@ class RunIO:
     def tick(self, session: Session, tick: Tick) -> None:
         """Record what the tick applied, publish a changed path, publish its outputs."""
         dt = session.plant.dt
-        t_ns = sim_time_ns(tick.start, dt) if tick.applied else 0
+        t_ns = sim_time_ns(tick.start, dt)
         for event in tick.applied:
             if isinstance(event, ParameterChange):
                 self._parameters(session, tick.start, event.params, event.settings)
