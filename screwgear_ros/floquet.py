@@ -39,7 +39,8 @@ def steps_per_period(omega: np.ndarray | float, max_step: float = MAX_STEP) -> i
 #: :func:`normalized.rhs` itself (its Python source), compiled to be inlined here, so that
 #: the compiler sees equal cos(Ωτ + ϕ_k) calls: one for both solutions at a stage time,
 #: one for stages 1 and 2 of a step (both at τ + Δτ/2). 3 cosines a step instead of 8.
-_rhs = njit(error_model='numpy', inline='always')(
+#: Not cached: it has normalized.rhs's source and name, whose cache entries it would share.
+_rhs = njit(inline='always', **{**OPTIONS, 'cache': False})(
     getattr(normalized.rhs, 'py_func', normalized.rhs))     # plain with NUMBA_DISABLE_JIT=1
 
 
