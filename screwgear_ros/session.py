@@ -58,9 +58,10 @@ def row_of(o: Outputs) -> tuple[float, ...]:
     return (*o.position, *o.velocity, *o.effort, o.transmission_error, o.step)
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Tick:
-    """What one tick did."""
+    """What one tick did. Read-only by convention, like :class:`~screwgear_ros.plant.Outputs`
+    and for the same reason not ``frozen`` (one a tick: 0.16 µs, 0.88 µs frozen)."""
 
     start: int                          # step its events took effect at
     applied: tuple[Event, ...]          # those events, in order, ``step`` set
