@@ -82,3 +82,60 @@ def test_several_changes_in_one_tick_record_each_its_own_parameters(tmp_path):
     assert recorded == [300.0, 250.0]               # a, then b, in order
     replayed = replay_in_process(run)
     assert np.array_equal(replayed.joint_states, run.joint_states.values)
+
+
+def test_a_subscriber_that_comes_mid_run_gets_every_tick_from_its_match_on():
+    """RunIO publishes a tick's topic only once a subscription has matched it (the
+    run_io module docstring): over real DDS between two in-process nodes, a subscriber
+    that comes after the run started gets every tick's message on each of the four
+    topics from its match on. Lockstep with this test: each tick waits for its messages."""
+    from rosgraph_msgs.msg import Clock
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64
+    from ros_procs import Peer, stamp_ns, wait_until
+    from screwgear_ros.pacing import sim_time_ns
+    from screwgear_ros.ros.messages import OUTPUT_TYPES
+
+    keys = ('clock', 'joint_states', 'mesh_state', 'transmission_error')
+    topics = topic_names(namespace='/mid_run')
+    p, s = TableParams(), SimSettings()
+    session = Session(p, s)
+    session.submit(Command('cmd_torque', 5.0))     # moving: every tick's values differ
+    with Peer('run_io_publisher') as source:
+        publishers = {k: source.node.create_publisher(OUTPUT_TYPES[k][1], topics[k], 10)
+                      for k in keys}
+        io = RunIO(topics, s.joint_names, publishers)
+        io.start(session)
+        for _ in range(20):                       # nobody listens yet
+            io.tick(session, session.tick())
+        with Peer('run_io_subscriber') as sink:
+            inboxes = {
+                'clock': sink.subscribe(topics['clock'], Clock,
+                                        transform=stamp_ns),
+                'joint_states': sink.subscribe(topics['joint_states'], JointState,
+                                               transform=lambda m: (stamp_ns(m),
+                                                                    tuple(m.position))),
+                'mesh_state': sink.subscribe(topics['mesh_state'], JointState,
+                                             transform=lambda m: (stamp_ns(m),
+                                                                  tuple(m.position))),
+                'transmission_error': sink.subscribe(topics['transmission_error'], Float64,
+                                                     transform=lambda m: m.data)}
+            for k in keys:
+                wait_until(lambda: publishers[k].get_subscription_count() > 0, 10.0,
+                           f'the subscriber matching {topics[k]}')
+                wait_until(lambda: sink.node.count_publishers(topics[k]) > 0, 10.0,
+                           f'the publisher of {topics[k]} seen by the subscriber')
+            expected: dict[str, list] = {k: [] for k in keys}
+            for n in range(1, 31):
+                tick = session.tick()
+                io.tick(session, tick)
+                out, t_ns = tick.outputs, sim_time_ns(tick.outputs.step, s.dt)
+                expected['clock'].append(t_ns)
+                expected['joint_states'].append((t_ns, out.position))
+                expected['mesh_state'].append((t_ns, out.delta))
+                expected['transmission_error'].append(out.transmission_error)
+                for k in keys:
+                    wait_until(lambda: len(inboxes[k].snapshot()) >= n, 10.0,
+                               f'message {n} on {topics[k]}')
+            for k in keys:
+                assert inboxes[k].snapshot() == expected[k], k
