@@ -156,7 +156,8 @@ def test_many_chunks_read_back_through_every_index(tmp_path: Path) -> None:
                                                        name=['table'], position=[-k * 0.25])))
         if k % 7 == 0:
             tick.insert(0, (topics[2].name, t, Clock(clock=stamp)))
-        recorder.write_many(tick)
+        recorder.write_group(recorder.group([topic for topic, _, _ in tick]), t,
+                             [msg for _, _, msg in tick])
         handed.extend((topic, t, msg.data if isinstance(msg, Float64) else
                        msg.position[0] if isinstance(msg, JointState) else float(k))
                       for topic, t, msg in tick)
@@ -283,10 +284,11 @@ def test_write_never_blocks_on_a_stalled_writer(tmp_path: Path) -> None:
     assert status.get('truncated') is None
 
 
-def test_write_many_keeps_order_and_counts_whole_batches(tmp_path: Path) -> None:
-    """Batches and single writes interleaved come back from the file in the order they
-    were handed over (mcap's own reader, file order); a batch the bounded queue cannot
-    take is dropped whole and counted; one undeclared topic queues none of a batch."""
+def test_write_group_keeps_order_and_counts_whole_batches(tmp_path: Path) -> None:
+    """Groups and single writes interleaved come back from the file in the order they
+    were handed over (mcap's own reader, file order); a group's messages the bounded queue
+    cannot take are dropped whole and counted; a group with an undeclared topic is
+    refused when it is made, and messages that do not fit the group are refused."""
     release = threading.Event()
 
     def held(msg: object) -> bytes:
@@ -297,7 +299,10 @@ def test_write_many_keeps_order_and_counts_whole_batches(tmp_path: Path) -> None
     names = [t.name for t in topics]
     recorder = RunRecorder(tmp_path / 'bag', topics, held, queue_size=10)
     with pytest.raises(ValueError, match='not declared'):
-        recorder.write_many([(names[1], 0, Float64(data=-1.0)), ('/nope', 0, Empty())])
+        recorder.group([names[1], '/nope'])
+    group = recorder.group([names[1], names[0], names[1]])
+    with pytest.raises(ValueError, match='2 messages for the 3 topics'):
+        recorder.write_group(group, 0, [Float64(data=-1.0), Float64(data=-2.0)])
     handed: list[tuple[str, int, float]] = []
     for k in range(12):                 # batches of 3, single writes between them
         if k % 2:
@@ -307,7 +312,7 @@ def test_write_many_keeps_order_and_counts_whole_batches(tmp_path: Path) -> None
             batch = [(names[1], k, Float64(data=float(k) + 0.5)),
                      (names[0], k, JointState(name=['table'], position=[float(k)])),
                      (names[1], k, Float64(data=float(k) + 0.25))]
-            recorder.write_many(batch)
+            recorder.write_group(group, k, [msg for _, _, msg in batch])
             handed.extend((topic, t, msg.data if topic == names[1] else msg.position[0])
                           for topic, t, msg in batch)
     release.set()
@@ -343,14 +348,14 @@ def test_bytes_are_written_as_they_are(tmp_path: Path) -> None:
     data = [serialize_message(Float64(data=v)) for v in (0.5, -1e300, 7.25)]
     recorder = RunRecorder(tmp_path / 'bag', TOPICS[1:2], refuse)
     recorder.write(topic, 0, data[0])
-    recorder.write_many([(topic, 1, data[1]), (topic, 2, data[2])])
+    recorder.write_group(recorder.group([topic, topic]), 1, data[1:])
     recorder.close()
     assert (recorder.written, recorder.dropped, recorder.error) == (3, 0, None)
     store = get_typestore(Stores.ROS2_JAZZY)
     with Reader(tmp_path / 'bag') as reader:
         read = [(t, bytes(raw), store.deserialize_cdr(raw, c.msgtype).data)
                 for c, t, raw in reader.messages()]
-    assert read == [(0, data[0], 0.5), (1, data[1], -1e300), (2, data[2], 7.25)]
+    assert read == [(0, data[0], 0.5), (1, data[1], -1e300), (1, data[2], 7.25)]
 
 
 def test_a_message_that_fails_to_serialize_keeps_what_came_before(tmp_path: Path) -> None:
@@ -366,8 +371,8 @@ def test_a_message_that_fails_to_serialize_keeps_what_came_before(tmp_path: Path
     recorder = RunRecorder(tmp_path / 'bag', TOPICS[:2], fussy)
     for k in range(5):
         recorder.write(topic, k, Float64(data=float(k)))
-    recorder.write_many([(topic, 5, Float64(data=5.0)), (topic, 6, Float64(data=-6.0)),
-                         (topic, 7, Float64(data=7.0))])
+    recorder.write_group(recorder.group([topic] * 3), 5,
+                         [Float64(data=5.0), Float64(data=-6.0), Float64(data=7.0)])
     recorder.write(topic, 8, Float64(data=8.0))
     recorder.close()
     assert (recorder.written, recorder.dropped) == (6, 3)

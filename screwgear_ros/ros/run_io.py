@@ -55,7 +55,7 @@ from .messages import INPUT_TYPES, LATCHED_OUTPUTS, OUTPUT_TYPES, PRIVATE_TYPES,
 from .urdf import robot_description
 
 if TYPE_CHECKING:
-    from ..runs.recorder import RunRecorder, TopicSpec
+    from ..runs.recorder import RunRecorder, TopicGroup, TopicSpec
 # screwgear_ros.runs (the MCAP writer, rosbags' typestore) is imported where a recording
 # needs it, not at the node's start: a node that does not record never loads it.
 
@@ -133,6 +133,7 @@ class RunIO:
         self._matched = [False] * len(self._tick_keys)   # found matched since the recount
         self._next_recount = 0.0              # time.monotonic() of the next recount
         self.recorder: RunRecorder | None = None
+        self._tick_group: TopicGroup | None = None    # the recorder's group of _tick_topics
         self.last_joint_states: Any = None    # for lockstep's re-send while waiting
         self._path = 0                        # active path last published
         self._next_markers = 0.0              # time.monotonic() of the next table_markers
@@ -153,6 +154,7 @@ class RunIO:
         """Record from now on to a new rosbag2 directory (FileExistsError if taken)."""
         from ..runs.recorder import RunRecorder
         self.recorder = RunRecorder(path, self.topic_specs(), serialize, **options)
+        self._tick_group = self.recorder.group(self._tick_topics)
         return self.recorder
 
     def render(self, session: Session, params: TableParams,
@@ -247,8 +249,7 @@ class RunIO:
                 matched[i] = True
             publisher.publish(msg)
         if self.recorder is not None:     # the tick's messages with one queue put
-            self.recorder.write_many([(topic, t_ns, msg)
-                                      for topic, msg in zip(self._tick_topics, tick)])
+            self.recorder.write_group(self._tick_group, t_ns, tick)
 
     def send(self, key: str, t_ns: int, msg: Any) -> None:
         """Publish ``msg`` on the topic ``key`` and record it at ``t_ns``."""

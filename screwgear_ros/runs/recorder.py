@@ -7,8 +7,10 @@ is dropped and counted, never waited for.
 
 What recording costs the node is mostly how often the two threads meet, not the MCAP
 writing: a queue put that wakes the writer, and the writer taking the interpreter
-lock from the pacing thread. So :meth:`RunRecorder.write_many` queues a tick's
-messages with one put, and the writer thread, once it has woken, writes everything
+lock from the pacing thread. So :meth:`RunRecorder.write_group` queues a tick's
+messages with one put, on a :class:`TopicGroup` checked once when the run starts (no
+per-tick topic lookups on either thread), and the writer thread, once it has woken,
+writes everything
 queued and then sleeps ``batch_period`` (10 ms) before it looks again: it runs at most
 about 100 times a second whatever the message rate (``benchmarks/bench_recording.py
 --speed`` measures it).
@@ -233,6 +235,17 @@ class _McapWriter:
 
 
 @dataclass(frozen=True)
+class TopicGroup:
+    """Topics recorded together, one message on each (in this order) at one log time:
+    what a tick records. :meth:`RunRecorder.group` makes one, checking the topics once;
+    :meth:`RunRecorder.write_group` then takes the messages with nothing to look up."""
+
+    topics: tuple[str, ...]
+    indexes: tuple[int, ...]        # each topic's place among the recorder's topics
+    channel_ids: tuple[int, ...]    # each topic's MCAP channel
+
+
+@dataclass(frozen=True)
 class TopicSpec:
     """A topic of the bag: fully resolved name, ROS type, and whether it is latched."""
 
@@ -247,11 +260,11 @@ class RunRecorder:
     A message handed over as ``bytes`` is its CDR and is written as it is (the node's
     outputs and markers, serialized once); any other goes through ``serialize(msg) ->
     bytes`` (the node passes :func:`screwgear_ros.ros.run_io.serialize`) on the writer
-    thread, so a message handed to :meth:`write` or :meth:`write_many` belongs to the
+    thread, so a message handed to :meth:`write` or :meth:`write_group` belongs to the
     recorder from then on and must not be modified afterwards.
 
-    The queue holds batches (tuples of ``(topic, log time, message)``, one per
-    :meth:`write` or :meth:`write_many`); its bound ``queue_size`` counts messages
+    The queue holds one ``(TopicGroup, log time, messages)`` per :meth:`write` (a group
+    of its one topic) or :meth:`write_group`; its bound ``queue_size`` counts messages
     accepted and not yet written.
     """
 
@@ -274,7 +287,7 @@ class RunRecorder:
         self._drop_lock = threading.Lock()
         self._dropped = 0
         # Messages queued = accepted − handled; each counter has one writing side
-        # (accepted: write()/write_many() under _close_lock; handled: the writer thread).
+        # (accepted: write()/write_group() under _close_lock; handled: the writer thread).
         self._accepted = 0
         self._handled = 0
         self._error: str | None = None
@@ -294,7 +307,7 @@ class RunRecorder:
         self._mcap.start(profile=MCAP_PROFILE, library=f'screwgear_ros-{__version__}')
         self._mcap.add_metadata('rosbag2', {'serialized_metadata': self._serialized_metadata()})
         schemas: dict[str, int] = {}
-        self._channels: dict[str, tuple[int, int]] = {}   # topic → (index, channel id)
+        self._alone: dict[str, TopicGroup] = {}   # topic → the group of it alone
         for index, (spec, topic) in enumerate(zip(topics, self._topics)):
             if spec.msgtype not in schemas:
                 text, _ = message_definition(spec.msgtype)
@@ -304,7 +317,7 @@ class RunRecorder:
                 spec.name, MESSAGE_ENCODING, schemas[spec.msgtype],
                 {'offered_qos_profiles': qos_yaml(topic['qos']),
                  'topic_type_hash': message_definition(spec.msgtype)[1]})
-            self._channels[spec.name] = (index, channel)
+            self._alone[spec.name] = TopicGroup((spec.name,), (index,), (channel,))
         self._thread = threading.Thread(target=self._run, name='run_recorder', daemon=True)
         self._thread.start()
         atexit.register(self.close)
@@ -332,37 +345,45 @@ class RunRecorder:
         Thread-safe. A full queue or a closed recorder drops the message and counts
         it in :attr:`dropped`. An unknown topic is a programming error (ValueError).
         """
-        if topic not in self._channels:
+        group = self._alone.get(topic)
+        if group is None:
             self._undeclared(topic)
-        self._put(((topic, sim_time_ns, msg),))
+        self._put((group, sim_time_ns, (msg,)), 1)
 
-    def write_many(self, messages: Sequence[tuple[str, int, Any]]) -> None:
-        """Queue ``(topic, sim_time_ns, msg)`` messages, in this order, with one put;
-        never blocks.
+    def group(self, topics: Sequence[str]) -> TopicGroup:
+        """The group of these declared topics, in this order (a topic may come more than
+        once), for :meth:`write_group`; ValueError for a topic not declared."""
+        for topic in topics:
+            if topic not in self._alone:
+                self._undeclared(topic)
+        alone = [self._alone[topic] for topic in topics]
+        return TopicGroup(tuple(topics), tuple(g.indexes[0] for g in alone),
+                          tuple(g.channel_ids[0] for g in alone))
+
+    def write_group(self, group: TopicGroup, sim_time_ns: int, messages: Sequence[Any]) -> None:
+        """Queue one message on each of ``group``'s topics, in its order, at log time
+        ``sim_time_ns``, with one put; never blocks.
 
         What a tick records at once (the node's outputs of one step): one queue
-        operation instead of one per message. Thread-safe. If the queue cannot take
-        them all, all are dropped and counted (a tick is recorded whole or not at all).
-        An unknown topic is a ValueError and queues none of them.
+        operation instead of one per message, and no topic to look up. Thread-safe. If
+        the queue cannot take them all, all are dropped and counted (a tick is recorded
+        whole or not at all).
         """
-        batch = tuple(messages)
-        channels = self._channels
-        for topic, _, _ in batch:
-            if topic not in channels:
-                self._undeclared(topic)
-        if batch:
-            self._put(batch)
+        if len(messages) != len(group.topics):
+            raise ValueError(f'{len(messages)} messages for the {len(group.topics)} topics '
+                             f'of {group.topics}')
+        self._put((group, sim_time_ns, messages), len(messages))
 
     def _undeclared(self, topic: str) -> None:
         raise ValueError(f'topic {topic!r} was not declared to the recorder '
-                         f'(declared: {", ".join(self._channels)})')
+                         f'(declared: {", ".join(self._alone)})')
 
-    def _put(self, batch: tuple[tuple[str, int, Any], ...]) -> None:
-        n = len(batch)
+    def _put(self, item: tuple[TopicGroup, int, Sequence[Any]], n: int) -> None:
+        """Queue ``item`` (its group, log time and ``n`` messages) or drop it whole."""
         with self._close_lock:    # so that no message slips in behind close()'s stop mark
             if not self._closed and self._accepted - self._handled + n <= self._queue_size:
                 self._accepted += n
-                self._queue.put(batch)
+                self._queue.put(item)
                 return
         self._count_drop(n)
 
@@ -402,11 +423,11 @@ class RunRecorder:
                     batches.append(get_nowait())
             except empty:
                 pass
-            for batch in batches:
-                if batch is _STOP:            # close() puts it last: nothing follows
+            for item in batches:
+                if item is _STOP:             # close() puts it last: nothing follows
                     stop = True
                     break
-                self._write_batch(batch)
+                self._write_item(*item)
                 dirty = True
             now = time.monotonic()
             if dirty and now >= next_flush and self._error is None:
@@ -420,27 +441,25 @@ class RunRecorder:
                 time.sleep(self._batch_period)    # let the next batches gather
         self._finish()
 
-    def _write_batch(self, batch: tuple[tuple[str, int, Any], ...]) -> None:
-        """Write one batch's messages in order (or count them dropped after an error
-        or when close() gave up waiting)."""
-        channels, counts = self._channels, self._counts
-        serialize, add = self._serialize, self._mcap.add
+    def _write_item(self, group: TopicGroup, log_time: int, messages: Sequence[Any]) -> None:
+        """Write one queued item's messages in order (or count them dropped after an
+        error or when close() gave up waiting)."""
+        counts, serialize, add = self._counts, self._serialize, self._mcap.add
+        log_time = int(log_time)
         written = 0
         if not self._abandon and self._error is None:
-            for topic, log_time, msg in batch:
-                index, channel_id = channels[topic]
-                log_time = int(log_time)
+            for index, channel_id, msg in zip(group.indexes, group.channel_ids, messages):
                 try:
-                    add(channel_id, counts[index], log_time,
-                        msg if msg.__class__ is bytes else serialize(msg))   # sequence
+                    add(channel_id, counts[index], log_time,           # counts: the sequence
+                        msg if msg.__class__ is bytes else serialize(msg))
                 except Exception as exc:  # noqa: BLE001 - reported through .error
-                    self._fail(exc)       # the rest of the batch is dropped below
+                    self._fail(exc)       # the rest of the item is dropped below
                     break
                 counts[index] += 1
                 written += 1
-        if written < len(batch):
-            self._count_drop(len(batch) - written)
-        self._handled += len(batch)
+        if written < len(messages):
+            self._count_drop(len(messages) - written)
+        self._handled += len(messages)
 
     def _fail(self, exc: BaseException) -> None:
         if self._error is None:
@@ -454,7 +473,7 @@ class RunRecorder:
             except queue.Empty:
                 break
             if item is not _STOP:
-                self._count_drop(len(item))
+                self._count_drop(len(item[2]))
         try:
             self._mcap.add_metadata('rosbag2',
                                     {'serialized_metadata': self._serialized_metadata()})
@@ -478,5 +497,5 @@ class RunRecorder:
         tmp.replace(self.path / 'metadata.yaml')
 
 
-__all__ = ['TopicSpec', 'RunRecorder', 'QUEUE_SIZE', 'CHUNK_SIZE', 'FLUSH_PERIOD',
+__all__ = ['TopicGroup', 'TopicSpec', 'RunRecorder', 'QUEUE_SIZE', 'CHUNK_SIZE', 'FLUSH_PERIOD',
            'BATCH_PERIOD']
