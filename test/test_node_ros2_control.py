@@ -20,6 +20,7 @@ import math
 import signal
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -117,7 +118,7 @@ def test_the_marks_turn_as_the_urdf_links_do():
     for _ in range(5):
         angles = tuple(float(a) for a in rng.uniform(-20.0, 20.0, 3))
         urdf.update_cfg(dict(zip(JOINTS, angles)))
-        out = type(base)(**{**base.__dict__, 'position': angles})
+        out = replace(base, position=angles)
         found = by_key(table_markers(TableParams(), JOINTS, out, stamp(0)).markers)
         for wheel in WHEELS:
             pose = urdf.get_transform(wheel.link)
