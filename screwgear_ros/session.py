@@ -123,12 +123,30 @@ class Session:
 
     def tick(self) -> Tick:
         """Apply the queued events, integrate one tick, compute its outputs."""
-        with self._lock:
-            events, self._pending = self._pending, []
+        with self._lock:                     # most ticks take none: nothing to swap
+            events: list[Event] | tuple[()] = ()
+            if self._pending:
+                events, self._pending = self._pending, []
         plant = self.plant
         start = plant.step
         before = self.outputs
         previous_direction = plant.input.direction
+        applied, rejected, notices = self._apply(events, start) if events else ((), (), ())
+        if applied or self._timeout_steps is not None:
+            notice = self._time_out(start, applied)
+            if notice is not None:
+                notices = (*notices, notice)
+        was_faulted = plant.fault is not None
+        self.outputs = plant.advance_outputs(self._steps)
+        return Tick(start, applied, rejected, notices, plant.input, plant.params, self.outputs,
+                    before.active_path, previous_direction, plant.fault,
+                    plant.fault is not None and not was_faulted)
+
+    def _apply(self, events: list[Event], start: int) -> tuple[
+            tuple[Event, ...], tuple[InputRejected, ...], tuple[str, ...]]:
+        """Apply ``events`` in order at step ``start``: those applied (``step`` set), the
+        commands refused, the notices of inputs a parameter change cut."""
+        plant = self.plant
         applied: list[Event] = []
         rejected: list[InputRejected] = []
         notices: list[str] = []
@@ -153,31 +171,25 @@ class Session:
             else:
                 raise TypeError(f'not a session event: {event!r}')
             applied.append(replace(event, step=start))
-        if applied or self._timeout_steps is not None:
-            self._time_out(start, applied, notices)
-        was_faulted = plant.fault is not None
-        self.outputs = plant.advance_outputs(self._steps)
-        return Tick(start, tuple(applied), tuple(rejected), tuple(notices), plant.input,
-                    plant.params, self.outputs, before.active_path, previous_direction,
-                    plant.fault, plant.fault is not None and not was_faulted)
+        return tuple(applied), tuple(rejected), tuple(notices)
 
-
-    def _time_out(self, start: int, applied: list[Event], notices: list[str]) -> None:
-        """command_timeout (module docstring), at the tick's first step."""
+    def _time_out(self, start: int, applied: tuple[Event, ...]) -> str | None:
+        """command_timeout (module docstring), at the tick's first step; the notice when
+        it zeroes the input."""
         if applied and any(isinstance(e, Command) for e in applied):
             self._last_command, self.timed_out = start, False
-            return
+            return None
         if (self.timed_out or self._timeout_steps is None
                 or start - self._last_command < self._timeout_steps):
-            return
+            return None
         self.timed_out = True
         drive = self.plant.input
-        if drive.torque or drive.load:
-            self.plant.set_input(replace(drive, torque=0.0, load=0.0))
-            notices.append(f'no command for {self.settings.command_timeout:g} s of '
-                           'simulation time (command_timeout): drive torque '
-                           f'({drive.torque:g} N·m) and load ({drive.load:g} N·m) set to '
-                           'zero until the next command')
+        if not (drive.torque or drive.load):
+            return None
+        self.plant.set_input(replace(drive, torque=0.0, load=0.0))
+        return (f'no command for {self.settings.command_timeout:g} s of simulation time '
+                f'(command_timeout): drive torque ({drive.torque:g} N·m) and load '
+                f'({drive.load:g} N·m) set to zero until the next command')
 
     def tick_quietly(self, n: int, values: np.ndarray) -> int:
         """Up to ``n`` ticks that take no event, for replays that sample every tick: the
