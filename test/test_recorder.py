@@ -142,8 +142,6 @@ def test_many_chunks_read_back_through_every_index(tmp_path: Path) -> None:
     file order, each message index entry pointing at its message) and rosbags (which
     counts a chunk's messages per topic from the message index layout) all read back
     exactly what was written."""
-    from mcap.records import Chunk, MessageIndex
-    from mcap.stream_reader import StreamReader, breakup_chunk
     topics = [TOPICS[0], TOPICS[1], TOPICS[3]]
     recorder = RunRecorder(tmp_path / 'bag', topics, serialize_message, chunk_size=4096)
     handed: list[tuple[str, int, float]] = []
@@ -185,23 +183,7 @@ def test_many_chunks_read_back_through_every_index(tmp_path: Path) -> None:
     assert in_order == sorted(handed, key=lambda h: h[1]) and len(in_order) == len(handed)
     for spec in topics:
         assert per_topic[spec.name] == [h for h in handed if h[0] == spec.name]
-    # Stream order: each chunk's message indexes follow it and point at its messages.
-    with open(mcap_file, 'rb') as stream:
-        records = list(StreamReader(stream, emit_chunks=True, validate_crcs=True).records)
-    messages: dict = {}
-    seen = 0
-    for record in records:
-        if isinstance(record, Chunk):
-            messages, offset = {}, 0
-            for message in breakup_chunk(record, validate_crc=True):
-                messages[offset] = message
-                offset += 9 + 22 + len(message.data)
-        elif isinstance(record, MessageIndex):
-            for log_time, offset in record.records:
-                assert messages[offset].log_time == log_time
-                assert messages[offset].channel_id == record.channel_id
-                seen += 1
-    assert seen == len(handed)
+    assert indexed_messages(mcap_file) == len(handed)
     with Reader(tmp_path / 'bag') as reader:
         for spec in topics:
             connections = [c for c in reader.connections if c.topic == spec.name]
@@ -282,6 +264,87 @@ def test_write_never_blocks_on_a_stalled_writer(tmp_path: Path) -> None:
     values = [t for _, _, t, _ in iter_messages(next((tmp_path / 'bag').glob('*.mcap')), status)]
     assert values == sorted(values) and len(values) == recorder.written
     assert status.get('truncated') is None
+
+
+def indexed_messages(mcap_file: Path) -> int:
+    """How many message index entries the file has, each checked (by mcap's stream
+    reader, in file order) to follow its chunk and point at a message of its channel at
+    its log time."""
+    from mcap.records import Chunk, MessageIndex
+    from mcap.stream_reader import StreamReader, breakup_chunk
+    with open(mcap_file, 'rb') as stream:
+        records = list(StreamReader(stream, emit_chunks=True, validate_crcs=True).records)
+    messages: dict = {}
+    seen = 0
+    for record in records:
+        if isinstance(record, Chunk):
+            messages, offset = {}, 0
+            for message in breakup_chunk(record, validate_crc=True):
+                messages[offset] = message
+                offset += 9 + 22 + len(message.data)
+        elif isinstance(record, MessageIndex):
+            for log_time, offset in record.records:
+                assert messages[offset].log_time == log_time
+                assert messages[offset].channel_id == record.channel_id
+                seen += 1
+    return seen
+
+
+def test_runs_of_ticks_read_back_like_single_messages(tmp_path: Path) -> None:
+    """The writer thread writes a run of one group's bytes messages (the node's ticks one
+    after the other) as NumPy columns, anything else message by message. Mixed on
+    purpose: a topic twice in the group, message objects between the ticks, a tick
+    whose joint_states has another size, chunks that end inside runs. The writer is
+    held until every tick is queued, so it meets them as one long run. mcap's reader
+    (CRCs, file order, sequence numbers, message indexes) and rosbags read back exactly
+    what was handed over, in order."""
+    release = threading.Event()
+
+    def held(msg: object) -> bytes:
+        release.wait()
+        return serialize_message(msg)
+
+    topics = [TOPICS[0], TOPICS[1], TOPICS[3]]
+    js, te, clock = (t.name for t in topics)
+    recorder = RunRecorder(tmp_path / 'bag', topics, held, chunk_size=4096)
+    group = recorder.group([clock, js, te, te])
+    handed: list[tuple[str, int, bytes]] = []
+    for k in range(3000):
+        t = 1_000_000 * k
+        stamp = Time(sec=t // 10**9, nanosec=t % 10**9)
+        if k % 700 == 0:                   # an object: the writer serializes it
+            recorder.write(te, t, Float64(data=float(k)))
+            handed.append((te, t, serialize_message(Float64(data=float(k)))))
+        names = ['table'] if k == 2345 else ['pinion_1', 'table', 'pinion_3']
+        tick = [serialize_message(Clock(clock=stamp)),
+                serialize_message(JointState(header=Header(stamp=stamp), name=names,
+                                             position=[k * 0.5] * len(names),
+                                             velocity=[-k * 0.5] * len(names),
+                                             effort=[1.0] * len(names))),
+                serialize_message(Float64(data=k * 0.25)),
+                serialize_message(Float64(data=-k * 0.25))]
+        recorder.write_group(group, t, tick)
+        handed.extend(zip(group.topics, [t] * 4, tick))
+    release.set()
+    recorder.close()
+    assert (recorder.written, recorder.dropped, recorder.error) == (len(handed), 0, None)
+    sequence: dict[str, int] = {}
+    expected = []
+    for topic, t, data in handed:
+        expected.append((topic, t, sequence.setdefault(topic, 0), data))
+        sequence[topic] += 1
+    mcap_file, = (tmp_path / 'bag').glob('*.mcap')
+    with open(mcap_file, 'rb') as stream:
+        reader = make_reader(stream, validate_crcs=True)
+        read = [(channel.topic, message.log_time, message.sequence, bytes(message.data))
+                for _, channel, message in reader.iter_messages(log_time_order=False)]
+        summary = reader.get_summary()
+    assert read == expected
+    assert len(summary.chunk_indexes) > 10
+    assert indexed_messages(mcap_file) == len(handed)
+    with Reader(tmp_path / 'bag') as reader:
+        assert [(c.topic, t, bytes(raw)) for c, t, raw in reader.messages()] == \
+            sorted(handed, key=lambda h: h[1])
 
 
 def test_write_group_keeps_order_and_counts_whole_batches(tmp_path: Path) -> None:
