@@ -401,6 +401,27 @@ def test_write_group_keeps_order_and_counts_whole_batches(tmp_path: Path) -> Non
         assert sum(m in read for m in batch) in (0, 3)
 
 
+def test_a_producer_that_may_wait_loses_nothing(tmp_path: Path, monkeypatch) -> None:
+    """write_group(wait=True), as the node flat out writes: a queue of 40 messages and
+    5000 ticks written as fast as the loop goes. The producer waits for the writer to
+    make room instead of dropping: every message is in the bag, in order."""
+    from screwgear_ros.runs import recorder as recording
+    monkeypatch.setattr(recording, 'ROOM_TIMEOUT', 60.0)    # a margin, not a measurement
+    topic = TOPICS[1].name
+    recorder = RunRecorder(tmp_path / 'bag', TOPICS[1:2], serialize_message, queue_size=40)
+    group = recorder.group([topic, topic])
+    data = [serialize_message(Float64(data=float(k))) for k in range(10000)]
+    for k in range(5000):
+        recorder.write_group(group, k, data[2 * k:2 * k + 2], wait=True)
+    recorder.close()
+    assert (recorder.written, recorder.dropped, recorder.error) == (10000, 0, None)
+    mcap_file, = (tmp_path / 'bag').glob('*.mcap')
+    with open(mcap_file, 'rb') as stream:
+        read = [(message.log_time, bytes(message.data)) for _, _, message in
+                make_reader(stream, validate_crcs=True).iter_messages(log_time_order=False)]
+    assert read == [(k // 2, d) for k, d in enumerate(data)]
+
+
 def test_bytes_are_written_as_they_are(tmp_path: Path) -> None:
     """A message handed over as bytes is its CDR: the serializer is never asked, and a
     second reader decodes exactly those bytes."""

@@ -222,7 +222,7 @@ class RunIO:
                 self.record('reset', t_ns, Empty())
         if tick.outputs.active_path != self._path:
             self._publish_path(tick.outputs.active_path, tick.start, dt)
-        self.outputs(tick.outputs, dt)
+        self.outputs(tick.outputs, dt, session.settings.real_time_factor == 0.0)
         now = time.monotonic()
         if now >= self._next_recount:
             self._next_recount = now + LISTENER_RECOUNT
@@ -238,8 +238,10 @@ class RunIO:
                      'transmission_error': cdr.float64_template}
         return cdr.Bundle([templates[key]() for key in self._tick_keys])
 
-    def outputs(self, out: Outputs, dt: float) -> None:
-        """/clock, joint_states, mesh_state and transmission_error of ``out``."""
+    def outputs(self, out: Outputs, dt: float, lossless: bool = False) -> None:
+        """/clock, joint_states, mesh_state and transmission_error of ``out``;
+        ``lossless`` (the node flat out, no deadline to keep): the recorder may make the
+        tick wait for room rather than drop it (:meth:`RunRecorder.write_group`)."""
         t_ns = sim_time_ns(out.step, dt)
         tick = self._bundle.encode(t_ns, out.position, out.velocity, out.effort, out.delta,
                                    out.delta_rate, out.mesh_force, (out.transmission_error,))
@@ -254,7 +256,7 @@ class RunIO:
                 matched[i] = True
             publisher.publish(msg)
         if self.recorder is not None:     # the tick's messages with one queue put
-            self.recorder.write_group(self._tick_group, t_ns, tick)
+            self.recorder.write_group(self._tick_group, t_ns, tick, lossless)
 
     def send(self, key: str, t_ns: int, msg: Any) -> None:
         """Publish ``msg`` on the topic ``key`` and record it at ``t_ns``."""

@@ -3,17 +3,22 @@
 :class:`RunRecorder` takes messages from the node's pacing thread through a bounded
 queue and writes them on its own writer thread (serializing those that are not CDR
 bytes yet), so a slow disk never stalls the integrator: when the queue is full a message
-is dropped and counted, never waited for.
+is dropped and counted, never waited for. Except by a producer that has no deadline and
+says so (``write_group(..., wait=True)``: the node flat out): once the queue is half
+full it waits, up to ``ROOM_TIMEOUT`` at a time, while the writer, hurried, empties
+it, so a run as fast as possible records everything. Without waiting, the node flat out
+with nobody subscribed produced 78 000 ticks a second, more than the writer could take
+while it met the pacing thread for the interpreter lock at every chunk it compressed
+and wrote: 70 % of the messages were dropped.
 
 What recording costs the node is mostly how often the two threads meet, not the MCAP
 writing: a queue put that wakes the writer, and the writer taking the interpreter
 lock from the pacing thread. So :meth:`RunRecorder.write_group` queues a tick's
 messages with one put, on a :class:`TopicGroup` checked once when the run starts (no
 per-tick topic lookups on either thread), and the writer thread, once it has woken,
-writes everything
-queued and then sleeps ``batch_period`` (10 ms) before it looks again: it runs at most
-about 100 times a second whatever the message rate (``benchmarks/bench_recording.py
---speed`` measures it).
+writes everything queued and then sleeps ``batch_period`` (10 ms) before it looks
+again: it runs at most about 100 times a second whatever the message rate
+(``benchmarks/bench_recording.py --speed`` measures it).
 
 The bag is what ``ros2 bag record -s mcap`` on ROS 2 Jazzy writes: a directory with
 ``metadata.yaml`` and one ``<name>_0.mcap`` (profile ``ros2``, ``ros2msg`` schemas
@@ -65,6 +70,9 @@ CHUNK_SIZE = 256 * 1024
 FLUSH_PERIOD = 1.0
 #: Default wall time the writer thread sleeps after writing what was queued, s.
 BATCH_PERIOD = 0.01
+#: Longest a producer that waits for room (write_group's ``wait``) waits at a time, s;
+#: then it goes on, and a full queue drops as it always does.
+ROOM_TIMEOUT = 1.0
 
 _STOP = object()
 
@@ -349,6 +357,11 @@ class RunRecorder:
         self._closed = False              # set once, under _close_lock
         self._close_lock = threading.Lock()   # orders write()'s check-and-put against close()
         self._abandon = False
+        # A producer waiting for room (write_group(wait=True)) sets _hurry, so that the
+        # writer skips its batch_period sleep, and waits on _progress, which the writer
+        # notifies after each batch it handled.
+        self._hurry = threading.Event()
+        self._progress = threading.Condition()
 
         self._topics = [{'name': t.name, 'type': t.msgtype,
                          'qos': [qos_profile(t.transient_local)]} for t in topics]
@@ -415,19 +428,34 @@ class RunRecorder:
         return TopicGroup(tuple(topics), tuple(g.indexes[0] for g in alone),
                           tuple(g.channel_ids[0] for g in alone))
 
-    def write_group(self, group: TopicGroup, sim_time_ns: int, messages: Sequence[Any]) -> None:
+    def write_group(self, group: TopicGroup, sim_time_ns: int, messages: Sequence[Any],
+                    wait: bool = False) -> None:
         """Queue one message on each of ``group``'s topics, in its order, at log time
-        ``sim_time_ns``, with one put; never blocks.
+        ``sim_time_ns``, with one put; never blocks, unless ``wait``.
 
         What a tick records at once (the node's outputs of one step): one queue
         operation instead of one per message, and no topic to look up. Thread-safe. If
         the queue cannot take them all, all are dropped and counted (a tick is recorded
-        whole or not at all).
+        whole or not at all). ``wait`` (a producer with no deadline: the node flat out):
+        when the queue is half full, first wait until the writer has made room, at most
+        ``ROOM_TIMEOUT`` s.
         """
-        if len(messages) != len(group.topics):
-            raise ValueError(f'{len(messages)} messages for the {len(group.topics)} topics '
+        n = len(messages)
+        if n != len(group.topics):
+            raise ValueError(f'{n} messages for the {len(group.topics)} topics '
                              f'of {group.topics}')
-        self._put((group, sim_time_ns, messages), len(messages))
+        if wait and 2 * (self._accepted - self._handled + n) > self._queue_size:
+            self._wait_for_room(n)
+        self._put((group, sim_time_ns, messages), n)
+
+    def _wait_for_room(self, n: int) -> None:
+        """Hurry the writer and wait until the queue, with ``n`` more, is at most half
+        full (or the recorder closed), at most ``ROOM_TIMEOUT`` s."""
+        with self._progress:
+            self._hurry.set()
+            self._progress.wait_for(
+                lambda: 2 * (self._accepted - self._handled + n) <= self._queue_size
+                or self._closed, ROOM_TIMEOUT)
 
     def _undeclared(self, topic: str) -> None:
         raise ValueError(f'topic {topic!r} was not declared to the recorder '
@@ -453,6 +481,8 @@ class RunRecorder:
                 return
             self._closed = True
             self._queue.put(_STOP)   # after every message write() accepted
+        with self._progress:         # a producer waiting for room: closed, stop waiting
+            self._progress.notify_all()
         atexit.unregister(self.close)
         self._thread.join(timeout)
         if self._thread.is_alive():
@@ -484,6 +514,8 @@ class RunRecorder:
             if batches:
                 self._write_items(batches)
                 dirty = True
+                with self._progress:
+                    self._progress.notify_all()
             now = time.monotonic()
             if dirty and now >= next_flush and self._error is None:
                 try:
@@ -493,7 +525,8 @@ class RunRecorder:
                 dirty = False
                 next_flush = now + self._flush_period
             if batches and not stop:
-                time.sleep(self._batch_period)    # let the next batches gather
+                self._hurry.wait(self._batch_period)   # let the next batches gather
+                self._hurry.clear()
         self._finish()
 
     def _write_items(self, items: list[tuple[TopicGroup, int, Sequence[Any]]]) -> None:
@@ -602,4 +635,4 @@ class RunRecorder:
 
 
 __all__ = ['TopicGroup', 'TopicSpec', 'RunRecorder', 'QUEUE_SIZE', 'CHUNK_SIZE', 'FLUSH_PERIOD',
-           'BATCH_PERIOD']
+           'BATCH_PERIOD', 'ROOM_TIMEOUT']
