@@ -123,11 +123,11 @@ class RunIO:
         # with or without it.
         self._tick_keys = (('clock',) if 'clock' in self.topics else ()) + (
             'joint_states', 'mesh_state', 'transmission_error')
-        self._joint_states_at = self._tick_keys.index('joint_states')
-        self._bundle = self._tick_bundle()
         if LATCHED_OUTPUTS.intersection(self._tick_keys):
             raise ValueError('a latched topic must be published whether or not anybody '
                              'listens: not one of the per-tick topics')
+        self._joint_states_at = self._tick_keys.index('joint_states')
+        self._bundle = self._tick_bundle()
         self._tick_publishers = [self._publishers.get(k) for k in self._tick_keys]
         self._tick_topics = [self.topics[k] for k in self._tick_keys]
         self._matched = [False] * len(self._tick_keys)   # found matched since the recount

@@ -208,8 +208,9 @@ class _McapWriter:
                 self._chunk_end = max(self._chunk_end, int(t.max()))
             self._chunk += rows.tobytes()
             at = offset + row * np.arange(take, dtype=np.uint64)
-            for k, channel_id in enumerate(channel_ids):
-                self._index[channel_id] += np.column_stack((t, at + int(starts[k]))).ravel().tolist()
+            for k, channel_id in enumerate(channel_ids):    # (log time, offset) pairs
+                pairs = np.column_stack((t, at + int(starts[k])))
+                self._index[channel_id] += pairs.ravel().tolist()
             if len(self._chunk) >= self._chunk_size:
                 self._finish_chunk()
             done += take
