@@ -139,3 +139,18 @@ def test_a_subscriber_that_comes_mid_run_gets_every_tick_from_its_match_on():
                                f'message {n} on {topics[k]}')
             for k in keys:
                 assert inboxes[k].snapshot() == expected[k], k
+
+
+def test_an_in_process_run_waits_for_the_recorder_instead_of_dropping(tmp_path, monkeypatch):
+    """RunIO.tick is lossless unless told otherwise (only the node in real time has a
+    deadline): 2000 ticks recorded in-process through a queue of 40 messages lose
+    nothing, and the bag holds every tick's outputs."""
+    from screwgear_ros.runs import recorder as recording
+    monkeypatch.setattr(recording, 'ROOM_TIMEOUT', 60.0)    # a margin, not a measurement
+    p, s = TableParams(), SimSettings()
+    recorder = record_session(tmp_path / 'bag', Schedule(
+        p, s, [Command('cmd_torque', 300.0, 0)], end_step=2000 * s.steps_per_publish),
+        queue_size=40)
+    assert (recorder.dropped, recorder.error) == (0, None)
+    steps = read_run(tmp_path / 'bag').joint_states.steps    # the start and every tick
+    assert list(steps) == [k * s.steps_per_publish for k in range(2001)]

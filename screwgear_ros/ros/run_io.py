@@ -203,8 +203,11 @@ class RunIO:
         self.outputs(session.outputs, session.plant.dt)
         self._markers(session, time.monotonic())
 
-    def tick(self, session: Session, tick: Tick) -> None:
-        """Record what the tick applied, publish a changed path, publish its outputs."""
+    def tick(self, session: Session, tick: Tick, lossless: bool = True) -> None:
+        """Record what the tick applied, publish a changed path, publish its outputs.
+        ``lossless``: a caller with no deadline (in-process runs, the node flat out) lets
+        the recorder make the tick wait for room rather than drop it; the node in real
+        time passes False."""
         dt = session.plant.dt
         t_ns = sim_time_ns(tick.start, dt)
         for event in tick.applied:
@@ -222,7 +225,7 @@ class RunIO:
                 self.record('reset', t_ns, Empty())
         if tick.outputs.active_path != self._path:
             self._publish_path(tick.outputs.active_path, tick.start, dt)
-        self.outputs(tick.outputs, dt, session.settings.real_time_factor == 0.0)
+        self.outputs(tick.outputs, dt, lossless)
         now = time.monotonic()
         if now >= self._next_recount:
             self._next_recount = now + LISTENER_RECOUNT
@@ -238,10 +241,9 @@ class RunIO:
                      'transmission_error': cdr.float64_template}
         return cdr.Bundle([templates[key]() for key in self._tick_keys])
 
-    def outputs(self, out: Outputs, dt: float, lossless: bool = False) -> None:
+    def outputs(self, out: Outputs, dt: float, lossless: bool = True) -> None:
         """/clock, joint_states, mesh_state and transmission_error of ``out``;
-        ``lossless`` (the node flat out, no deadline to keep): the recorder may make the
-        tick wait for room rather than drop it (:meth:`RunRecorder.write_group`)."""
+        ``lossless`` as for :meth:`tick` (:meth:`RunRecorder.write_group`'s wait)."""
         t_ns = sim_time_ns(out.step, dt)
         tick = self._bundle.encode(t_ns, out.position, out.velocity, out.effort, out.delta,
                                    out.delta_rate, out.mesh_force, (out.transmission_error,))
