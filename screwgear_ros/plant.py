@@ -56,8 +56,10 @@ class Outputs:
 
 
 #: Columns of the observed vector (:data:`~screwgear_ros.integrator.OBSERVED` wide, as
-#: :meth:`Plant.last_outputs` reads it) holding δ1 and δ3, by active path: the transmission
-#: error of path 1 and of path 3.
+#: :meth:`Plant.last_outputs` reads it): θ, ω and effort of the three joints, in the order
+#: of a joint_states row; and δ1 and δ3, by active path (the transmission error of path 1
+#: and of path 3).
+OBSERVED_JOINTS = slice(0, 9)
 OBSERVED_DELTA = {1: 9, 3: 12}
 
 
@@ -185,4 +187,4 @@ class Plant:
                        (d1, d3), (dd1, dd3), (f1, f3), self._path)
 
 
-__all__ = ['DriveInput', 'OBSERVED_DELTA', 'Outputs', 'Plant']
+__all__ = ['DriveInput', 'OBSERVED_DELTA', 'OBSERVED_JOINTS', 'Outputs', 'Plant']

@@ -42,15 +42,16 @@ from .commands import INPUT_TOPICS, InputRejected, apply_command, limit_input
 from .events import Command, Event, ParameterChange, Reset
 from .params import SimSettings, TableParams
 from .integrator import OBSERVED
-from .plant import OBSERVED_DELTA, DriveInput, Outputs, Plant
+from .plant import OBSERVED_DELTA, OBSERVED_JOINTS, DriveInput, Outputs, Plant
 
 
 #: Ticks per compiled call of :meth:`Session.tick_quietly` (its scratch rows: 0.5 MB).
 QUIET_TICKS_PER_CALL = 4096
 
-#: Columns of an output row (:meth:`Session.tick_quietly`, replays): the joint_states
-#: row (θ, ω, effort of the three joints), the transmission error, the step.
-ROW = 11
+#: Columns of an output row (:meth:`Session.tick_quietly`, replays; :func:`row_of`): the
+#: joint_states row (θ, ω, effort of the three joints), the transmission error, the step.
+ROW_JOINTS, ROW_TE, ROW_STEP = slice(0, 9), 9, 10
+ROW = ROW_STEP + 1
 
 
 def row_of(o: Outputs) -> tuple[float, ...]:
@@ -227,14 +228,15 @@ class Session:
             k = plant.advance_ticks(min(n - done, QUIET_TICKS_PER_CALL), self._steps,
                                     self._observed)                  # one compiled call
             rows, observed = values[done:done + k], self._observed[:k]
-            rows[:, :9] = observed[:, :9]         # ROW (row_of): θ, ω, effort, TE, step
-            rows[:, 9] = observed[:, delta]
-            rows[:, 10] = step0 + self._steps * np.arange(1, k + 1)
+            rows[:, ROW_JOINTS] = observed[:, OBSERVED_JOINTS]
+            rows[:, ROW_TE] = observed[:, delta]
+            rows[:, ROW_STEP] = step0 + self._steps * np.arange(1, k + 1)
             if plant.fault is not None:      # the last tick faulted: its time stood still
-                rows[k - 1, 10] = plant.step
+                rows[k - 1, ROW_STEP] = plant.step
             done += k
         self.outputs = plant.last_outputs()
         return done
 
 
-__all__ = ['QUIET_TICKS_PER_CALL', 'ROW', 'row_of', 'Session', 'Tick']
+__all__ = ['QUIET_TICKS_PER_CALL', 'ROW', 'ROW_JOINTS', 'ROW_STEP', 'ROW_TE', 'row_of',
+           'Session', 'Tick']

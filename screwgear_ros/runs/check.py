@@ -44,7 +44,7 @@ from ..plant import DriveInput, Plant
 from ..reference import RTOL, ReferenceFailure, Segment, solve
 from ..events import ParameterChange, Reset
 from .bagread import BagError, RecordedRun
-from ..session import ROW, row_of
+from ..session import ROW, ROW_JOINTS, ROW_TE, row_of
 from .replay import ReplayedOutputs, replay_in_process
 
 #: Tolerance = SAFETY × Richardson estimate of RK4's error (contact changes located).
@@ -186,7 +186,7 @@ def reference_outputs(run: RecordedRun, replayed: ReplayedOutputs,
         plant.step = step
         plant.set_input(drive)
         rows[i] = row_of(plant.outputs())
-    return rows[:, :9], rows[:len(run.transmission_error), 9]
+    return rows[:, ROW_JOINTS], rows[:len(run.transmission_error), ROW_TE]
 
 
 def _solve_piece(piece: _Piece, dt: float, progress: Callable[[float], None] | None,

@@ -30,7 +30,7 @@ from ..commands import INPUT_TOPICS
 from ..events import Command, Event, ParameterChange, Reset, describe
 from ..params import (ParameterError, SimSettings, TableParams, default_values,
                       split_parameters)
-from ..session import ROW, Session, Tick, row_of
+from ..session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
 from .bagread import BagError, RecordedRun
 
 
@@ -75,7 +75,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
     if m and not np.array_equal(run.transmission_error.steps, samples.steps[:m]):
         raise BagError('invalid', 'transmission_error and joint_states samples are not '
                        'published at the same steps')
-    replayed = ReplayedOutputs(rows[:, :9], rows[:m, 9], None)
+    replayed = ReplayedOutputs(rows[:, ROW_JOINTS], rows[:m, ROW_TE], None)
     if not n:
         return replayed
     session = Session(start.params, _refined(ParameterChange(start.params, start.settings),
@@ -110,7 +110,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
             replayed.ticks.append(tick)
             replayed.tick_samples.append(i)
             done = 1
-        made = rows[i:i + done, 10].astype(np.int64)
+        made = rows[i:i + done, ROW_STEP].astype(np.int64)
         off = np.flatnonzero(samples.steps[i:i + done] * refine != made)
         if len(off):
             raise BagError('invalid', f'joint_states sample {i + off[0]} is at step '
