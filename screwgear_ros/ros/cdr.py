@@ -186,10 +186,8 @@ class Template(_Packed):
         self.stamps = tuple(stamps)
         self.fields = list(fields)
         self.free = list(free)
-        # The whole message as one struct: the bytes that never change between the
-        # varying fields are 's' items of it, so encode() is one pack call. _items: the
-        # pack arguments with those bytes in place; a stamp's two and a run's doubles
-        # are filled in at _stamp_items[i] and _run_items[k] = (first, count).
+        # The whole message as one struct (_Packed): the bytes that never change between
+        # the varying fields are 's' items of it, so encode() is one pack call.
         varying = sorted([(s.offset, s.codec, -1) for s in self.stamps]
                          + [(f.offset, f.codec, k) for k, f in enumerate(self.fields)],
                          key=lambda v: v[0])
