@@ -6,6 +6,13 @@ its message indexes; at the end the summary (schemas, channels, statistics, chun
 metadata indexes, summary offsets) and the footer. It knows nothing of queues, threads
 or ROS: :class:`~screwgear_ros.runs.recorder.RunRecorder` drives it from its writer
 thread.
+
+A write that fails (a full disk: ``OSError`` ENOSPC) leaves the file as it was after
+the last record group written whole: the writer truncates it back there, drops the open
+chunk (:attr:`McapWriter.discarded` counts its messages) and re-raises. Only whole
+chunks, with their message indexes, count as written (:attr:`McapWriter.written`,
+:meth:`McapWriter.counts`), so the counts are what a reader finds. :meth:`finish` can
+then still close the file with a summary of what it holds, if the disk has room for it.
 """
 
 from __future__ import annotations
@@ -50,7 +57,15 @@ class McapWriter:
     """
 
     def __init__(self, stream: Any, chunk_size: int, compression: bool) -> None:
+        # ``stream``: a raw binary file (``open(path, 'xb', buffering=0)``), so that
+        # every record group reaches the operating system whole, or fails with the
+        # number of bytes before the failure known (no buffer of unknown state).
         self._stream = stream
+        self._pos = 0            # bytes in the file
+        self._good = 0           # bytes in the file after the last record group written whole
+        self.added = 0           # messages added (in written chunks, the open one, discarded)
+        self.written = 0         # messages in chunks written whole
+        self.discarded = 0       # messages in open chunks dropped by a failed write
         self._chunk_size = chunk_size
         self._compress = zstandard.ZstdCompressor().compress if compression else None
         self._schemas: list[Schema] = []
@@ -63,17 +78,48 @@ class McapWriter:
         self._counts: dict[int, int] = {}          # channel id → messages in written chunks
         self._run_layouts: dict[tuple[int, ...], np.dtype] = {}   # add_run's, by data sizes
 
+    def _write(self, data: bytes | bytearray | memoryview) -> None:
+        """Append ``data`` whole to the file, or, if a write fails, truncate the file
+        back to the end of the last group written whole, drop the open chunk and
+        re-raise."""
+        view = memoryview(data)
+        done, size = 0, len(view)
+        try:
+            while done < size:
+                done += self._stream.write(view[done:]) or 0
+        except BaseException:
+            self._pos += done
+            self._rewind()
+            raise
+        self._pos += size
+
+    def _rewind(self) -> None:
+        """Back to the end of the last group written whole, without the open chunk."""
+        self.discarded += sum(len(entries) for entries in self._index.values()) // 2
+        for entries in self._index.values():
+            entries.clear()
+        self._chunk.clear()
+        self._stream.truncate(self._good)
+        self._stream.seek(self._good)
+        self._pos = self._good
+
     def _record(self, record: McapRecord) -> tuple[int, int]:
-        """Write a record to the file; its offset and length."""
+        """Write a record to the file, whole; its offset and length."""
         builder = RecordBuilder()
         record.write(builder)
         data = builder.end()
-        offset = self._stream.tell()
-        self._stream.write(data)
+        offset = self._pos
+        self._write(data)
+        self._good = self._pos
         return offset, len(data)
 
+    def counts(self) -> dict[int, int]:
+        """Channel id → messages in chunks written whole."""
+        return dict(self._counts)
+
     def start(self, profile: str, library: str) -> None:
-        self._stream.write(MCAP_MAGIC)
+        self._write(MCAP_MAGIC)
+        self._good = self._pos
         self._record(Header(profile=profile, library=library))
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
@@ -119,6 +165,7 @@ class McapWriter:
                                sequence % 2**32, log_time, log_time)
         chunk += data
         self._index[channel_id] += (log_time, offset)
+        self.added += 1
         if len(chunk) >= self._chunk_size:
             self._finish_chunk()
 
@@ -156,6 +203,7 @@ class McapWriter:
             self._spans(int(t.min()), int(t.max()))
             offset = len(self._chunk)
             self._chunk += rows.tobytes()
+            self.added += take * len(channel_ids)
             at = offset + row * np.arange(take, dtype=np.uint64)
             for k, channel_id in enumerate(channel_ids):    # (log time, offset) pairs
                 pairs = np.column_stack((t, at + int(starts[k])))
@@ -165,7 +213,8 @@ class McapWriter:
             done += take
 
     def _finish_chunk(self) -> None:
-        """Write the open chunk and its message indexes (nothing if it is empty)."""
+        """Write the open chunk and its message indexes, as one group (nothing if the
+        chunk is empty)."""
         if not self._chunk:
             return
         records = bytes(self._chunk)
@@ -174,22 +223,29 @@ class McapWriter:
                       message_start_time=self._chunk_start,
                       message_end_time=self._chunk_end,
                       uncompressed_crc=zlib.crc32(records), uncompressed_size=len(records))
-        chunk_offset, chunk_length = self._record(chunk)
+        builder = RecordBuilder()
+        chunk.write(builder)
+        group = bytearray(builder.end())
+        chunk_offset, chunk_length = self._pos, len(group)
         offsets: dict[int, int] = {}
-        index_start = self._stream.tell()
+        counts: dict[int, int] = {}
         for channel_id, entries in self._index.items():
             if entries:
-                offsets[channel_id] = self._stream.tell()
+                offsets[channel_id] = chunk_offset + len(group)
                 n = len(entries)
-                self._stream.write(_MESSAGE_INDEX.pack(Opcode.MESSAGE_INDEX, 6 + 8 * n,
-                                                       channel_id, 8 * n))
-                self._stream.write(struct.pack(f'<{n}Q', *entries))
-                self._counts[channel_id] += n // 2
-                entries.clear()
+                group += _MESSAGE_INDEX.pack(Opcode.MESSAGE_INDEX, 6 + 8 * n, channel_id, 8 * n)
+                group += struct.pack(f'<{n}Q', *entries)
+                counts[channel_id] = n // 2
+        self._write(group)                # on failure: rewound, nothing below happens
+        self._good = self._pos
+        for channel_id, n in counts.items():
+            self._counts[channel_id] += n
+            self._index[channel_id].clear()
+        self.written += sum(counts.values())
         self._chunk_indexes.append(ChunkIndex(
             message_start_time=self._chunk_start, message_end_time=self._chunk_end,
             chunk_start_offset=chunk_offset, chunk_length=chunk_length,
-            message_index_offsets=offsets, message_index_length=self._stream.tell() - index_start,
+            message_index_offsets=offsets, message_index_length=len(group) - chunk_length,
             compression=chunk.compression, compressed_size=len(data),
             uncompressed_size=len(records)))
         self._chunk.clear()
@@ -205,15 +261,30 @@ class McapWriter:
         return min(start for start, _ in chunks), max(end for _, end in chunks)
 
     def flush(self) -> None:
-        """Write the open chunk and hand everything to the operating system."""
+        """Write the open chunk (the stream is unbuffered: it is then with the
+        operating system)."""
         self._finish_chunk()
         self._stream.flush()
 
+    def summary_bound(self) -> int:
+        """Bytes that :meth:`finish` writes at most after the open chunk, as the file
+        stands: what a recording keeps in reserve for the end of its file."""
+        fixed = sum(len(s.data) + len(s.name) + 64 for s in self._schemas) + sum(
+            len(c.topic) + sum(len(k) + len(v) + 8 for k, v in c.metadata.items()) + 64
+            for c in self._channels)
+        per_chunk = 96 + 10 * len(self._channels)
+        return 2 * fixed + per_chunk * (len(self._chunk_indexes) + 1) + 64 * (
+            len(self._metadata_indexes) + 1) + 1024
+
     def finish(self) -> None:
-        """The last chunk, the data section's end, the summary and the footer."""
+        """The last chunk, the data section's end, the summary and the footer (the
+        end of the file after the last chunk as one group: written whole, or not at
+        all)."""
         self._finish_chunk()
-        self._record(DataEnd(data_section_crc=0))
-        summary_start = self._stream.tell()
+        builder = RecordBuilder()
+        DataEnd(data_section_crc=0).write(builder)
+        summary_start = self._pos + builder.count
+        head = builder.end()
         builder = RecordBuilder()
         offsets: list[SummaryOffset] = []
 
@@ -241,11 +312,11 @@ class McapWriter:
         summary = builder.end()
         crc = zlib.crc32(_FOOTER_START.pack(Opcode.FOOTER, 20, summary_start, offsets_start),
                          zlib.crc32(summary))
-        self._stream.write(summary)
-        self._record(Footer(summary_start=summary_start, summary_offset_start=offsets_start,
-                            summary_crc=crc))
-        self._stream.write(MCAP_MAGIC)
-
+        builder = RecordBuilder()
+        Footer(summary_start=summary_start, summary_offset_start=offsets_start,
+               summary_crc=crc).write(builder)
+        self._write(b''.join((head, summary, builder.end(), MCAP_MAGIC)))
+        self._good = self._pos
 
 
 __all__ = ['McapWriter']

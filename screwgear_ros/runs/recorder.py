@@ -34,11 +34,22 @@ wall time; after ``kill -9`` every flushed chunk reads back, and at most the las
 unflushed chunk plus the messages still queued are lost. :meth:`RunRecorder.close`
 (Ctrl-C, SIGTERM, normal exit, or interpreter exit as a last resort) drains the
 queue and writes the summary, the index and the final ``metadata.yaml``.
+
+What survives a write that fails (a full disk): the first such error stops the
+recording at once. The MCAP file is cut back to its last whole chunk (the open chunk
+and whatever is still queued are dropped and counted), then closed with its summary
+and index, and ``metadata.yaml`` is rewritten with the counts of what the file holds:
+the bag reads back, up to the fault, with any reader. The room for those last records
+is held from the start in ``RESERVE_NAME``, a file beside the bag that grows with the
+recording's index and is deleted at the end, so a full disk still has it. The
+recorder's ``on_error`` callback then gets one line saying what failed and what the
+bag keeps; :attr:`RunRecorder.error` keeps the error.
 """
 
 from __future__ import annotations
 
 import atexit
+import contextlib
 import os
 import queue
 import threading
@@ -67,7 +78,38 @@ BATCH_PERIOD = 0.01
 #: then it goes on, and a full queue drops as it always does.
 ROOM_TIMEOUT = 1.0
 
+#: The file in the bag directory that holds the room for the bag's last records.
+RESERVE_NAME = '.recording_reserve'
+
 _STOP = object()
+
+
+def _create(path: Path) -> Any:
+    """A new file for writing, unbuffered (see :class:`McapWriter`)."""
+    return open(path, 'xb', buffering=0)
+
+
+class _Reserve:
+    """Bytes of the disk held in a file until the bag's last records need them."""
+
+    _BLOCK = bytes(64 * 1024)
+
+    def __init__(self, path: Path, open_file: Callable[[Path], Any], size: int) -> None:
+        self._path = path
+        self._file = open_file(path)
+        self.size = 0
+        self.grow(size)
+
+    def grow(self, size: int) -> None:
+        """Hold at least ``size`` bytes (OSError when the disk has no more)."""
+        while self.size < size:
+            self.size += self._file.write(self._BLOCK) or 0
+
+    def release(self) -> None:
+        self._file.truncate(0)
+        self._file.close()
+        self._path.unlink(missing_ok=True)
+
 
 @dataclass(frozen=True)
 class TopicGroup:
@@ -106,7 +148,13 @@ class RunRecorder:
     def __init__(self, path: str | os.PathLike[str], topics: Sequence[TopicSpec],
                  serialize: Callable[[Any], bytes], *, queue_size: int = QUEUE_SIZE,
                  chunk_size: int = CHUNK_SIZE, flush_period: float = FLUSH_PERIOD,
-                 batch_period: float = BATCH_PERIOD, compression: bool = True) -> None:
+                 batch_period: float = BATCH_PERIOD, compression: bool = True,
+                 on_error: Callable[[str], None] | None = None,
+                 open_file: Callable[[Path], Any] = _create) -> None:
+        """``on_error``: called once, on the writer thread, with a line saying what
+        failed and what the bag keeps, after the bag was closed at a write error.
+        ``open_file``: how the bag's MCAP file and its reserve are created (a new
+        unbuffered binary file by default)."""
         self.path = Path(path)
         if self.path.exists() and (not self.path.is_dir() or any(self.path.iterdir())):
             raise FileExistsError(f'{self.path} exists and is not an empty directory; '
@@ -126,7 +174,9 @@ class RunRecorder:
         self._accepted = 0
         self._handled = 0
         self._error: str | None = None
-        self._closed = False              # set once, under _close_lock
+        self._on_error = on_error
+        self._closed = False              # set once, under _close_lock: no more messages
+        self._close_called = False        # close() ran (the writer may close on its own)
         self._close_lock = threading.Lock()   # orders write()'s check-and-put against close()
         self._abandon = False
         # A producer waiting for room (write_group(wait=True)) sets _hurry, so that the
@@ -137,12 +187,13 @@ class RunRecorder:
 
         self._topics = [{'name': t.name, 'type': t.msgtype,
                          'qos': [qos_profile(t.transient_local)]} for t in topics]
-        self._counts = [0] * len(topics)     # written per topic = its next sequence number
+        self._counts = [0] * len(topics)     # added per topic = its next sequence number
         self.path.mkdir(parents=True, exist_ok=True)
         self._mcap_name = f'{self.path.name}_0.mcap'
         self._custom = {'screwgear_ros.package_version': __version__}
-        self._file = open(self.path / self._mcap_name, 'xb')
+        self._file = open_file(self.path / self._mcap_name)
         self._mcap = McapWriter(self._file, int(chunk_size), compression)
+        self._channel_ids: list[int] = []     # per topic, in the order of ``topics``
         self._write_metadata_yaml()
         self._mcap.start(profile=MCAP_PROFILE, library=f'screwgear_ros-{__version__}')
         self._mcap.add_metadata('rosbag2', {'serialized_metadata': self._serialized_metadata()})
@@ -158,6 +209,10 @@ class RunRecorder:
                 {'offered_qos_profiles': qos_yaml(topic['qos']),
                  'topic_type_hash': message_definition(spec.msgtype)[1]})
             self._alone[spec.name] = TopicGroup((spec.name,), (index,), (channel,))
+            self._channel_ids.append(channel)
+        # metadata.yaml and its copy in the MCAP file, with room for the counts' digits.
+        self._metadata_bound = 4 * len(self._serialized_metadata()) + 4096
+        self._reserve = _Reserve(self.path / RESERVE_NAME, open_file, 2 * self._end_bound())
         self._thread = threading.Thread(target=self._run, name='run_recorder', daemon=True)
         self._thread.start()
         atexit.register(self.close)
@@ -167,12 +222,17 @@ class RunRecorder:
     @property
     def dropped(self) -> int:
         """Messages not recorded: queue full, written after close, or failed to write."""
-        return self._dropped
+        return self._dropped + self._mcap.discarded
 
     @property
     def written(self) -> int:
-        """Messages written to the MCAP file so far."""
-        return sum(self._counts)      # the writer's counts; a list summed under the GIL
+        """Messages in the MCAP file so far (whole chunks: what a reader finds)."""
+        return self._mcap.written
+
+    @property
+    def closed(self) -> bool:
+        """close() has run (the bag is final)."""
+        return self._close_called
 
     @property
     def error(self) -> str | None:
@@ -216,7 +276,8 @@ class RunRecorder:
         if n != len(group.topics):
             raise ValueError(f'{n} messages for the {len(group.topics)} topics '
                              f'of {group.topics}')
-        if wait and 2 * (self._accepted - self._handled + n) > self._queue_size:
+        if wait and not self._closed and \
+                2 * (self._accepted - self._handled + n) > self._queue_size:
             self._wait_for_room(n)
         self._put((group, sim_time_ns, messages), n)
 
@@ -249,9 +310,9 @@ class RunRecorder:
         the queue is dropped (counted) so that the bag is still finalized.
         """
         with self._close_lock:
-            if self._closed:
+            if self._close_called:
                 return
-            self._closed = True
+            self._close_called = self._closed = True
             self._queue.put(_STOP)   # after every message write() accepted
         with self._progress:         # a producer waiting for room: closed, stop waiting
             self._progress.notify_all()
@@ -292,10 +353,17 @@ class RunRecorder:
             if dirty and now >= next_flush and self._error is None:
                 try:
                     self._mcap.flush()
+                    self._hold_room()
                 except Exception as exc:  # noqa: BLE001 - reported through .error
                     self._fail(exc)
                 dirty = False
                 next_flush = now + self._flush_period
+            if self._error is not None:    # stop at the first error: close the bag now
+                with self._close_lock:
+                    self._closed = True
+                with self._progress:
+                    self._progress.notify_all()
+                stop = True
             if batches and not stop:
                 self._hurry.wait(self._batch_period)   # let the next batches gather
                 self._hurry.clear()
@@ -332,18 +400,19 @@ class RunRecorder:
             if len(size) != 1 or 0 in size:
                 return False
             sizes.append(size.pop())
-        counts, indexes = self._counts, group.indexes
+        counts, indexes, mcap = self._counts, group.indexes, self._mcap
         # A topic that comes m times in the group: its r-th place gets first + r, then +m.
         sequences = [(counts[index] + indexes[:k].count(index), indexes.count(index))
                      for k, index in enumerate(indexes)]
         n = len(run) * len(indexes)
+        added = mcap.added
         try:
-            self._mcap.add_run(group.channel_ids, sequences,
-                               np.array([t for _, t, _ in run], dtype=np.uint64),
-                               [b''.join(column) for column in columns], sizes)
+            mcap.add_run(group.channel_ids, sequences,
+                         np.array([t for _, t, _ in run], dtype=np.uint64),
+                         [b''.join(column) for column in columns], sizes)
         except Exception as exc:  # noqa: BLE001 - reported through .error
             self._fail(exc)
-            self._count_drop(n)
+            self._count_drop(n - (mcap.added - added))   # the writer counts what it dropped
         else:
             for index in indexes:
                 counts[index] += len(run)
@@ -353,29 +422,39 @@ class RunRecorder:
     def _write_item(self, group: TopicGroup, log_time: int, messages: Sequence[Any]) -> None:
         """Write one queued item's messages in order (or count them dropped after an
         error or when close() gave up waiting)."""
-        counts, serialize, add = self._counts, self._serialize, self._mcap.add
+        counts, serialize, mcap = self._counts, self._serialize, self._mcap
         log_time = int(log_time)
-        written = 0
+        added = mcap.added
         if not self._abandon and self._error is None:
             for index, channel_id, msg in zip(group.indexes, group.channel_ids, messages):
                 try:
-                    add(channel_id, counts[index], log_time,           # counts: the sequence
-                        msg if msg.__class__ is bytes else serialize(msg))
+                    mcap.add(channel_id, counts[index], log_time,      # counts: the sequence
+                             msg if msg.__class__ is bytes else serialize(msg))
                 except Exception as exc:  # noqa: BLE001 - reported through .error
                     self._fail(exc)       # the rest of the item is dropped below
                     break
                 counts[index] += 1
-                written += 1
-        if written < len(messages):
-            self._count_drop(len(messages) - written)
+        added = mcap.added - added        # a failed write's chunk: the writer counts it
+        if added < len(messages):
+            self._count_drop(len(messages) - added)
         self._handled += len(messages)
 
     def _fail(self, exc: BaseException) -> None:
         if self._error is None:
             self._error = f'{type(exc).__name__}: {exc}'
 
+    def _end_bound(self) -> int:
+        """Bytes the end of the bag needs at most: the MCAP summary and the metadata."""
+        return self._mcap.summary_bound() + self._metadata_bound
+
+    def _hold_room(self) -> None:
+        """Keep the reserve at least what the end of the bag needs, doubling it."""
+        if self._reserve.size < self._end_bound():
+            self._reserve.grow(2 * self._end_bound())
+
     def _finish(self) -> None:
-        """Count what is left, write summary and index, close, rewrite metadata.yaml."""
+        """Count what is left, write summary and index, close, rewrite metadata.yaml;
+        after an error, say once what the bag keeps."""
         while True:
             try:
                 item = self._queue.get_nowait()
@@ -383,18 +462,45 @@ class RunRecorder:
                 break
             if item is not _STOP:
                 self._count_drop(len(item[2]))
+                self._handled += len(item[2])
+        unfinished = ''
+        with contextlib.suppress(OSError):
+            self._reserve.release()       # its room is the end's, whatever failed
         try:
+            self._mcap.flush()            # the metadata counts what the file holds
             self._mcap.add_metadata('rosbag2',
                                     {'serialized_metadata': self._serialized_metadata()})
             self._mcap.finish()
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:  # noqa: BLE001 - reported through .error and on_error
             self._fail(exc)
+            unfinished = (f'; its summary could not be written ({type(exc).__name__}: {exc}): '
+                          'it ends at its last whole chunk, readable as a truncated bag')
         finally:
             self._file.close()
-        self._write_metadata_yaml()
+        try:
+            self._write_metadata_yaml()
+        except OSError as exc:
+            (self.path / 'metadata.yaml.tmp').unlink(missing_ok=True)
+            self._fail(exc)
+            unfinished += (f'; metadata.yaml could not be rewritten ({exc}): it is the one '
+                           'written when the recording started, without counts')
+        with self._progress:
+            self._progress.notify_all()
+        if self._error is not None and self._on_error is not None:
+            start, end = self._mcap.time_range()
+            self._on_error(
+                f'recording failed: {self._error}. Recording stopped; {self.path} keeps the '
+                f'{self.written} messages written before the fault'
+                + (f' (log times {start * 1e-9:.3f} to {end * 1e-9:.3f} s)' if self.written
+                   else '')
+                + f'; {self.dropped} dropped' + (unfinished or '; the bag is closed and '
+                                                 'reads back up to the fault'))
 
     def _document(self) -> dict[str, Any]:
-        return metadata_document(self._mcap_name, self._topics, self._counts,
+        written = self._mcap.counts()        # none before the channels are registered
+        return metadata_document(self._mcap_name, self._topics,
+                                 [written.get(channel, 0) for channel in self._channel_ids]
+                                 or [0] * len(self._topics),
                                  *self._mcap.time_range(), self._custom)
 
     def _serialized_metadata(self) -> str:
@@ -407,4 +513,4 @@ class RunRecorder:
 
 
 __all__ = ['TopicGroup', 'TopicSpec', 'RunRecorder', 'QUEUE_SIZE', 'CHUNK_SIZE', 'FLUSH_PERIOD',
-           'BATCH_PERIOD', 'ROOM_TIMEOUT']
+           'BATCH_PERIOD', 'ROOM_TIMEOUT', 'RESERVE_NAME']
