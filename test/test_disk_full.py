@@ -128,6 +128,45 @@ def test_a_full_disk_stops_the_recording_with_a_bag_that_reads_back(
     assert status.get('truncated') is None
 
 
+class TakenDisk(SmallDisk):
+    """A disk whose room, once full, another writer takes as soon as it is freed."""
+
+    def open(self, path: Path) -> 'DiskFile':
+        disk = self
+
+        class Taken(DiskFile):
+            def write(self, data: bytes) -> int:
+                try:
+                    return super().write(data)
+                except OSError:
+                    disk.capacity = 0
+                    raise
+        return Taken(self, path)
+
+
+def test_a_disk_that_stays_full_leaves_the_bag_readable_as_truncated(tmp_path: Path) -> None:
+    """Even the reserve's room is gone when the end is written: the MCAP file ends at
+    its last whole chunk, metadata.yaml counts what it holds, nothing is left behind,
+    and the one line says the bag is readable as a truncated one."""
+    said: list[str] = []
+    bag = tmp_path / 'bag'
+    recorder = RunRecorder(bag, TOPICS[1:], serialize_message, chunk_size=4096,
+                           compression=False, on_error=said.append,
+                           open_file=TakenDisk(200_000).open)
+    for k in range(20_000):
+        recorder.write(TOPICS[1].name, k, serialize_message(Float64(data=float(k))))
+    recorder.close()
+    assert len(said) == 1 and 'readable as a truncated bag' in said[0], said
+    assert sorted(p.name for p in bag.iterdir()) == ['bag_0.mcap', 'metadata.yaml']
+    info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    status: dict = {}
+    read = [t for _, _, t, _ in iter_messages(next(bag.glob('*.mcap')), status)]
+    assert status['truncated']
+    assert read == list(range(len(read))) and len(read) == recorder.written \
+        == info['message_count'] > 0
+    assert recorder.written + recorder.dropped == 20_000
+
+
 def test_the_reserve_is_gone_after_a_normal_close(tmp_path: Path) -> None:
     recorder = RunRecorder(tmp_path / 'bag', TOPICS, serialize_message)
     assert (tmp_path / 'bag' / RESERVE_NAME).stat().st_size > 0
