@@ -44,6 +44,10 @@ is held from the start in ``RESERVE_NAME``, a file beside the bag that grows wit
 recording's index and is deleted at the end, so a full disk still has it. The
 recorder's ``on_error`` callback then gets one line saying what failed and what the
 bag keeps; :attr:`RunRecorder.error` keeps the error.
+
+Why one module of this length: the producer side and the writer thread share the
+counters, the close lock and the stop mark, whose order is the whole correctness
+argument; the MCAP container itself is :mod:`screwgear_ros.runs.mcap_writer`.
 """
 
 from __future__ import annotations
