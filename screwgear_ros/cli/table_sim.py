@@ -42,7 +42,7 @@ import rclpy.logging
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
@@ -54,7 +54,7 @@ from ..params import ANSWER_TOPICS, ANSWERS, TICK_TOPIC, ParameterError, split_p
 from ..ratelimit import RateLimiter
 from ..warmup import compiled_now, without_blas_probe
 from ..session import Session, Tick
-from ..ros import messages, parameters
+from ..ros import inputs, messages, parameters
 from ..ros.messages import INPUT_TYPES, LATCHED_OUTPUTS, OUTPUT_TYPES
 from ..ros.run_io import RunIO
 from ..ros.shutdown import spin_until, stop_on_signals
@@ -72,6 +72,16 @@ LOCKSTEP_NOTICE = 3.0       # s of wall time without an answer before the node s
 #: writes, the executor with an arrived command) waited up to a whole interval for it.
 #: At 0.5 ms recording flat out cost about 6 % instead of 10 % (3 × 8 s, one run each).
 SWITCH_INTERVAL = 0.0005
+#: Exit status of a node whose recording failed (a full disk): it ran, and stopped as
+#: asked, but the bag ends at the fault (the log's ERROR line says where).
+EXIT_RECORDING_FAILED = 3
+#: ~/reset keeps every request and answer until delivered (the default keeps the last
+#: 10: a burst of calls lost all but those that one executor wake-up took in time).
+SERVICE_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE)
+#: s of wall time between the checks for another node of the same full name, and how
+#: many: discovery needs a moment, and the first joint_states must not wait for it.
+NAME_CHECK_PERIOD = 1.0
+NAME_CHECKS = 5
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
@@ -86,8 +96,11 @@ class TableSim(Node):
         params, settings = split_parameters(self._values)   # ParameterError: refuse to start
         self._gate = AnswerGate()
         self._warnings = RateLimiter(1.0)          # rejected inputs, per topic
+        self._refusals = RateLimiter(1.0)          # inputs refused unread (executor thread)
+        self._refused: dict[str, int] = {}         # their count per topic (executor thread)
         self._reversals = RateLimiter(STATUS_PERIOD)   # one reversal line per status period
         self.failed = False
+        self.recording_failed = False
 
         # Endpoints before the session: DDS discovers them on its own threads while the
         # session loads its compiled kernels (no callback runs before main() spins).
@@ -98,11 +111,14 @@ class TableSim(Node):
         # Answers last: rclpy's executor serves the ready subscriptions of one wait in
         # creation order, so a command that arrived with an answer is applied with it.
         ordered = sorted(INPUT_TYPES, key=lambda topic: topic in ANSWER_TOPICS)
+        # Raw: a message's size is looked at before it is decoded (ros/inputs.py).
         subs = {topic: self.create_subscription(INPUT_TYPES[topic], topic,
-                                                partial(self._on_command, topic), 10)
+                                                partial(self._on_command, topic), 10, raw=True)
                 for topic in ordered}
         self.create_subscription(Empty, f'~/{TICK_TOPIC}', self._on_tick, 10)
-        self.create_service(Trigger, '~/reset', self._on_reset)
+        self.create_service(Trigger, '~/reset', self._on_reset, qos_profile=SERVICE_QOS)
+        self._name_checks = 0
+        self._name_timer = self.create_timer(NAME_CHECK_PERIOD, self._check_name)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         started = time.perf_counter()
         with without_blas_probe():           # numba's first load, without SciPy's BLAS
@@ -119,7 +135,7 @@ class TableSim(Node):
                        'reset': self._fqn + '/reset'})
         self.io = RunIO(topics, settings.joint_names, publishers)
         if settings.record:
-            self.io.open_recorder(settings.record)
+            self.io.open_recorder(settings.record, on_error=self._recording_failed)
         self._thread = threading.Thread(target=self._run, name='table_sim pacing', daemon=True)
 
     # ------------------------------------------------------------------ lifecycle
@@ -151,14 +167,38 @@ class TableSim(Node):
             if self._thread.is_alive():
                 self.get_logger().error('the pacing thread did not stop within 5 s')
         recorder = self.io.recorder
-        if recorder is not None:
+        if recorder is not None and not recorder.closed:
             recorder.close()
             self.get_logger().info(f'recording closed: {recorder.written} messages written, '
                                    f'{recorder.dropped} dropped')
 
+    def exit_code(self) -> int:
+        """1 after a bug in the pacing thread, EXIT_RECORDING_FAILED after a failed
+        recording, else 0."""
+        return 1 if self.failed else EXIT_RECORDING_FAILED if self.recording_failed else 0
+
+    def _recording_failed(self, what: str) -> None:
+        """The recorder's writer thread, once, after it closed the bag at a write error:
+        the simulation goes on (a controller may depend on it), unrecorded."""
+        self.recording_failed = True
+        self.get_logger().error(what)
+
     # ------------------------------------------------------------------ executor side
 
-    def _on_command(self, topic: str, msg: Any) -> None:
+    def _on_command(self, topic: str, data: bytes) -> None:
+        refused = inputs.oversized(topic, data)
+        if refused is not None:
+            self._refused[topic] = self._refused.get(topic, 0) + 1
+            emit, held = self._refusals.allow(topic)
+            if emit:
+                self.get_logger().warning(
+                    refused + (f' ({held} more refused since the last warning)' if held else ''))
+        else:
+            self._command(topic, inputs.decode(topic, data))
+        if refused is not None and topic in ANSWER_TOPICS:
+            self._gate.answer()         # an answer, if a bad one, as a rejected command is
+
+    def _command(self, topic: str, msg: Any) -> None:
         value = command_value(topic, msg)
         if not carries_no_command(topic, value):
             self.session.submit(Command(topic, value))
@@ -179,6 +219,20 @@ class TableSim(Node):
         self._values = candidate
         self.io.submit_change(self.session, ParameterChange(params, settings))  # texts here
         return SetParametersResult(successful=True)
+
+    def _check_name(self) -> None:
+        """Warn once if another node of this full name runs in the domain: both would
+        publish on the same topics, and a subscriber would see two tables' stamps."""
+        self._name_checks += 1
+        ours = (self.get_name(), self.get_namespace())
+        same = sum(1 for node in self.get_node_names_and_namespaces() if node == ours)
+        if same > 1:
+            self.get_logger().warning(
+                f'another node named {self._fqn} runs in this ROS domain: both publish on '
+                'the same topics, and a subscriber gets both tables\' messages (stamps going '
+                'back and forth); give each its own namespace (--ros-args -r __ns:=/axis_b)')
+        if same > 1 or self._name_checks >= NAME_CHECKS:
+            self._name_timer.cancel()
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         self.session.submit(Reset())
@@ -271,7 +325,7 @@ class TableSim(Node):
             emit, held = self._warnings.allow(error.topic)
             if emit:
                 more = f' ({held} more rejected since the last warning)' if held else ''
-                log.warning(f'{error}{more}')
+                log.warning(inputs.excerpt(f'{error}{more}'))
         for notice in tick.notices:
             log.warning(notice)
         t = tick.start * self.session.plant.dt
@@ -294,6 +348,8 @@ class TableSim(Node):
         health, session = self._health, self.session
         out = session.outputs
         health.rejected = dict(session.rejected)
+        for topic, refused in dict(self._refused).items():    # the executor's count
+            health.rejected[topic] = health.rejected.get(topic, 0) + refused
         health.fault = session.plant.fault
         health.command_timed_out = session.timed_out
         recorder = self.io.recorder
@@ -314,7 +370,8 @@ class TableSim(Node):
 
 
 def main(args: list[str] | None = None) -> int:
-    """Run the node until SIGINT or SIGTERM; 0 on a clean stop, 2 on bad parameters."""
+    """Run the node until SIGINT or SIGTERM; 0 on a clean stop, 2 on bad parameters,
+    3 when the recording failed (EXIT_RECORDING_FAILED)."""
     sys.setswitchinterval(SWITCH_INTERVAL)
     stop = stop_on_signals()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
@@ -327,7 +384,8 @@ def main(args: list[str] | None = None) -> int:
             return 2
         node.start()
         spin_until(node, stop)
-        return 1 if node.failed else 0
+        node.close()                   # the recorder's last writes can still fail
+        return node.exit_code()
     finally:
         if node is not None:
             node.close()

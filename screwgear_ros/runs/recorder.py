@@ -34,33 +34,41 @@ wall time; after ``kill -9`` every flushed chunk reads back, and at most the las
 unflushed chunk plus the messages still queued are lost. :meth:`RunRecorder.close`
 (Ctrl-C, SIGTERM, normal exit, or interpreter exit as a last resort) drains the
 queue and writes the summary, the index and the final ``metadata.yaml``.
+
+What survives a write that fails (a full disk): the first such error stops the
+recording at once. The MCAP file is cut back to its last whole chunk (the open chunk
+and whatever is still queued are dropped and counted), then closed with its summary
+and index, and ``metadata.yaml`` is rewritten with the counts of what the file holds:
+the bag reads back, up to the fault, with any reader. The room for those last records
+is held from the start in ``RESERVE_NAME``, a file beside the bag that grows with the
+recording's index and is deleted at the end, so a full disk still has it. The
+recorder's ``on_error`` callback then gets one line saying what failed and what the
+bag keeps; :attr:`RunRecorder.error` keeps the error.
+
+Why one module of this length: the producer side and the writer thread share the
+counters, the close lock and the stop mark, whose order is the whole correctness
+argument; the MCAP container itself is :mod:`screwgear_ros.runs.mcap_writer`.
 """
 
 from __future__ import annotations
 
 import atexit
+import contextlib
 import os
 import queue
-import struct
 import threading
 import time
-import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import numpy as np
 import yaml
-import zstandard
-from mcap.data_stream import RecordBuilder
-from mcap.opcode import Opcode
-from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, Metadata,
-                          MetadataIndex, McapRecord, Schema, Statistics, SummaryOffset)
 
 from .. import __version__
-from .bagformat import (MCAP_MAGIC, MCAP_MESSAGE, MCAP_MESSAGE_FIELDS, MCAP_PROFILE,
-                        MESSAGE_ENCODING, SCHEMA_ENCODING, message_definition,
+from .bagformat import (MCAP_PROFILE, MESSAGE_ENCODING, SCHEMA_ENCODING, message_definition,
                         metadata_document, metadata_yaml, qos_profile, qos_yaml)
+from .mcap_writer import McapWriter
 
 #: Default bound of the queue between the node and the writer thread, messages.
 QUEUE_SIZE = 200_000
@@ -74,231 +82,37 @@ BATCH_PERIOD = 0.01
 #: then it goes on, and a full queue drops as it always does.
 ROOM_TIMEOUT = 1.0
 
+#: The file in the bag directory that holds the room for the bag's last records.
+RESERVE_NAME = '.recording_reserve'
+
 _STOP = object()
 
-_MESSAGE_INDEX = struct.Struct('<BQHI')     # opcode, length, channel id, bytes of entries
-_MESSAGE_OPCODE = int(Opcode.MESSAGE)       # per message: a plain int packs faster
-_pack_message = MCAP_MESSAGE.pack
-#: A Message record's fixed fields (MCAP_MESSAGE, in its order) as NumPy columns, for
-#: :meth:`_McapWriter.add_run`.
-_MESSAGE_COLUMNS = tuple(zip(('opcode', 'length', 'channel', 'sequence', 'log_time',
-                              'publish_time'),
-                             [{'B': 'u1', 'H': '<u2', 'I': '<u4', 'Q': '<u8'}[code]
-                              for code in MCAP_MESSAGE.format[1:]]))
-assert np.dtype(list(_MESSAGE_COLUMNS)).itemsize == MCAP_MESSAGE.size
-_FOOTER_START = struct.Struct('<BQQQ')      # opcode, length, summary start, offsets start
+
+def _create(path: Path) -> Any:
+    """A new file for writing, unbuffered (see :class:`McapWriter`)."""
+    return open(path, 'xb', buffering=0)
 
 
-class _McapWriter:
-    """The MCAP file of a recording: a Header, the schemas and channels, then messages
-    in compressed chunks, each followed by its message indexes; at the end the summary
-    (schemas, channels, statistics, chunk and metadata indexes, summary offsets) and the
-    footer, as the MCAP specification lays them out.
+class _Reserve:
+    """Bytes of the disk held in a file until the bag's last records need them."""
 
-    Why not ``mcap.writer.Writer``: it builds a record object and makes about twenty
-    Python calls per message, and the writer thread holds the interpreter lock for all
-    of them, which the node's pacing thread then waits for. Here a message is one
-    ``struct`` pack appended to the open chunk and two index entries; the rare records
-    are the ``mcap`` library's own record classes.
-    """
+    _BLOCK = bytes(64 * 1024)
 
-    def __init__(self, stream: Any, chunk_size: int, compression: bool) -> None:
-        self._stream = stream
-        self._chunk_size = chunk_size
-        self._compress = zstandard.ZstdCompressor().compress if compression else None
-        self._schemas: list[Schema] = []
-        self._channels: list[Channel] = []
-        self._chunk = bytearray()
-        self._index: dict[int, list[int]] = {}     # channel id → log time, offset, ...
-        self._chunk_start = self._chunk_end = 0    # log times of the open chunk
-        self._chunk_indexes: list[ChunkIndex] = []
-        self._metadata_indexes: list[MetadataIndex] = []
-        self._counts: dict[int, int] = {}          # channel id → messages in written chunks
-        self._run_layouts: dict[tuple[int, ...], np.dtype] = {}   # add_run's, by data sizes
+    def __init__(self, path: Path, open_file: Callable[[Path], Any], size: int) -> None:
+        self._path = path
+        self._file = open_file(path)
+        self.size = 0
+        self.grow(size)
 
-    def _record(self, record: McapRecord) -> tuple[int, int]:
-        """Write a record to the file; its offset and length."""
-        builder = RecordBuilder()
-        record.write(builder)
-        data = builder.end()
-        offset = self._stream.tell()
-        self._stream.write(data)
-        return offset, len(data)
+    def grow(self, size: int) -> None:
+        """Hold at least ``size`` bytes (OSError when the disk has no more)."""
+        while self.size < size:
+            self.size += self._file.write(self._BLOCK) or 0
 
-    def start(self, profile: str, library: str) -> None:
-        self._stream.write(MCAP_MAGIC)
-        self._record(Header(profile=profile, library=library))
-
-    def add_metadata(self, name: str, data: dict[str, str]) -> None:
-        self._finish_chunk()
-        offset, length = self._record(Metadata(name=name, metadata=data))
-        self._metadata_indexes.append(MetadataIndex(offset=offset, length=length, name=name))
-
-    def register_schema(self, name: str, encoding: str, data: bytes) -> int:
-        schema = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
-        self._schemas.append(schema)
-        self._record(schema)
-        return schema.id
-
-    def register_channel(self, topic: str, message_encoding: str, schema_id: int,
-                         metadata: dict[str, str]) -> int:
-        channel = Channel(id=len(self._channels) + 1, topic=topic,
-                          message_encoding=message_encoding, schema_id=schema_id,
-                          metadata=metadata)
-        self._channels.append(channel)
-        self._counts[channel.id] = 0
-        self._index[channel.id] = []
-        self._record(channel)
-        return channel.id
-
-    def _spans(self, first: int, last: int) -> None:
-        """The open chunk takes messages with log times from ``first`` to ``last``
-        (before they are appended to it)."""
-        if not self._chunk:
-            self._chunk_start, self._chunk_end = first, last
-            return
-        if first < self._chunk_start:
-            self._chunk_start = first
-        if last > self._chunk_end:
-            self._chunk_end = last
-
-    def add(self, channel_id: int, sequence: int, log_time: int, data: bytes) -> None:
-        """One message (publish time = log time) into the open chunk; its ``sequence``
-        modulo 2³² (MCAP's field is a uint32)."""
-        self._spans(log_time, log_time)
-        chunk = self._chunk
-        offset = len(chunk)
-        chunk += _pack_message(_MESSAGE_OPCODE, MCAP_MESSAGE_FIELDS + len(data), channel_id,
-                               sequence % 2**32, log_time, log_time)
-        chunk += data
-        self._index[channel_id] += (log_time, offset)
-        if len(chunk) >= self._chunk_size:
-            self._finish_chunk()
-
-    def add_run(self, channel_ids: Sequence[int], sequences: Sequence[tuple[int, int]],
-                log_times: np.ndarray, columns: Sequence[bytes], sizes: Sequence[int]) -> None:
-        """Rows of messages, row i at ``log_times[i]``: in each row one message on each of
-        ``channel_ids`` in this order (what a run of ticks records), column k's data
-        ``sizes[k]`` bytes each, joined in ``columns[k]``, its sequence numbers
-        ``first + i·stride`` for ``sequences[k] = (first, stride)`` (mod 2³²: MCAP's field
-        is a uint32). The same records in the same order as one :meth:`add` per message,
-        built as NumPy columns instead: the writer thread's work per tick of the node is
-        0.87 µs against 2.27 µs through add() (runs of 350 ticks, what 10 ms of the node
-        flat out queues). Rows go into the open chunk until it holds ``chunk_size``
-        bytes, as with add()."""
-        layout = self._run_layouts.get(tuple(sizes))
-        if layout is None:
-            layout = self._run_layouts[tuple(sizes)] = np.dtype(
-                [(f'{name}{k}', kind) for k, size in enumerate(sizes)
-                 for name, kind in (*_MESSAGE_COLUMNS, ('data', f'V{size}'))])
-        starts = np.cumsum([0] + [MCAP_MESSAGE.size + size for size in sizes])
-        n, row = len(log_times), layout.itemsize
-        done = 0
-        while done < n:
-            room = self._chunk_size - len(self._chunk)
-            take = min(n - done, max(1, -(-room // row)))    # the chunk ends full, or the run
-            t = log_times[done:done + take]
-            rows = np.empty(take, layout)
-            for k, (channel_id, (first, stride), size) in enumerate(
-                    zip(channel_ids, sequences, sizes)):
-                rows[f'opcode{k}'] = _MESSAGE_OPCODE
-                rows[f'length{k}'] = MCAP_MESSAGE_FIELDS + size
-                rows[f'channel{k}'] = channel_id
-                rows[f'sequence{k}'] = (first + stride * np.arange(done, done + take)) % 2**32
-                rows[f'log_time{k}'] = rows[f'publish_time{k}'] = t
-                rows[f'data{k}'] = np.frombuffer(columns[k], f'V{size}', take, done * size)
-            self._spans(int(t.min()), int(t.max()))
-            offset = len(self._chunk)
-            self._chunk += rows.tobytes()
-            at = offset + row * np.arange(take, dtype=np.uint64)
-            for k, channel_id in enumerate(channel_ids):    # (log time, offset) pairs
-                pairs = np.column_stack((t, at + int(starts[k])))
-                self._index[channel_id] += pairs.ravel().tolist()
-            if len(self._chunk) >= self._chunk_size:
-                self._finish_chunk()
-            done += take
-
-    def _finish_chunk(self) -> None:
-        """Write the open chunk and its message indexes (nothing if it is empty)."""
-        if not self._chunk:
-            return
-        records = bytes(self._chunk)
-        data = self._compress(records) if self._compress is not None else records
-        chunk = Chunk(compression='zstd' if self._compress is not None else '', data=data,
-                      message_start_time=self._chunk_start,
-                      message_end_time=self._chunk_end,
-                      uncompressed_crc=zlib.crc32(records), uncompressed_size=len(records))
-        chunk_offset, chunk_length = self._record(chunk)
-        offsets: dict[int, int] = {}
-        index_start = self._stream.tell()
-        for channel_id, entries in self._index.items():
-            if entries:
-                offsets[channel_id] = self._stream.tell()
-                n = len(entries)
-                self._stream.write(_MESSAGE_INDEX.pack(Opcode.MESSAGE_INDEX, 6 + 8 * n,
-                                                       channel_id, 8 * n))
-                self._stream.write(struct.pack(f'<{n}Q', *entries))
-                self._counts[channel_id] += n // 2
-                entries.clear()
-        self._chunk_indexes.append(ChunkIndex(
-            message_start_time=self._chunk_start, message_end_time=self._chunk_end,
-            chunk_start_offset=chunk_offset, chunk_length=chunk_length,
-            message_index_offsets=offsets, message_index_length=self._stream.tell() - index_start,
-            compression=chunk.compression, compressed_size=len(data),
-            uncompressed_size=len(records)))
-        self._chunk.clear()
-
-    def time_range(self) -> tuple[int, int]:
-        """First and last log time of the messages added so far, written or in the open
-        chunk; (0, 0) before any."""
-        chunks = [(c.message_start_time, c.message_end_time) for c in self._chunk_indexes]
-        if self._chunk:
-            chunks.append((self._chunk_start, self._chunk_end))
-        if not chunks:
-            return 0, 0
-        return min(start for start, _ in chunks), max(end for _, end in chunks)
-
-    def flush(self) -> None:
-        """Write the open chunk and hand everything to the operating system."""
-        self._finish_chunk()
-        self._stream.flush()
-
-    def finish(self) -> None:
-        """The last chunk, the data section's end, the summary and the footer."""
-        self._finish_chunk()
-        self._record(DataEnd(data_section_crc=0))
-        summary_start = self._stream.tell()
-        builder = RecordBuilder()
-        offsets: list[SummaryOffset] = []
-
-        def group(opcode: Opcode, records: Sequence[McapRecord]) -> None:
-            start = builder.count
-            for record in records:
-                record.write(builder)
-            offsets.append(SummaryOffset(group_opcode=opcode, group_start=summary_start + start,
-                                         group_length=builder.count - start))
-
-        group(Opcode.SCHEMA, self._schemas)
-        group(Opcode.CHANNEL, self._channels)
-        start, end = self.time_range()
-        group(Opcode.STATISTICS, [Statistics(
-            message_count=sum(self._counts.values()), schema_count=len(self._schemas),
-            channel_count=len(self._channels), attachment_count=0,
-            metadata_count=len(self._metadata_indexes), chunk_count=len(self._chunk_indexes),
-            message_start_time=start, message_end_time=end,
-            channel_message_counts=dict(self._counts))])
-        group(Opcode.CHUNK_INDEX, self._chunk_indexes)
-        group(Opcode.METADATA_INDEX, self._metadata_indexes)
-        offsets_start = summary_start + builder.count
-        for offset in offsets:
-            offset.write(builder)
-        summary = builder.end()
-        crc = zlib.crc32(_FOOTER_START.pack(Opcode.FOOTER, 20, summary_start, offsets_start),
-                         zlib.crc32(summary))
-        self._stream.write(summary)
-        self._record(Footer(summary_start=summary_start, summary_offset_start=offsets_start,
-                            summary_crc=crc))
-        self._stream.write(MCAP_MAGIC)
+    def release(self) -> None:
+        self._file.truncate(0)
+        self._file.close()
+        self._path.unlink(missing_ok=True)
 
 
 @dataclass(frozen=True)
@@ -338,7 +152,13 @@ class RunRecorder:
     def __init__(self, path: str | os.PathLike[str], topics: Sequence[TopicSpec],
                  serialize: Callable[[Any], bytes], *, queue_size: int = QUEUE_SIZE,
                  chunk_size: int = CHUNK_SIZE, flush_period: float = FLUSH_PERIOD,
-                 batch_period: float = BATCH_PERIOD, compression: bool = True) -> None:
+                 batch_period: float = BATCH_PERIOD, compression: bool = True,
+                 on_error: Callable[[str], None] | None = None,
+                 open_file: Callable[[Path], Any] = _create) -> None:
+        """``on_error``: called once, on the writer thread, with a line saying what
+        failed and what the bag keeps, after the bag was closed at a write error.
+        ``open_file``: how the bag's MCAP file and its reserve are created (a new
+        unbuffered binary file by default)."""
         self.path = Path(path)
         if self.path.exists() and (not self.path.is_dir() or any(self.path.iterdir())):
             raise FileExistsError(f'{self.path} exists and is not an empty directory; '
@@ -358,7 +178,9 @@ class RunRecorder:
         self._accepted = 0
         self._handled = 0
         self._error: str | None = None
-        self._closed = False              # set once, under _close_lock
+        self._on_error = on_error
+        self._closed = False              # set once, under _close_lock: no more messages
+        self._close_called = False        # close() ran (the writer may close on its own)
         self._close_lock = threading.Lock()   # orders write()'s check-and-put against close()
         self._abandon = False
         # A producer waiting for room (write_group(wait=True)) sets _hurry, so that the
@@ -369,12 +191,13 @@ class RunRecorder:
 
         self._topics = [{'name': t.name, 'type': t.msgtype,
                          'qos': [qos_profile(t.transient_local)]} for t in topics]
-        self._counts = [0] * len(topics)     # written per topic = its next sequence number
+        self._counts = [0] * len(topics)     # added per topic = its next sequence number
         self.path.mkdir(parents=True, exist_ok=True)
         self._mcap_name = f'{self.path.name}_0.mcap'
         self._custom = {'screwgear_ros.package_version': __version__}
-        self._file = open(self.path / self._mcap_name, 'xb')
-        self._mcap = _McapWriter(self._file, int(chunk_size), compression)
+        self._file = open_file(self.path / self._mcap_name)
+        self._mcap = McapWriter(self._file, int(chunk_size), compression)
+        self._channel_ids: list[int] = []     # per topic, in the order of ``topics``
         self._write_metadata_yaml()
         self._mcap.start(profile=MCAP_PROFILE, library=f'screwgear_ros-{__version__}')
         self._mcap.add_metadata('rosbag2', {'serialized_metadata': self._serialized_metadata()})
@@ -390,6 +213,10 @@ class RunRecorder:
                 {'offered_qos_profiles': qos_yaml(topic['qos']),
                  'topic_type_hash': message_definition(spec.msgtype)[1]})
             self._alone[spec.name] = TopicGroup((spec.name,), (index,), (channel,))
+            self._channel_ids.append(channel)
+        # metadata.yaml and its copy in the MCAP file, with room for the counts' digits.
+        self._metadata_bound = 4 * len(self._serialized_metadata()) + 4096
+        self._reserve = _Reserve(self.path / RESERVE_NAME, open_file, 2 * self._end_bound())
         self._thread = threading.Thread(target=self._run, name='run_recorder', daemon=True)
         self._thread.start()
         atexit.register(self.close)
@@ -399,12 +226,17 @@ class RunRecorder:
     @property
     def dropped(self) -> int:
         """Messages not recorded: queue full, written after close, or failed to write."""
-        return self._dropped
+        return self._dropped + self._mcap.discarded
 
     @property
     def written(self) -> int:
-        """Messages written to the MCAP file so far."""
-        return sum(self._counts)      # the writer's counts; a list summed under the GIL
+        """Messages in the MCAP file so far (whole chunks: what a reader finds)."""
+        return self._mcap.written
+
+    @property
+    def closed(self) -> bool:
+        """close() has run (the bag is final)."""
+        return self._close_called
 
     @property
     def error(self) -> str | None:
@@ -448,7 +280,8 @@ class RunRecorder:
         if n != len(group.topics):
             raise ValueError(f'{n} messages for the {len(group.topics)} topics '
                              f'of {group.topics}')
-        if wait and 2 * (self._accepted - self._handled + n) > self._queue_size:
+        if wait and not self._closed and \
+                2 * (self._accepted - self._handled + n) > self._queue_size:
             self._wait_for_room(n)
         self._put((group, sim_time_ns, messages), n)
 
@@ -481,9 +314,9 @@ class RunRecorder:
         the queue is dropped (counted) so that the bag is still finalized.
         """
         with self._close_lock:
-            if self._closed:
+            if self._close_called:
                 return
-            self._closed = True
+            self._close_called = self._closed = True
             self._queue.put(_STOP)   # after every message write() accepted
         with self._progress:         # a producer waiting for room: closed, stop waiting
             self._progress.notify_all()
@@ -524,10 +357,17 @@ class RunRecorder:
             if dirty and now >= next_flush and self._error is None:
                 try:
                     self._mcap.flush()
+                    self._hold_room()
                 except Exception as exc:  # noqa: BLE001 - reported through .error
                     self._fail(exc)
                 dirty = False
                 next_flush = now + self._flush_period
+            if self._error is not None:    # stop at the first error: close the bag now
+                with self._close_lock:
+                    self._closed = True
+                with self._progress:
+                    self._progress.notify_all()
+                stop = True
             if batches and not stop:
                 self._hurry.wait(self._batch_period)   # let the next batches gather
                 self._hurry.clear()
@@ -550,7 +390,7 @@ class RunRecorder:
 
     def _write_run(self, group: TopicGroup, run: list[tuple[TopicGroup, int, Sequence[Any]]]
                    ) -> bool:
-        """The items of ``run`` (all on ``group``) with :meth:`_McapWriter.add_run`; False
+        """The items of ``run`` (all on ``group``) with :meth:`McapWriter.add_run`; False
         (nothing written) unless every message is bytes and each topic's are one size,
         or after an error (the item-by-item path counts the drops)."""
         if self._abandon or self._error is not None:
@@ -564,18 +404,19 @@ class RunRecorder:
             if len(size) != 1 or 0 in size:
                 return False
             sizes.append(size.pop())
-        counts, indexes = self._counts, group.indexes
+        counts, indexes, mcap = self._counts, group.indexes, self._mcap
         # A topic that comes m times in the group: its r-th place gets first + r, then +m.
         sequences = [(counts[index] + indexes[:k].count(index), indexes.count(index))
                      for k, index in enumerate(indexes)]
         n = len(run) * len(indexes)
+        added = mcap.added
         try:
-            self._mcap.add_run(group.channel_ids, sequences,
-                               np.array([t for _, t, _ in run], dtype=np.uint64),
-                               [b''.join(column) for column in columns], sizes)
+            mcap.add_run(group.channel_ids, sequences,
+                         np.array([t for _, t, _ in run], dtype=np.uint64),
+                         [b''.join(column) for column in columns], sizes)
         except Exception as exc:  # noqa: BLE001 - reported through .error
             self._fail(exc)
-            self._count_drop(n)
+            self._count_drop(n - (mcap.added - added))   # the writer counts what it dropped
         else:
             for index in indexes:
                 counts[index] += len(run)
@@ -585,29 +426,39 @@ class RunRecorder:
     def _write_item(self, group: TopicGroup, log_time: int, messages: Sequence[Any]) -> None:
         """Write one queued item's messages in order (or count them dropped after an
         error or when close() gave up waiting)."""
-        counts, serialize, add = self._counts, self._serialize, self._mcap.add
+        counts, serialize, mcap = self._counts, self._serialize, self._mcap
         log_time = int(log_time)
-        written = 0
+        added = mcap.added
         if not self._abandon and self._error is None:
             for index, channel_id, msg in zip(group.indexes, group.channel_ids, messages):
                 try:
-                    add(channel_id, counts[index], log_time,           # counts: the sequence
-                        msg if msg.__class__ is bytes else serialize(msg))
+                    mcap.add(channel_id, counts[index], log_time,      # counts: the sequence
+                             msg if msg.__class__ is bytes else serialize(msg))
                 except Exception as exc:  # noqa: BLE001 - reported through .error
                     self._fail(exc)       # the rest of the item is dropped below
                     break
                 counts[index] += 1
-                written += 1
-        if written < len(messages):
-            self._count_drop(len(messages) - written)
+        added = mcap.added - added        # a failed write's chunk: the writer counts it
+        if added < len(messages):
+            self._count_drop(len(messages) - added)
         self._handled += len(messages)
 
     def _fail(self, exc: BaseException) -> None:
         if self._error is None:
             self._error = f'{type(exc).__name__}: {exc}'
 
+    def _end_bound(self) -> int:
+        """Bytes the end of the bag needs at most: the MCAP summary and the metadata."""
+        return self._mcap.summary_bound() + self._metadata_bound
+
+    def _hold_room(self) -> None:
+        """Keep the reserve at least what the end of the bag needs, doubling it."""
+        if self._reserve.size < self._end_bound():
+            self._reserve.grow(2 * self._end_bound())
+
     def _finish(self) -> None:
-        """Count what is left, write summary and index, close, rewrite metadata.yaml."""
+        """Count what is left, write summary and index, close, rewrite metadata.yaml;
+        after an error, say once what the bag keeps."""
         while True:
             try:
                 item = self._queue.get_nowait()
@@ -615,18 +466,45 @@ class RunRecorder:
                 break
             if item is not _STOP:
                 self._count_drop(len(item[2]))
+                self._handled += len(item[2])
+        unfinished = ''
+        with contextlib.suppress(OSError):
+            self._reserve.release()       # its room is the end's, whatever failed
         try:
+            self._mcap.flush()            # the metadata counts what the file holds
             self._mcap.add_metadata('rosbag2',
                                     {'serialized_metadata': self._serialized_metadata()})
             self._mcap.finish()
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:  # noqa: BLE001 - reported through .error and on_error
             self._fail(exc)
+            unfinished = (f'; its summary could not be written ({type(exc).__name__}: {exc}): '
+                          'it ends at its last whole chunk, readable as a truncated bag')
         finally:
             self._file.close()
-        self._write_metadata_yaml()
+        try:
+            self._write_metadata_yaml()
+        except OSError as exc:
+            (self.path / 'metadata.yaml.tmp').unlink(missing_ok=True)
+            self._fail(exc)
+            unfinished += (f'; metadata.yaml could not be rewritten ({exc}): it is the one '
+                           'written when the recording started, without counts')
+        with self._progress:
+            self._progress.notify_all()
+        if self._error is not None and self._on_error is not None:
+            start, end = self._mcap.time_range()
+            self._on_error(
+                f'recording failed: {self._error}. Recording stopped; {self.path} keeps the '
+                f'{self.written} messages written before the fault'
+                + (f' (log times {start * 1e-9:.3f} to {end * 1e-9:.3f} s)' if self.written
+                   else '')
+                + f'; {self.dropped} dropped' + (unfinished or '; the bag is closed and '
+                                                 'reads back up to the fault'))
 
     def _document(self) -> dict[str, Any]:
-        return metadata_document(self._mcap_name, self._topics, self._counts,
+        written = self._mcap.counts()        # none before the channels are registered
+        return metadata_document(self._mcap_name, self._topics,
+                                 [written.get(channel, 0) for channel in self._channel_ids]
+                                 or [0] * len(self._topics),
                                  *self._mcap.time_range(), self._custom)
 
     def _serialized_metadata(self) -> str:
@@ -639,4 +517,4 @@ class RunRecorder:
 
 
 __all__ = ['TopicGroup', 'TopicSpec', 'RunRecorder', 'QUEUE_SIZE', 'CHUNK_SIZE', 'FLUSH_PERIOD',
-           'BATCH_PERIOD', 'ROOM_TIMEOUT']
+           'BATCH_PERIOD', 'ROOM_TIMEOUT', 'RESERVE_NAME']
