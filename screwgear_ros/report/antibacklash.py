@@ -279,7 +279,8 @@ class AntiBacklashStudy:
     fast_chart_realistic: np.ndarray    # the same with ε_1 = REALISTIC_STE
     scans: list                         # PhaseScan per (speed, torque) of the chart
     resolution: float                   # N·m, bisection step of the chart
-    harmonics: list                     # per chart speed: δ1's mesh harmonics 1, 2, … (m), 400 N·m forward
+    harmonics: list                     # per chart speed: δ1's mesh harmonics 1, 2, …, m
+                                        # (forward at 400 N·m)
 
     @property
     def instants(self) -> np.ndarray:

@@ -69,7 +69,8 @@ def compute(quick: bool = False) -> StabilityStudy:
     sz, sk = grid(quick)
     sm = steady_map(sz, sk)
     region_thd = float(np.interp(REGION_KA, sm.kas, sm.thd.mean(axis=0)))
-    return StabilityStudy(zetas, kas, floquet.spectral_radius(m), growth + zetas[:, None], -growth,
+    return StabilityStudy(zetas, kas, floquet.spectral_radius(m), growth + zetas[:, None],
+                          -growth,
                           omegas, tongue_kas, tongue_growth, thresholds, sm, region_thd)
 
 

@@ -106,7 +106,8 @@ def render(s: Summary, sections: list[Section]) -> str:
          f'{s.pinion_speed / RPM:.0f} r/min = {s.pinion_speed:.3f} rad/s',
          f'table {s.table_speed:.4f} rad/s'),
         ('STE amplitude ε_1', f'{s.ste_amplitude * 1e3:.2f} mm', 'fa·l; implausibly large (§1)'),
-        ('preload torque T_p (package default)', f'{p.preload_torque:.0f} N·m', 'not in the paper'),
+        ('preload torque T_p (package default)', f'{p.preload_torque:.0f} N·m',
+         'not in the paper'),
         ('backlash half gap b (conventional drive)', f'{p.backlash * 1e6:.0f} µm',
          'not in the paper'),
     ))
@@ -136,7 +137,8 @@ def render(s: Summary, sections: list[Section]) -> str:
         ('lost motion of the anti-backlash drive at the same reversal', '0 (no contact loss)'),
         ('**minimum preload** for a 400 N·m reversal at the paper\'s speed',
          f'**{s.preload_needed:.0f} N·m** (worst of {s.preload_phases} reversal instants, '
-         f'bisected to {s.preload_resolution:g} N·m; {s.preload_needed / PAPER_DRIVE_TORQUE:.2f}·T), '
+         f'bisected to {s.preload_resolution:g} N·m; '
+         f'{s.preload_needed / PAPER_DRIVE_TORQUE:.2f}·T), '
          f'so the default {p.preload_torque:.0f} N·m '
          f'{"holds" if p.preload_torque >= s.preload_needed else "does not hold"}'),
         ('table load that holds the paper\'s speed at 400 N·m (used in §9)',
