@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 import shutil
 import subprocess
@@ -52,3 +53,53 @@ def test_report_has_every_section_and_a_verdict_for_each_claim(quick_report: Pat
         assert len(set(cells)) == 1, lines[0]
     # The performance-index arithmetic appears as computed, beside the paper's numbers.
     assert '3162.3 (10^7)' in text and '790.6 (10^7)' in text
+
+
+def _seed_text() -> str | None:
+    """The paper's text (the project's seed) if it is on this machine."""
+    root = Path(__file__).resolve().parents[1]
+    for folder in (root.parent / 'shared' / 'seed', Path('/work/shared/seed')):
+        files = sorted(folder.glob('*.txt')) if folder.is_dir() else []
+        if files:
+            return files[0].read_text(encoding='utf-8')
+    return None
+
+
+def test_report_names_its_paper_in_the_papers_own_words(quick_report: Path) -> None:
+    text = (quick_report / 'report.md').read_text(encoding='utf-8')
+    head = text.split('## Summary in physical units')[0]
+    quotes = re.findall(r'"([^"]{20,})"', head)
+    assert len(quotes) >= 3       # its subject, what it investigates, its mechanism
+    assert 'double screw gear anti-backlash transmission mechanism' in head
+    assert 'preloaded nuts' in head
+    seed = _seed_text()
+    if seed is not None:          # each quotation is the paper's text, verbatim
+        for quote in quotes:
+            assert quote in seed, quote
+
+
+def test_summary_gives_the_example_in_physical_units(quick_report: Path) -> None:
+    from screwgear_ros.params import TableParams
+
+    text = (quick_report / 'report.md').read_text(encoding='utf-8')
+    first = text.split('## Summary in physical units')[1].split('\n## ')[0]
+    p = TableParams()
+    i1, i2, r1, r2 = p.inertia_pinion_1, p.inertia_table, p.radius_pinion_1, p.radius_table
+    m_e = i1 * i2 / (i1 * r2 ** 2 + i2 * r1 ** 2)
+    hz = math.sqrt(p.mesh_stiffness_mean / m_e) / (2 * math.pi)
+    gap = 2 * p.backlash / r2                                   # rad at the table
+    assert f'{hz:.1f} Hz' in first
+    assert f'{gap * 1e6:.0f} µrad = {gap * 180 * 3600 / math.pi:.1f}″' in first
+    assert f'{gap * 6e-3 * p.teeth_table / 2 * 1e6:.0f} µm on the' in first
+    assert f'{(r2 / r1):.3f}' in first and f'{p.preload_torque:.0f} N·m' in first
+    assert re.search(r'\*\*minimum preload\*\*.*\*\*\d+ N·m\*\*', first)
+    # One line per section, each with a verdict.
+    lines = re.findall(r'^- §(\d+) .*\*\*(holds|does not hold|vague|cannot be checked)',
+                       first, flags=re.MULTILINE)
+    assert [int(n) for n, _ in lines] == list(range(1, 12))
+
+
+def test_no_number_is_formatted_into_nonsense(quick_report: Path) -> None:
+    text = (quick_report / 'report.md').read_text(encoding='utf-8')
+    assert not re.search(r'at most 0(?![.\d])', text)
+    assert not re.search(r'\bnan\b|\binf\b', text)

@@ -11,13 +11,26 @@ from tqdm import tqdm
 
 from .. import __name__ as package_name
 from . import (antibacklash, damping, derived, energy, fluctuation, index, response,
-               stability, stiffness, thermal, validation)
+               stability, stiffness, summary, thermal, validation)
 from .common import Section, verdict_table
 
 SECTIONS: tuple[ModuleType, ...] = (derived, response, damping, stiffness, index, stability,
                                     fluctuation, thermal, antibacklash, validation, energy)
-PAPER = ('the paper on the double screw gear anti-backlash rotary table '
-         '(lumped-parameter model, normalized equation, RK4)')
+#: The paper, as its text (the project's seed) gives it: no title line, authors or venue,
+#: so the citation quotes its own statement of subject and mechanism.
+PAPER_SUBJECT = ('a novel double screw gear anti-backlash transmission mechanism',
+                 'its nonlinear dynamic characteristics')
+PAPER_MECHANISM = ('preloaded nuts that axially fix two screw gears in opposite directions, '
+                   'creating a constant unilateral contact in the gear pairs')
+PAPER_SOURCE = 'seed/000_7c306ecbcaa524e9.txt'
+PAPER = (f'that proposes "{PAPER_SUBJECT[0]}" and investigates "{PAPER_SUBJECT[1]}" (its text is '
+         f'the project\'s seed, `{PAPER_SOURCE}`, the source of model.md; the text carries no '
+         'title line, authors or venue, so it is cited by these words of its own). The '
+         f'mechanism it proposes uses "{PAPER_MECHANISM}": two pinions, each driven by a screw '
+         'gear through a worm wheel, engage the large gear of a rotary table on opposite '
+         'sides, one path active per direction of rotation, so that the table has no '
+         'backlash. The paper models one gear pair with a lumped-parameter equation, '
+         'normalizes it and integrates it with fourth-order Runge–Kutta')
 
 
 @dataclass(frozen=True)
@@ -40,25 +53,30 @@ def build(outdir: str | Path, quick: bool = False) -> Report:
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     sections: list[Section] = []
+    results: dict[ModuleType, object] = {}
     seconds: dict[int, float] = {}
     for number, module in enumerate(tqdm(SECTIONS, desc='paper report', unit='section'),
                                     start=1):
         start = time.perf_counter()
-        section = module.render(module.compute(quick), out)
+        results[module] = module.compute(quick)
+        section = module.render(results[module], out)
         seconds[number] = time.perf_counter() - start
         sections.append(section)
-    text = _markdown(sections, quick, seconds)
+    first_page = summary.render(summary.compute(results[derived], results[antibacklash]),
+                                sections)
+    text = _markdown(sections, quick, seconds, first_page)
     path = out / 'report.md'
     path.write_text(text, encoding='utf-8')
     return Report(path, sections, seconds)
 
 
-def _markdown(sections: list[Section], quick: bool, seconds: dict) -> str:
+def _markdown(sections: list[Section], quick: bool, seconds: dict, first_page: str) -> str:
     summary = [replace(v, claim=f'§{s.number} {v.claim}') for s in sections for v in s.verdicts]
     toc = '\n'.join(f'{s.number}. [{s.title}](#{_anchor(s)})' for s in sections)
     head = f"""# The paper, claim by claim
 
-Recomputed with `screwgear_ros` {_version()} for {PAPER}.
+Recomputed with `screwgear_ros` {_version()} for the paper {PAPER}.
+
 Every number below comes from the package's own model: `params.py` (derived quantities),
 `normalized.py` + `batch.py` (the normalized equation, RK4), `floquet.py` (stability,
 periodic steady states) and `plant.py` (the 3-DOF table). Dimensionless quantities (x, τ)
@@ -69,6 +87,7 @@ Verdicts: **holds** (the number or statement is reproduced), **does not hold** (
 gives something else, shown beside it), **vague** (true only under an unstated reading, or
 too loose to test), **cannot be checked** (no data).
 
+{first_page}
 ## Contents
 
 {toc}
@@ -89,4 +108,4 @@ def _anchor(section: Section) -> str:
     return kept.replace(' ', '-')
 
 
-__all__ = ['SECTIONS', 'Report', 'build']
+__all__ = ['SECTIONS', 'PAPER', 'PAPER_SUBJECT', 'PAPER_MECHANISM', 'Report', 'build']

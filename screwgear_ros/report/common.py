@@ -92,6 +92,14 @@ def fmt(value: float, digits: int = 4) -> str:
     return text
 
 
+def agreement(difference: float, scale: float = 1.0) -> str:
+    """How closely two computations agree, for prose: 'exactly (bit for bit)' at 0,
+    else 'to 3·10^-12' relative to ``scale`` (never 'by at most 0')."""
+    if difference == 0.0:
+        return 'exactly (bit for bit)'
+    return f'to {fmt(difference / scale, 1)}' + (' of the scale' if scale != 1.0 else '')
+
+
 def config_path(name: str) -> Path:
     """A file of the package's ``config/`` (installed share dir, else the source tree)."""
     candidates = [Path(sys.prefix) / 'share' / 'screwgear_ros' / 'config' / name,
@@ -103,4 +111,4 @@ def config_path(name: str) -> Path:
 
 
 __all__ = ['HOLDS', 'FAILS', 'VAGUE', 'UNCHECKABLE', 'COLORS', 'Verdict', 'Section', 'table',
-           'verdict_table', 'save_figure', 'fmt', 'config_path', 'plt']
+           'verdict_table', 'save_figure', 'fmt', 'agreement', 'config_path', 'plt']

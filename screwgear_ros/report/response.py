@@ -11,7 +11,7 @@ import numpy as np
 from .. import normalized
 from ..batch import Coefficients
 from . import measures
-from .common import COLORS, HOLDS, Section, Verdict, config_path, fmt, plt, save_figure
+from .common import COLORS, HOLDS, Section, Verdict, agreement, config_path, plt, save_figure
 from .steady import transient
 
 TAU_END = 400.0
@@ -99,8 +99,8 @@ def render(r: Response, outdir: Path) -> Section:
     body = f"""
 The normalized case is read from `config/paper_normalized.yaml` (ζ = 0.05, k_a' = 0.1,
 Ω = 0.043, f0 = 512.8, fa = 1538.4, ϕ = 0, x(0) = x'(0) = 0.5) and integrated with RK4 (the
-batch integrator; the scalar compiled `normalized.integrate` at the same step differs from it
-by at most {fmt(r.scalar_difference, 2)}). The steady state is the exact periodic solution of period
+batch integrator; the scalar compiled `normalized.integrate` at the same step agrees with it
+{agreement(r.scalar_difference)}). The steady state is the exact periodic solution of period
 2π/Ω = {r.period:.1f} found from the Floquet monodromy matrix (section 6), so the transient
 is exactly x − x_steady.
 
