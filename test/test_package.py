@@ -235,6 +235,8 @@ def test_ros2_control_yaml_has_the_broadcaster_and_an_effort_group_on_the_comman
                             .read_text(encoding='utf-8'))
     manager = config['controller_manager']['ros__parameters']
     assert manager['update_rate'] > 0 and not manager.get('use_sim_time', False)
+    # the node, not the controller manager, refuses a torque beyond max_torque (README)
+    assert manager['enforce_command_limits'] is False
     assert manager['joint_state_broadcaster']['type'] == \
         'joint_state_broadcaster/JointStateBroadcaster'
     assert manager['effort_controller']['type'] == 'effort_controllers/JointGroupEffortController'
