@@ -5,9 +5,9 @@
         "{data: [20.0]}"       # signed drive torque at the active pinion, N·m
 
 Before it starts anything it checks every package it runs something from (its
-processes, the URDF's hardware plugin, the controllers of config/ros2_control.yaml, at
-the versions package.xml asks for) and fails with one message naming all that are
-missing and how to install them.
+processes and their executables, the URDF's hardware plugin, the controllers of
+config/ros2_control.yaml, at the versions package.xml asks for) and fails with one
+message naming all that are missing and how to install them.
 
 Then it starts table_sim (config/paper.yaml by default) in ``namespace`` (default: the
 namespace the shipped URDF's ``<ros2_control>`` block points at, /screwgear; another one
@@ -33,8 +33,10 @@ from screwgear_ros.ros import launch_support as support
 PACKAGE = 'screwgear_ros'
 LAUNCH = 'ros2_control.launch.py'
 CONTROLLERS = ('joint_state_broadcaster', 'effort_controller')
-#: The packages whose executables this file starts.
-PROCESSES = ('robot_state_publisher', 'controller_manager')
+#: The (package, executable) of each process this file starts besides table_sim.
+STATE_PUBLISHER = ('robot_state_publisher', 'robot_state_publisher')
+CONTROL_NODE = ('controller_manager', 'ros2_control_node')
+SPAWNER = ('controller_manager', 'spawner')
 
 
 def _files(share):
@@ -45,7 +47,8 @@ def _files(share):
 def _check(context, share):
     files = _files(share)
     needs = support.ros2_control_needs(
-        PROCESSES, support.read(files['urdf/screwgear_table.urdf']),
+        (STATE_PUBLISHER, CONTROL_NODE, SPAWNER),
+        support.read(files['urdf/screwgear_table.urdf']),
         support.read(files['config/ros2_control.yaml']), support.read(files['package.xml']))
     support.require(LAUNCH, needs, share)
     support.normalized_namespace(LaunchConfiguration('namespace').perform(context))
@@ -57,11 +60,11 @@ def _controlled(context, share):
     description = support.in_namespace(support.read(files['urdf/screwgear_table.urdf']),
                                        LaunchConfiguration('namespace').perform(context))
     return [
-        Node(package='robot_state_publisher', executable='robot_state_publisher',
+        Node(package=STATE_PUBLISHER[0], executable=STATE_PUBLISHER[1],
              parameters=[{'robot_description': description}], output='screen'),
-        Node(package='controller_manager', executable='ros2_control_node',
+        Node(package=CONTROL_NODE[0], executable=CONTROL_NODE[1],
              parameters=[files['config/ros2_control.yaml']], output='screen'),
-        *(Node(package='controller_manager', executable='spawner',
+        *(Node(package=SPAWNER[0], executable=SPAWNER[1],
                arguments=[name, '--controller-manager', '/controller_manager'],
                output='screen')
           for name in CONTROLLERS),

@@ -102,8 +102,12 @@ def test_ros2_control_launch_arguments_and_the_namespace_default():
 
 # ------------------------------------------------------------------ the package check
 
-def _prefix(root: Path, packages: dict[str, str | None]) -> Path:
-    """A real ament prefix: index markers, and a package.xml where a version is given."""
+def _prefix(root: Path, packages: dict[str, str | None],
+            executables: dict[str, tuple[str, ...]] | None = None) -> Path:
+    """A real ament prefix: index markers, a package.xml where a version is given, and
+    executables in lib/<package>/ (by default those the needs name)."""
+    if executables is None:
+        executables = {n.package: n.executables for n in _needs()}
     index = root / 'share/ament_index/resource_index/packages'
     index.mkdir(parents=True)
     for name, version in packages.items():
@@ -113,12 +117,29 @@ def _prefix(root: Path, packages: dict[str, str | None]) -> Path:
             (root / 'share' / name / 'package.xml').write_text(
                 f'<package format="3"><name>{name}</name><version>{version}</version>'
                 '</package>')
+        for exe in executables.get(name, ()):
+            (root / 'lib' / name).mkdir(parents=True, exist_ok=True)
+            (root / 'lib' / name / exe).write_text('#!/bin/sh\n')
+            (root / 'lib' / name / exe).chmod(0o755)
     return root
+
+
+def _processes() -> list[tuple[str, str]]:
+    """The (package, executable) constants of ros2_control.launch.py, read from it."""
+    tree = ast.parse((SHARE / 'launch' / 'ros2_control.launch.py').read_text(encoding='utf-8'))
+    pairs = []
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and isinstance(node.value, ast.Tuple) and \
+                len(node.value.elts) == 2:
+            value = ast.literal_eval(node.value)
+            if all(isinstance(v, str) for v in value):
+                pairs.append(value)
+    return pairs
 
 
 def _needs() -> list[support.Need]:
     return support.ros2_control_needs(
-        ('robot_state_publisher', 'controller_manager'),
+        _processes(),
         (SHARE / 'urdf/screwgear_table.urdf').read_text(encoding='utf-8'),
         (SHARE / 'config/ros2_control.yaml').read_text(encoding='utf-8'),
         (SHARE / 'package.xml').read_text(encoding='utf-8'))
@@ -151,6 +172,7 @@ def test_a_bare_install_is_told_every_missing_package_and_how_to_install_it(tmp_
     needs = _needs()
     with pytest.raises(support.MissingPackages) as caught:
         support.require('ros2_control.launch.py', needs, str(SHARE))
+    assert {n.package for n in needs} >= {'robot_state_publisher', 'controller_manager'}
     text = str(caught.value)
     assert 'nothing was started' in text
     for need in needs:
@@ -179,6 +201,27 @@ def test_too_old_a_plugin_is_refused_and_present_packages_are_not_named(tmp_path
     monkeypatch.setenv('AMENT_PREFIX_PATH', str(_prefix(tmp_path / 'q', present)))
     assert [p.need.package for p in support.unmet(needs, support.installed_version)] == \
         [missing]
+
+
+def test_a_package_without_the_executable_launch_would_start_is_named(tmp_path,
+                                                                    monkeypatch):
+    """What launch would fail on only after table_sim had been started."""
+    needs = _needs()
+    with_exes = [n for n in needs if n.executables]
+    assert {e for n in with_exes for e in n.executables} >= {
+        'robot_state_publisher', 'ros2_control_node', 'spawner'}
+    lacking = with_exes[0]
+    present = {n.package: n.minimum or '1.0.0' for n in needs}
+    executables = {n.package: n.executables for n in needs}
+    executables[lacking.package] = lacking.executables[1:]
+    monkeypatch.setenv('AMENT_PREFIX_PATH',
+                       str(_prefix(tmp_path / 'p', present, executables)))
+    problems = support.unmet(needs, support.installed_version, support.installed_executable)
+    assert [(p.need.package, p.missing_executables) for p in problems] == [
+        (lacking.package, lacking.executables[:1])]
+    assert f'installed without {lacking.executables[0]}' in str(problems[0])
+    monkeypatch.setenv('AMENT_PREFIX_PATH', str(_prefix(tmp_path / 'q', present)))
+    assert support.unmet(needs, support.installed_version, support.installed_executable) == []
 
 
 def test_versions_compare_as_numbers():

@@ -4,12 +4,15 @@ Light on purpose: the standard library, PyYAML and ament_index_python only (no r
 numba, nothing of the model), so that ``ros2 launch`` loads no more than it uses.
 
 * :func:`ros2_control_needs`: the packages ``ros2_control.launch.py`` runs something
-  from: its processes, the URDF's hardware plugin, the controllers' types in
-  ``config/ros2_control.yaml`` (a pluginlib name ``package/Class`` lives in ``package``),
-  each with the minimum version this package's ``package.xml`` declares (``version_gte``).
+  from: its processes (with their executables), the URDF's hardware plugin, the
+  controllers' types in ``config/ros2_control.yaml`` (a pluginlib name ``package/Class``
+  lives in ``package``), each with the minimum version this package's ``package.xml``
+  declares (``version_gte``).
 * :func:`unmet`: of those, the ones an index lookup (name → version, None: not found) does
-  not have or has too old. :func:`require` raises :class:`MissingPackages` naming them
-  all and how to install them.
+  not have or has too old, or whose executables are not where ``ros2 launch`` looks.
+  :func:`require` raises :class:`MissingPackages` naming them all and how to install
+  them. Every executable is checked too because launch starts each process as it gets
+  to it: one that failed after table_sim had been started left table_sim running.
 * :func:`urdf_namespace` and :func:`in_namespace`: the namespace a URDF's ros2_control
   block points the topic hardware interface at, and that URDF pointed at another one.
 """
@@ -34,6 +37,7 @@ class Need:
 
     package: str
     minimum: str | None = None
+    executables: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -42,10 +46,14 @@ class Unmet:
 
     need: Need
     found: str | None
+    missing_executables: tuple[str, ...] = ()
 
     def __str__(self) -> str:
         if self.found is None:
             return f'{self.need.package}: not found'
+        if self.missing_executables:
+            return (f'{self.need.package}: installed without '
+                    f'{", ".join(self.missing_executables)} in lib/{self.need.package}')
         return f'{self.need.package}: {self.found} installed, needs >= {self.need.minimum}'
 
 
@@ -72,28 +80,40 @@ def plugin_package(lookup_name: str) -> str:
     return package
 
 
-def ros2_control_needs(processes: Iterable[str], urdf: str, controllers_yaml: str,
-                       package_xml: str) -> list[Need]:
-    """What ros2_control.launch.py needs (see the module docstring), in a stable order."""
+def ros2_control_needs(processes: Iterable[tuple[str, str]], urdf: str,
+                       controllers_yaml: str, package_xml: str) -> list[Need]:
+    """What ros2_control.launch.py needs (see the module docstring), in a stable order;
+    ``processes`` are the (package, executable) pairs it starts."""
     block = ET.fromstring(urdf).find('ros2_control')
     plugins = [block.findtext('hardware/plugin').strip()] if block is not None else []
     manager = (yaml.safe_load(controllers_yaml) or {}).get('controller_manager', {})
     for entry in manager.get('ros__parameters', {}).values():
         if isinstance(entry, dict) and 'type' in entry:
             plugins.append(entry['type'])
-    names = list(dict.fromkeys([*processes, *(plugin_package(p) for p in plugins)]))
+    processes = list(processes)
+    names = list(dict.fromkeys([*(package for package, _ in processes),
+                                *(plugin_package(p) for p in plugins)]))
     minimum = minimum_versions(package_xml)
-    return [Need(name, minimum.get(name)) for name in names]
+    return [Need(name, minimum.get(name),
+                 tuple(dict.fromkeys(exe for package, exe in processes if package == name)))
+            for name in names]
 
 
-def unmet(needs: Iterable[Need], lookup: Callable[[str], str | None]) -> list[Unmet]:
-    """The needs ``lookup`` (package → installed version, None: not installed) misses."""
+def unmet(needs: Iterable[Need], lookup: Callable[[str], str | None],
+          has_executable: Callable[[str, str], bool] = lambda package, exe: True
+          ) -> list[Unmet]:
+    """The needs ``lookup`` (package → installed version, None: not installed) and
+    ``has_executable`` (package, executable → found where launch looks) miss."""
     out = []
     for need in needs:
         found = lookup(need.package)
-        if found is None or (need.minimum and found and
-                             _version(found) < _version(need.minimum)):
-            out.append(Unmet(need, found))
+        if found is None:
+            out.append(Unmet(need, None))
+            continue
+        missing = tuple(e for e in need.executables if not has_executable(need.package, e))
+        if missing or (need.minimum and found and
+                       _version(found) < _version(need.minimum)):
+            out.append(Unmet(need, found, missing))
     return out
 
 
@@ -113,6 +133,17 @@ def installed_version(package: str) -> str | None:
         return ''
 
 
+def installed_executable(package: str, executable: str) -> bool:
+    """Whether ``executable`` is in ``<prefix>/lib/<package>/``, where ``ros2 launch``
+    and ``ros2 run`` look for it."""
+    from ament_index_python.packages import PackageNotFoundError, get_package_prefix
+    try:
+        path = os.path.join(get_package_prefix(package), 'lib', package, executable)
+    except (PackageNotFoundError, ValueError, LookupError):
+        return False
+    return os.path.isfile(path) and os.access(path, os.X_OK)
+
+
 def message(launch: str, problems: Iterable[Unmet], share: str,
             distro: str | None = None) -> str:
     """What to tell the user: every unmet need, and the commands that install them."""
@@ -129,9 +160,10 @@ def message(launch: str, problems: Iterable[Unmet], share: str,
 
 
 def require(launch: str, needs: Iterable[Need], share: str,
-            lookup: Callable[[str], str | None] = installed_version) -> None:
+            lookup: Callable[[str], str | None] = installed_version,
+            has_executable: Callable[[str, str], bool] = installed_executable) -> None:
     """Raise :class:`MissingPackages` unless every need is met."""
-    problems = unmet(needs, lookup)
+    problems = unmet(needs, lookup, has_executable)
     if problems:
         raise MissingPackages(message(launch, problems, share))
 
@@ -183,5 +215,6 @@ def read(path: str) -> str:
 
 
 __all__ = ['TOPIC_PARAMS', 'Need', 'Unmet', 'MissingPackages', 'minimum_versions',
-           'plugin_package', 'ros2_control_needs', 'unmet', 'installed_version', 'message',
+           'plugin_package', 'ros2_control_needs', 'unmet', 'installed_version',
+           'installed_executable', 'message',
            'require', 'urdf_namespace', 'normalized_namespace', 'in_namespace', 'read']
