@@ -30,6 +30,7 @@ are handed over under RunIO's own lock). ``_gate`` is thread-safe, and so is ``_
 
 from __future__ import annotations
 
+import argparse
 import sys
 import threading
 import time
@@ -44,6 +45,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
@@ -54,7 +56,7 @@ from ..params import ANSWER_TOPICS, ANSWERS, TICK_TOPIC, ParameterError, split_p
 from ..ratelimit import RateLimiter
 from ..warmup import compiled_now, without_blas_probe
 from ..session import Session, Tick
-from ..ros import inputs, messages, parameters
+from ..ros import inputs, messages, param_dump, parameters
 from ..ros.messages import INPUT_TYPES, LATCHED_OUTPUTS, OUTPUT_TYPES
 from ..ros.run_io import RunIO
 from ..ros.shutdown import spin_until, stop_on_signals
@@ -369,9 +371,20 @@ class TableSim(Node):
                 'tooth mesh at this speed; lower dt or the speed')
 
 
+def _options(args: list[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog='table_sim', description='The rotary table plant node; its parameters come '
+        'after --ros-args (-p name:=value, --params-file FILE).')
+    parser.add_argument('--dump-params', metavar='FILE', help='write the parameters in '
+                        'force to FILE at start and after every accepted change, as a '
+                        'file --params-file reads back exactly')
+    return parser.parse_args(remove_ros_args(sys.argv if args is None else args)[1:])
+
+
 def main(args: list[str] | None = None) -> int:
     """Run the node until SIGINT or SIGTERM; 0 on a clean stop, 2 on bad parameters,
     3 when the recording failed (EXIT_RECORDING_FAILED)."""
+    options = _options(args)
     sys.setswitchinterval(SWITCH_INTERVAL)
     stop = stop_on_signals()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
@@ -379,6 +392,9 @@ def main(args: list[str] | None = None) -> int:
     try:
         try:
             node = TableSim(stop)
+            if options.dump_params:
+                log = node.get_logger()
+                param_dump.keep_written(node, options.dump_params, log.info, log.error)
         except (ValueError, OSError, ImportError, ParameterException) as error:
             rclpy.logging.get_logger('table_sim').fatal(f'cannot start: {error}')
             return 2

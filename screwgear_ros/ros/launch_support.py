@@ -1,0 +1,220 @@
+"""What the launch files need before they start anything, for the ``ros2 launch`` process.
+
+Light on purpose: the standard library, PyYAML and ament_index_python only (no rclpy, no
+numba, nothing of the model), so that ``ros2 launch`` loads no more than it uses.
+
+* :func:`ros2_control_needs`: the packages ``ros2_control.launch.py`` runs something
+  from: its processes (with their executables), the URDF's hardware plugin, the
+  controllers' types in ``config/ros2_control.yaml`` (a pluginlib name ``package/Class``
+  lives in ``package``), each with the minimum version this package's ``package.xml``
+  declares (``version_gte``).
+* :func:`unmet`: of those, the ones an index lookup (name → version, None: not found) does
+  not have or has too old, or whose executables are not where ``ros2 launch`` looks.
+  :func:`require` raises :class:`MissingPackages` naming them all and how to install
+  them. Every executable is checked too because launch starts each process as it gets
+  to it: one that failed after table_sim had been started left table_sim running.
+* :func:`urdf_namespace` and :func:`in_namespace`: the namespace a URDF's ros2_control
+  block points the topic hardware interface at, and that URDF pointed at another one.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from typing import Callable, Iterable
+
+import yaml
+
+#: The hardware parameters of the topic hardware interface that name table_sim's topics.
+TOPIC_PARAMS = ('joint_commands_topic', 'joint_states_topic')
+
+
+@dataclass(frozen=True)
+class Need:
+    """A package a launch runs something from, and the oldest version that works."""
+
+    package: str
+    minimum: str | None = None
+    executables: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Unmet:
+    """A need the install does not meet: ``found`` is None when the package is missing."""
+
+    need: Need
+    found: str | None
+    missing_executables: tuple[str, ...] = ()
+
+    def __str__(self) -> str:
+        if self.found is None:
+            return f'{self.need.package}: not found'
+        if self.missing_executables:
+            return (f'{self.need.package}: installed without '
+                    f'{", ".join(self.missing_executables)} in lib/{self.need.package}')
+        return f'{self.need.package}: {self.found} installed, needs >= {self.need.minimum}'
+
+
+class MissingPackages(RuntimeError):
+    """A launch cannot run: the message lists every unmet need and how to install it."""
+
+
+def _version(text: str) -> tuple[int, ...]:
+    return tuple(int(part) for part in re.findall(r'\d+', text)[:3])
+
+
+def minimum_versions(package_xml: str) -> dict[str, str]:
+    """exec_depend name → its ``version_gte``, from a package.xml's text."""
+    root = ET.fromstring(package_xml)
+    return {e.text.strip(): e.get('version_gte') for e in root.iter('exec_depend')
+            if e.text and e.get('version_gte')}
+
+
+def plugin_package(lookup_name: str) -> str:
+    """The package of a pluginlib lookup name ``package/Class``."""
+    package, slash, _ = lookup_name.partition('/')
+    if not slash or not package:
+        raise ValueError(f'{lookup_name!r} is not a pluginlib name package/Class')
+    return package
+
+
+def ros2_control_needs(processes: Iterable[tuple[str, str]], urdf: str,
+                       controllers_yaml: str, package_xml: str) -> list[Need]:
+    """What ros2_control.launch.py needs (see the module docstring), in a stable order;
+    ``processes`` are the (package, executable) pairs it starts."""
+    block = ET.fromstring(urdf).find('ros2_control')
+    plugins = [block.findtext('hardware/plugin').strip()] if block is not None else []
+    manager = (yaml.safe_load(controllers_yaml) or {}).get('controller_manager', {})
+    for entry in manager.get('ros__parameters', {}).values():
+        if isinstance(entry, dict) and 'type' in entry:
+            plugins.append(entry['type'])
+    processes = list(processes)
+    names = list(dict.fromkeys([*(package for package, _ in processes),
+                                *(plugin_package(p) for p in plugins)]))
+    minimum = minimum_versions(package_xml)
+    return [Need(name, minimum.get(name),
+                 tuple(dict.fromkeys(exe for package, exe in processes if package == name)))
+            for name in names]
+
+
+def unmet(needs: Iterable[Need], lookup: Callable[[str], str | None],
+          has_executable: Callable[[str, str], bool] = lambda package, exe: True
+          ) -> list[Unmet]:
+    """The needs ``lookup`` (package → installed version, None: not installed) and
+    ``has_executable`` (package, executable → found where launch looks) miss."""
+    out = []
+    for need in needs:
+        found = lookup(need.package)
+        if found is None:
+            out.append(Unmet(need, None))
+            continue
+        missing = tuple(e for e in need.executables if not has_executable(need.package, e))
+        if missing or (need.minimum and found and
+                       _version(found) < _version(need.minimum)):
+            out.append(Unmet(need, found, missing))
+    return out
+
+
+def installed_version(package: str) -> str | None:
+    """The version of ``package`` in the ament index (its package.xml), None if absent;
+    '' when it is there without a readable package.xml."""
+    from ament_index_python.packages import (PackageNotFoundError,
+                                             get_package_share_directory)
+    try:
+        share = get_package_share_directory(package)
+    except (PackageNotFoundError, ValueError, LookupError):
+        return None
+    try:
+        with open(os.path.join(share, 'package.xml'), encoding='utf-8') as f:
+            return (ET.fromstring(f.read()).findtext('version') or '').strip()
+    except (OSError, ET.ParseError):
+        return ''
+
+
+def installed_executable(package: str, executable: str) -> bool:
+    """Whether ``executable`` is in ``<prefix>/lib/<package>/``, where ``ros2 launch``
+    and ``ros2 run`` look for it."""
+    from ament_index_python.packages import PackageNotFoundError, get_package_prefix
+    try:
+        path = os.path.join(get_package_prefix(package), 'lib', package, executable)
+    except (PackageNotFoundError, ValueError, LookupError):
+        return False
+    return os.path.isfile(path) and os.access(path, os.X_OK)
+
+
+def message(launch: str, problems: Iterable[Unmet], share: str,
+            distro: str | None = None) -> str:
+    """What to tell the user: every unmet need, and the commands that install them."""
+    problems = list(problems)
+    distro = distro or os.environ.get('ROS_DISTRO') or 'jazzy'
+    apt = ' '.join(f'ros-{distro}-{p.need.package.replace("_", "-")}' for p in problems)
+    lines = [f'{launch} needs packages this ROS 2 install does not have; nothing was '
+             'started:']
+    lines += [f'  {p}' for p in problems]
+    lines += ['install them with:', f'  sudo apt install {apt}',
+              'or every dependency of this package with:',
+              f'  rosdep install --from-paths {share} --ignore-src -y']
+    return '\n'.join(lines)
+
+
+def require(launch: str, needs: Iterable[Need], share: str,
+            lookup: Callable[[str], str | None] = installed_version,
+            has_executable: Callable[[str, str], bool] = installed_executable) -> None:
+    """Raise :class:`MissingPackages` unless every need is met."""
+    problems = unmet(needs, lookup, has_executable)
+    if problems:
+        raise MissingPackages(message(launch, problems, share))
+
+
+def _topics(urdf: str) -> tuple[ET.Element, dict[str, ET.Element]]:
+    root = ET.fromstring(urdf)
+    params = {e.get('name'): e for e in root.iterfind('ros2_control/hardware/param')}
+    missing = [name for name in TOPIC_PARAMS if name not in params]
+    if missing:
+        raise ValueError(f'the URDF\'s ros2_control hardware has no {", ".join(missing)}')
+    return root, {name: params[name] for name in TOPIC_PARAMS}
+
+
+def urdf_namespace(urdf: str) -> str:
+    """The namespace whose topics the URDF's ros2_control block names (``/screwgear``)."""
+    _, params = _topics(urdf)
+    spaces = {(e.text or '').strip().rpartition('/')[0] for e in params.values()}
+    if len(spaces) != 1:
+        raise ValueError(f'the URDF\'s topics are in different namespaces: {sorted(spaces)}')
+    return spaces.pop() or '/'
+
+
+def normalized_namespace(namespace: str) -> str:
+    """``axis_c`` → ``/axis_c``, as the node's own namespace resolves. The root is
+    refused: there the node's joint_states would be joint_state_broadcaster's."""
+    resolved = '/' + namespace.strip().strip('/')
+    if resolved == '/':
+        raise ValueError('table_sim under ros2_control needs a namespace other than /: '
+                         'there its joint_states would collide with '
+                         'joint_state_broadcaster\'s /joint_states')
+    return resolved
+
+
+def in_namespace(urdf: str, namespace: str) -> str:
+    """The URDF with its ros2_control block pointed at table_sim in ``namespace``
+    (unchanged if it already is)."""
+    namespace = normalized_namespace(namespace)
+    if urdf_namespace(urdf) == namespace:
+        return urdf
+    root, params = _topics(urdf)
+    for element in params.values():
+        element.text = namespace + '/' + element.text.strip().rpartition('/')[2]
+    return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding='unicode') + '\n'
+
+
+def read(path: str) -> str:
+    with open(path, encoding='utf-8') as f:
+        return f.read()
+
+
+__all__ = ['TOPIC_PARAMS', 'Need', 'Unmet', 'MissingPackages', 'minimum_versions',
+           'plugin_package', 'ros2_control_needs', 'unmet', 'installed_version',
+           'installed_executable', 'message',
+           'require', 'urdf_namespace', 'normalized_namespace', 'in_namespace', 'read']
