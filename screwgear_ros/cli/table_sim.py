@@ -49,8 +49,10 @@ from std_srvs.srv import Trigger
 
 from ..commands import carries_no_command, command_value
 from ..events import Command, ParameterChange, Reset
-from ..pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns
-from ..params import ANSWER_TOPICS, ANSWERS, TICK_TOPIC, ParameterError, split_parameters
+from ..model import pack
+from ..pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns, wall_period
+from ..params import (ANSWER_TOPICS, ANSWERS, TICK_TOPIC, ParameterError, SimSettings,
+                      TableParams, split_parameters)
 from ..ratelimit import RateLimiter
 from ..warmup import compiled_now, without_blas_probe
 from ..session import Session, Tick
@@ -82,9 +84,10 @@ class TableSim(Node):
     def __init__(self, stop: threading.Event) -> None:
         super().__init__('table_sim')
         self._stop = stop
-        self._values = parameters.declare(self, self.get_logger().info)
+        self._values, completed = parameters.declare(self, self.get_logger().info)
         params, settings = split_parameters(self._values)   # ParameterError: refuse to start
         self._gate = AnswerGate()
+        self._wake = threading.Event()     # set when a parameter change is submitted
         self._warnings = RateLimiter(1.0)          # rejected inputs, per topic
         self._reversals = RateLimiter(STATUS_PERIOD)   # one reversal line per status period
         self.failed = False
@@ -118,6 +121,9 @@ class TableSim(Node):
         topics.update({'run_parameters': self._fqn + '/run_parameters',
                        'reset': self._fqn + '/reset'})
         self.io = RunIO(topics, settings.joint_names, publishers)
+        self._derive(params, settings)       # ParameterError: refuse to start
+        if completed:
+            self.get_logger().info(completed)
         if settings.record:
             self.io.open_recorder(settings.record)
         self._thread = threading.Thread(target=self._run, name='table_sim pacing', daemon=True)
@@ -145,6 +151,7 @@ class TableSim(Node):
         message it writes after that is counted as dropped, never lost silently.
         """
         self._stop.set()
+        self._wake.set()
         self._gate.release()
         if self._thread.is_alive():
             self._thread.join(timeout=5.0)
@@ -174,11 +181,29 @@ class TableSim(Node):
             return SetParametersResult(successful=True)
         try:
             params, settings = split_parameters(candidate)
+            self._derive(params, settings)
         except ParameterError as error:
             return SetParametersResult(successful=False, reason=str(error))
         self._values = candidate
-        self.io.submit_change(self.session, ParameterChange(params, settings))  # texts here
+        self.session.submit(ParameterChange(params, settings))
+        self._wake.set()                     # the pacer runs the tick that applies it now
         return SetParametersResult(successful=True)
+
+    def _derive(self, params: TableParams, settings: SimSettings) -> None:
+        """Derive everything a parameter set needs before it is accepted: the pace, the
+        compiled model's packed parameters, the run_parameters text and the URDF
+        (prepared here for the pacing thread; the stability limit is split_parameters').
+        A failure refuses the set with the reason instead of failing where it takes
+        effect."""
+        try:
+            wall_period(settings.steps_per_publish * settings.dt, settings.real_time_factor)
+            pack(params)
+            self.io.prepare(self.session, params, settings)
+        except (ArithmeticError, ValueError) as error:
+            if isinstance(error, ParameterError):
+                raise
+            raise ParameterError('parameters', '…', 'what the node derives from them cannot '
+                                 f'be computed ({type(error).__name__}: {error})') from None
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         self.session.submit(Reset())
@@ -218,7 +243,7 @@ class TableSim(Node):
                         pacer.real_time_factor != s.real_time_factor:
                     pacer.restart(s.steps_per_publish * s.dt, s.real_time_factor)
                     self._health.requested_factor = s.real_time_factor
-            if not pacer.wait(self._stop):
+            if not pacer.wait(self._stop, self._wake):
                 break
             if s.lockstep:
                 self._gate.expect()
@@ -266,6 +291,8 @@ class TableSim(Node):
         """Log what a person should know about a tick (rate-limited where it repeats)."""
         if not (tick.applied or tick.rejected or tick.notices or tick.new_fault):
             return                          # most ticks: nothing happened to say
+        if not self._health.commanded:
+            self._health.commanded = any(isinstance(e, Command) for e in tick.applied)
         log = self.get_logger()
         for error in tick.rejected:
             emit, held = self._warnings.allow(error.topic)
