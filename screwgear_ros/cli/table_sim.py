@@ -121,7 +121,7 @@ class TableSim(Node):
         topics.update({'run_parameters': self._fqn + '/run_parameters',
                        'reset': self._fqn + '/reset'})
         self.io = RunIO(topics, settings.joint_names, publishers)
-        self._derive(params, settings)       # ParameterError: refuse to start
+        self._derive(params, settings, keep=False)   # ParameterError: refuse to start
         if completed:
             self.get_logger().info(completed)
         if settings.record:
@@ -189,16 +189,19 @@ class TableSim(Node):
         self._wake.set()                     # the pacer runs the tick that applies it now
         return SetParametersResult(successful=True)
 
-    def _derive(self, params: TableParams, settings: SimSettings) -> None:
+    def _derive(self, params: TableParams, settings: SimSettings, keep: bool = True) -> None:
         """Derive everything a parameter set needs before it is accepted: the pace, the
         compiled model's packed parameters, the run_parameters text and the URDF
-        (prepared here for the pacing thread; the stability limit is split_parameters').
-        A failure refuses the set with the reason instead of failing where it takes
-        effect."""
+        (with ``keep``, prepared here for the pacing thread; the start renders them again
+        once its recorder is open; the stability limit is split_parameters'). A failure
+        refuses the set with the reason instead of failing where it takes effect."""
         try:
             wall_period(settings.steps_per_publish * settings.dt, settings.real_time_factor)
             pack(params)
-            self.io.prepare(self.session, params, settings)
+            if keep:
+                self.io.prepare(self.session, params, settings)
+            else:
+                self.io.render(self.session, params, settings)
         except (ArithmeticError, ValueError) as error:
             if isinstance(error, ParameterError):
                 raise
