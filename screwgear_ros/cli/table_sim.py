@@ -20,9 +20,10 @@ Who owns what: ``_values`` (the parameter values in force on the ROS side) belon
 the executor thread: main() spins a SingleThreadedExecutor, so the parameter
 callbacks never run concurrently. The session's queue is guarded by its own lock;
 the session, the RunIO, the pacer, the rate limiter and the health record belong
-to the pacing thread, except ``RunIO.submit_change``, which the parameter callback
-calls to render a change's YAML and URDF off the pacing thread and submit it (the texts
-are handed over under RunIO's own lock). ``_gate`` is thread-safe, and so is ``_stop``
+to the pacing thread, except ``RunIO.prepare``, which the parameter callback calls to
+render a change's YAML and URDF off the pacing thread before it accepts the change (the
+texts are handed over under RunIO's own lock). ``_gate`` is thread-safe, and so are
+``_wake`` (a threading.Event the parameter callback sets to wake the pacer) and ``_stop``
 (a threading.Event that the signal thread of
 :func:`~screwgear_ros.ros.shutdown.stop_on_signals`, a failed pacing thread and
 ``close()`` set; never a signal handler). Nothing is ever set to None.
