@@ -232,4 +232,5 @@ class AnswerGate:
             self._cond.notify_all()
 
 
-__all__ = ['sim_time_ns', 'MAX_SLEEP', 'wall_period', 'Pacer', 'PacerStats', 'FactorMeter', 'AnswerGate']
+__all__ = ['sim_time_ns', 'MAX_SLEEP', 'wall_period', 'Pacer', 'PacerStats', 'FactorMeter',
+           'AnswerGate']

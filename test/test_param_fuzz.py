@@ -14,13 +14,12 @@ import math
 import random
 import re
 import signal
-import time
 import xml.etree.ElementTree as ET
 
 import pytest
 
 from ros_procs import STARTUP_TIMEOUT, Peer, start_process, wait_until
-from screwgear_ros.declare import EXCERPT_CHARS, Kind
+from screwgear_ros.declare import EXCERPT_CHARS, Kind, yaml_value
 from screwgear_ros.params import (ParameterError, default_values, equivalent_mass,
                                   max_stable_dt, natural_frequency, split_parameters)
 
@@ -138,15 +137,10 @@ def test_every_extreme_set_at_run_time_gets_a_reply_and_the_node_lives(node):
 # ---------------------------------------------------------------- at start
 
 def _yaml_text(value) -> str:
-    if isinstance(value, bool):
-        return 'true' if value else 'false'
-    if isinstance(value, float):
-        return ('.nan' if math.isnan(value) else '.inf' if value > 0 else '-.inf'
-                ) if not math.isfinite(value) else repr(value).replace('e', '.0e', 1) \
-            if 'e' in repr(value) and '.' not in repr(value) else repr(value)
-    if isinstance(value, str):
-        return f"'{value}'"
-    return str(value)
+    """``value`` as YAML 1.1 text for ``-p name:=value``."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return '.nan' if math.isnan(value) else '.inf' if value > 0 else '-.inf'
+    return yaml_value(value)
 
 
 #: The issue's cases, and a value of a wrong type and of 10⁵ elements.

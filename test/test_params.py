@@ -55,7 +55,7 @@ def refused(exc: pytest.ExceptionInfo, name: str, value: object, rule_word: str)
     ('teeth_pinion_1', '24', 'whole number'),
     ('max_torque', 0.0, '0.001 … 1e+07'),
     ('drive_no_load_speed', 5e-324, '0 or 0.001 … 1e+06'),
-    ('ste_amplitudes', (1e-6,) * 65, 'at most 64'),
+    ('ste_amplitudes', (1e-6,) * (P.MAX_HARMONICS + 1), f'at most {P.MAX_HARMONICS}'),
     ('ste_phases', 1.0, 'list of numbers'),
     ('inertia_table', '46.1', 'number'),
     ('inertia_table', True, 'number'),

@@ -69,8 +69,9 @@ def declare(node: Node, log: Callable[[str], None]) -> tuple[dict[str, Any], str
     what the start completed of the STE harmonics (None: nothing), for the caller to
     log once the start's values are accepted.
 
-    ``log`` is told, once a set applied it, when it completed the STE harmonics. Raises rclpy's ParameterException when a parameter file gives a value
-    of the wrong type (e.g. a string for a number) or outside a declared range.
+    ``log`` is told, once a set applied it, when it completed the STE harmonics.
+    Raises rclpy's ParameterException when a parameter file gives a value of the wrong
+    type (e.g. a string for a number) or outside a declared range.
     """
     notes: list[str] = []           # of the set in progress; logged once it was applied
 
