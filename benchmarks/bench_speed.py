@@ -496,10 +496,11 @@ def main() -> int:
                        [min(starts['table_sim'])], 'bare rclpy node, same start',
                        [min(starts['bare'])], 'ratio', '<= 2 ×', ('<=', 2.0)))
     # The shipped parameter file gives every parameter its default: the node does nothing
-    # more with it than rcl's parse of the file.
+    # more with it than rcl's parse of the file and the declaration of the values. The
+    # starts of one round are paired: the median of their ratios.
     rows.append(Figure('time to first joint_states, --params-file config/paper.yaml', 's',
-                       [min(starts['table_sim_paper_yaml'])], 'the start with 3 of them',
-                       [min(starts['table_sim'])], 'ratio', '<= 1.2 ×', ('<=', 1.2)))
+                       starts['table_sim_paper_yaml'], 'the start given 3 of them',
+                       starts['table_sim'], 'ratio', '<= 1.2 ×', ('<=', 1.2)))
     # "No slower": the best of the cold starts against the slowest warm start. Cold and
     # warm starts load the same cache, so one cold start against their median was a coin
     # toss (0.434 against 0.429 s), and one against the slowest warm start lost to
