@@ -82,10 +82,12 @@ def test_a_refused_set_logs_nothing_and_an_accepted_one_logs_what_it_applied(nod
 
 def test_a_pace_set_back_takes_effect_at_once_not_at_the_old_deadline(node):
     proc, peer, states, _ = node
-    # 1 Hz at 1/100 of real time: the next tick is due in 100 s of wall time
-    assert _set(peer, 'publish_rate', 1.0)[0].successful
+    # 1 Hz at 1/100 of real time: a tick lasts 100 s of wall time. The factor first: at
+    # 1 kHz it makes a tick 0.1 s, so the rate is in force well within the pause below,
+    # and the node then sleeps towards a deadline 100 s away
     assert _set(peer, 'real_time_factor', 0.01)[0].successful
-    time.sleep(0.5)
+    assert _set(peer, 'publish_rate', 1.0)[0].successful
+    time.sleep(1.5)
     back = []
     for name, value in (('real_time_factor', 1.0), ('publish_rate', 1000.0)):
         result, seconds = _set(peer, name, value)
