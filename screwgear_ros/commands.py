@@ -104,9 +104,11 @@ def apply_direction(current: DriveInput, value: int) -> DriveInput:
 
 
 def _signed_drive(topic: str, current: DriveInput, value: Any, max_torque: float,
-                  shown: Any) -> DriveInput:
-    """A signed drive torque: the sign sets the direction, |value| the torque; zero
-    keeps the direction in force (no reversal without a sign)."""
+                  shown: Any, deadband: float) -> DriveInput:
+    """A signed drive torque: the sign sets the direction, |value| the torque. Within
+    ``deadband`` (N·m, effort_deadband) it is zero torque and keeps the direction in
+    force: a controller at rest whose effort flips sign by rounding noise commands no
+    reversal."""
     try:
         effort = _finite(topic, value)
     except InputRejected:
@@ -114,25 +116,29 @@ def _signed_drive(topic: str, current: DriveInput, value: Any, max_torque: float
     if abs(effort) > max_torque:
         raise InputRejected(topic, shown, f'|effort| must be <= {max_torque:g} N·m '
                             '(max_torque)')
-    direction = current.direction if effort == 0.0 else (1 if effort > 0.0 else -1)
-    return DriveInput(torque=abs(effort), direction=direction, load=current.load)
+    if abs(effort) <= deadband:
+        return DriveInput(torque=0.0, direction=current.direction, load=current.load)
+    return DriveInput(torque=abs(effort), direction=1 if effort > 0.0 else -1,
+                      load=current.load)
 
 
-def apply_effort(current: DriveInput, values: Sequence[float], max_torque: float) -> DriveInput:
+def apply_effort(current: DriveInput, values: Sequence[float], max_torque: float,
+                 deadband: float = 0.0) -> DriveInput:
     """cmd_effort: one signed torque, N·m; the sign sets the direction, |value| the torque.
 
-    Zero keeps the direction in force (no reversal without a sign).
+    |value| <= ``deadband`` is zero torque and keeps the direction in force (no
+    reversal without a sign that means something).
     """
     if len(values) != 1:
         raise InputRejected('cmd_effort', list(values),
                             f'expects exactly one value (the signed drive torque), got {len(values)}')
-    return _signed_drive('cmd_effort', current, values[0], max_torque, list(values))
+    return _signed_drive('cmd_effort', current, values[0], max_torque, list(values), deadband)
 
 
 def apply_joint_command(current: DriveInput, command: Any, max_torque: float,
-                        joint_names: Sequence[str]) -> DriveInput:
+                        joint_names: Sequence[str], deadband: float = 0.0) -> DriveInput:
     """joint_commands: the effort of ``joint_names[COMMANDED_JOINT]`` is a signed drive
-    torque, N·m, exactly as cmd_effort's one value.
+    torque, N·m, exactly as cmd_effort's one value (with the same ``deadband``).
 
     The message must name that joint, name no joint joint_states does not have, carry
     no position or velocity command and exactly one effort value.
@@ -155,7 +161,7 @@ def apply_joint_command(current: DriveInput, command: Any, max_torque: float,
         raise InputRejected(topic, command, f'expects exactly one effort value ({joint}/'
                             f'{COMMAND_INTERFACE}, the signed drive torque), got '
                             f'{len(command.effort)}')
-    return _signed_drive(topic, current, command.effort[0], max_torque, command)
+    return _signed_drive(topic, current, command.effort[0], max_torque, command, deadband)
 
 
 def apply_load(current: DriveInput, value: float, max_load: float) -> DriveInput:
@@ -206,13 +212,14 @@ def apply_command(current: DriveInput, topic: str, value: Any, params: TablePara
     if topic == 'cmd_direction':
         return apply_direction(current, value)
     if topic == 'cmd_effort':
-        return apply_effort(current, value, params.max_torque)
+        return apply_effort(current, value, params.max_torque, params.effort_deadband)
     if topic == 'load_torque':
         return apply_load(current, value, load_limit(params.max_torque, params.radius_pinion_1,
                                                      params.radius_table))
     if topic == 'joint_commands':
         names = SimSettings().joint_names if joint_names is None else joint_names
-        return apply_joint_command(current, value, params.max_torque, names)
+        return apply_joint_command(current, value, params.max_torque, names,
+                                   params.effort_deadband)
     raise InputRejected(topic, value, f'unknown input topic (known: {", ".join(INPUT_TOPICS)})')
 
 

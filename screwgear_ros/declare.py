@@ -28,7 +28,23 @@ class ParameterError(ValueError):
         self.name = name
         self.value = value
         self.rule = rule
-        super().__init__(f'parameter {name!r} = {value!r} refused: {rule}')
+        super().__init__(f'parameter {name!r} = {excerpt(value)} refused: {rule}')
+
+
+#: Longest text of a refused value in a message: a value of 10⁵ elements must not make a
+#: log line of megabytes.
+EXCERPT_CHARS = 120
+
+
+def excerpt(value: Any) -> str:
+    """``repr(value)``, cut to EXCERPT_CHARS with the element count of a long list."""
+    if isinstance(value, (list, tuple)) and len(value) > 8:
+        head = ', '.join(repr(v) for v in value[:4])
+        text = f'[{head}, … ({len(value)} elements)]'
+    else:
+        text = repr(value)
+    return text if len(text) <= EXCERPT_CHARS else text[:EXCERPT_CHARS - 1] + '…'
+
 
 
 class Kind(Enum):
@@ -53,19 +69,27 @@ class Declaration:
     low: float | None = None         # smallest value (each element for lists)
     high: float | None = None        # largest value
     strict: bool = False             # low itself is refused (> low)
+    zero: bool = False               # 0 is also valid (it switches the feature off)
+    max_items: int | None = None     # longest list
+    why: str = ''                    # why the bounds are what they are
     read_only: bool = False          # fixed for a run
     kernel: bool = False             # a scalar of the compiled model's packed array
     note: str = ''                   # why the default is what it is (parameter file)
 
     def range_text(self) -> str:
-        """'> 0', '>= 0', '1 … 3', or '' when unbounded."""
+        """'> 0', '>= 0', '1 … 3', '0 or 0.01 … 1000', '≤ 32 items', or '' when unbounded."""
+        text = ''
         if self.low is not None and self.high is not None:
-            return f'{self.low:g} … {self.high:g}'
-        if self.low is not None:
-            return f'{">" if self.strict else ">="} {self.low:g}'
-        if self.high is not None:
-            return f'<= {self.high:g}'
-        return ''
+            text = f'{"> " if self.strict else ""}{self.low:g} … {self.high:g}'
+        elif self.low is not None:
+            text = f'{">" if self.strict else ">="} {self.low:g}'
+        elif self.high is not None:
+            text = f'<= {self.high:g}'
+        if self.zero and text:
+            text = f'0 or {text}'
+        if self.max_items is not None:
+            text = ', '.join(x for x in (text, f'at most {self.max_items} items') if x)
+        return text
 
 
 def parameter(default: Any, symbol: str, unit: str, description: str, **options: Any) -> Any:
@@ -142,8 +166,14 @@ def plain(value: Any) -> Any:
 # ---------------------------------------------------------------- validation
 
 def _is_number(value: Any) -> bool:
-    """A real number (Python or NumPy scalar), but not a bool."""
-    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+    """A real number (Python or NumPy scalar) a double can hold, but not a bool."""
+    if not isinstance(value, numbers.Real) or isinstance(value, (bool, np.bool_)):
+        return False
+    try:
+        float(value)
+    except OverflowError:           # an integer beyond any double
+        return False
+    return True
 
 
 def _number(p: Parameter, value: Any, shown: Any) -> float:
@@ -153,10 +183,12 @@ def _number(p: Parameter, value: Any, shown: Any) -> float:
                              else 'must be a list of numbers')
     if not math.isfinite(value):
         raise ParameterError(p.name, shown, 'must be finite')
-    if d.low is not None and (value <= d.low if d.strict else value < d.low):
-        raise ParameterError(p.name, shown, f'must be {d.range_text()}')
-    if d.high is not None and value > d.high:
-        raise ParameterError(p.name, shown, f'must be <= {d.high:g}')
+    if d.zero and value == 0:
+        return float(value)
+    if ((d.low is not None and (value <= d.low if d.strict else value < d.low))
+            or (d.high is not None and value > d.high)):
+        why = f' ({d.why})' if d.why else ''
+        raise ParameterError(p.name, shown, f'must be {d.range_text()}{why}')
     return float(value)
 
 
@@ -172,6 +204,11 @@ def check(p: Parameter, value: Any) -> Any:
         if isinstance(value, (str, bytes)) or not hasattr(value, '__iter__'):
             raise ParameterError(p.name, value, 'must be a list of numbers')
         values = list(value)
+        limit = p.declaration.max_items
+        if limit is not None and len(values) > limit:
+            why = f' ({p.declaration.why})' if p.declaration.why else ''
+            raise ParameterError(p.name, values, f'has {len(values)} items, at most {limit} '
+                                 f'allowed{why}')
         return tuple(_number(p, v, values) for v in values)
     if p.kind is Kind.CHOICE:
         try:
@@ -252,4 +289,4 @@ def markdown_rows(cls: type) -> list[str]:
 
 __all__ = ['ParameterError', 'Kind', 'Declaration', 'parameter', 'Parameter', 'declared',
            'kernel_fields', 'plain', 'check', 'validate', 'yaml_lines', 'yaml_value',
-           'markdown_rows']
+           'markdown_rows', 'excerpt', 'EXCERPT_CHARS']

@@ -9,6 +9,11 @@ stops trying to catch up and re-anchors its schedule at the present (a
 *resync*), so a machine that cannot keep up runs slower instead of bursting, and
 says so in its statistics. ``real_time_factor`` 0 never sleeps.
 
+The pacer sleeps in slices of at most :data:`MAX_SLEEP` and wakes at once when its
+``wake`` event is set (the node sets it when a parameter change arrives), so a change
+takes effect within one tick or MAX_SLEEP of wall time, whichever comes first, however
+slow the pace in force: a change never waits for a far deadline of the old pace.
+
 No ROS here: the node's pacing thread uses it, tests drive it with a fake clock.
 """
 
@@ -40,6 +45,26 @@ def _whole_ns(dt: float) -> int | None:
     return whole if abs(dt_ns - whole) <= 1e-6 * max(1.0, dt_ns) else None
 
 
+#: Longest single sleep of the pacer, s of wall time: the most a stop waits to be seen.
+MAX_SLEEP = 0.05
+
+
+def wall_period(period: float, real_time_factor: float) -> float:
+    """Wall time per tick, s, of a tick of ``period`` s at ``real_time_factor`` (0: as
+    fast as possible, 0 s); ValueError when it is not a finite, non-negative time."""
+    if not period > 0.0 or not math.isfinite(period):
+        raise ValueError(f'period must be > 0 s, got {period!r}')
+    if not real_time_factor >= 0.0 or not math.isfinite(real_time_factor):
+        raise ValueError(f'real_time_factor must be >= 0, got {real_time_factor!r}')
+    if real_time_factor == 0.0:
+        return 0.0
+    wall = period / real_time_factor
+    if not math.isfinite(wall):
+        raise ValueError(f'a tick of {period:g} s at real-time factor {real_time_factor:g} '
+                         'lasts no finite wall time')
+    return wall
+
+
 @dataclass
 class PacerStats:
     """What the pacer saw since it started (wall-clock seconds)."""
@@ -62,8 +87,7 @@ class Pacer:
     def __init__(self, period: float, real_time_factor: float, max_lag: float = 0.1,
                  clock: Callable[[], float] = time.monotonic,
                  sleep: Callable[[float], None] = time.sleep) -> None:
-        if not period > 0.0 or not math.isfinite(period):
-            raise ValueError(f'period must be > 0 s, got {period!r}')
+        wall_period(period, real_time_factor)
         self._clock = clock
         self._sleep = sleep
         self.max_lag = max_lag
@@ -72,8 +96,7 @@ class Pacer:
 
     def restart(self, period: float, real_time_factor: float) -> None:
         """Re-anchor the schedule at now with a new period (s) and factor."""
-        if not real_time_factor >= 0.0 or not math.isfinite(real_time_factor):
-            raise ValueError(f'real_time_factor must be >= 0, got {real_time_factor!r}')
+        self._wall_period = wall_period(period, real_time_factor)
         self.period = period
         self.real_time_factor = real_time_factor
         self._t0 = self._clock()
@@ -82,18 +105,21 @@ class Pacer:
     @property
     def wall_period(self) -> float:
         """Wall time per tick, s (0 when running as fast as possible)."""
-        return self.period / self.real_time_factor if self.real_time_factor > 0.0 else 0.0
+        return self._wall_period
 
     def next_deadline(self) -> float:
         """Wall-clock time (of ``clock``) at which the next tick is due."""
         return self._t0 + (self._k + 1) * self.wall_period
 
-    def wait(self, stop: threading.Event | None = None) -> bool:
+    def wait(self, stop: threading.Event | None = None,
+             wake: threading.Event | None = None) -> bool:
         """Sleep until the next tick's deadline; False if ``stop`` was set meanwhile.
 
         Call once per tick after its work is done; the deadline of tick k is
-        t0 + k·wall_period. Without ``stop`` it sleeps with ``sleep``; with it, on
-        ``stop.wait`` so that a shutdown wakes it at once.
+        t0 + k·wall_period. Without events it sleeps with ``sleep``. With them it
+        sleeps in slices of at most MAX_SLEEP on ``wake`` (else ``stop``), and returns
+        early, True, once ``wake`` is set (it clears it): the caller then runs its next
+        tick at once, which applies what woke it.
         """
         self.stats.ticks += 1
         if self.real_time_factor == 0.0:
@@ -113,10 +139,24 @@ class Pacer:
                 self._t0, self._k = now, 0
             return not (stop is not None and stop.is_set())
         self.stats.last_lag = 0.0
-        if stop is None:
+        if stop is None and wake is None:
             self._sleep(-lag)
             return True
-        return not stop.wait(-lag)
+        return self._sleep_until(deadline, stop, wake)
+
+    def _sleep_until(self, deadline: float, stop: threading.Event | None,
+                     wake: threading.Event | None) -> bool:
+        event = wake if wake is not None else stop
+        while True:
+            if stop is not None and stop.is_set():
+                return False
+            if wake is not None and wake.is_set():
+                wake.clear()
+                return True
+            left = deadline - self._clock()
+            if left <= 0.0:
+                return True
+            event.wait(min(left, MAX_SLEEP))
 
 
 class FactorMeter:
@@ -192,4 +232,5 @@ class AnswerGate:
             self._cond.notify_all()
 
 
-__all__ = ['sim_time_ns', 'Pacer', 'PacerStats', 'FactorMeter', 'AnswerGate']
+__all__ = ['sim_time_ns', 'MAX_SLEEP', 'wall_period', 'Pacer', 'PacerStats', 'FactorMeter',
+           'AnswerGate']

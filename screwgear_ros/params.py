@@ -53,6 +53,28 @@ class MeshFormulation(StrEnum):
     ENERGY_CONSISTENT = 'energy_consistent'
 
 
+# Bounds of the physical parameters: wide around any real rotary table, narrow enough that
+# every derived quantity (m_e, ω0, the stiffest eigenvalue, a disc's mass in the URDF)
+# stays a normal double far from overflow and underflow.
+INERTIA = (1e-6, 1e6)                 # kg·m²
+INERTIA_WHY = 'a gear from a watch to a ship: every derived quantity stays finite'
+RADIUS = (1e-4, 100.0)                # m
+RADIUS_WHY = 'a gear from 0.1 mm to 100 m: every derived quantity stays finite'
+TEETH = 100_000
+STIFFNESS = 1e12                      # N/m
+STIFFNESS_WHY = 'steel teeth are 1e8 … 1e10 N/m; RK4 then needs dt well inside its range'
+DAMPING = 1e9                         # N·s/m, N·m·s/rad
+TORQUE = 1e7                          # N·m
+FREQUENCY = 1e6                       # rad/s
+PHASE = 1e3                           # rad
+STE = 1e-2                            # m: a transmission error of a centimetre is a broken gear
+#: Most STE harmonics: the compiled model sums every harmonic in every RK4 stage of both
+#: meshes, so the cost of a step grows with their count.
+MAX_HARMONICS = 32
+HARMONICS_WHY = ('each harmonic is summed in every RK4 stage of both meshes, so a step '
+                 'costs in proportion; 32 describe any tooth profile error and keep the '
+                 'default step within real time')
+
 #: Pinion speed of the paper's example, 24 r/min, in rad/s.
 PAPER_PINION_SPEED = 24.0 * 2.0 * math.pi / 60.0
 #: Drive torque of the paper's example, N·m.
@@ -70,67 +92,88 @@ class TableParams:
     """
 
     inertia_pinion_1: float = parameter(3.255e-2, 'I1', 'kg·m²', 'inertia of pinion 1',
-                                        low=0.0, strict=True, kernel=True)
+                                        low=INERTIA[0], high=INERTIA[1], why=INERTIA_WHY,
+                                        kernel=True)
     inertia_table: float = parameter(46.101, 'I2', 'kg·m²', 'inertia of the table (large gear)',
-                                     low=0.0, strict=True, kernel=True)
+                                     low=INERTIA[0], high=INERTIA[1], why=INERTIA_WHY,
+                                     kernel=True)
     inertia_pinion_3: float = parameter(3.255e-2, 'I3', 'kg·m²', 'inertia of pinion 3',
-                                        low=0.0, strict=True, kernel=True)
-    radius_pinion_1: float = parameter(0.078, 'r1', 'm', 'radius of pinion 1', low=0.0,
-                                       strict=True, kernel=True,
+                                        low=INERTIA[0], high=INERTIA[1], why=INERTIA_WHY,
+                                        kernel=True)
+    radius_pinion_1: float = parameter(0.078, 'r1', 'm', 'radius of pinion 1', low=RADIUS[0],
+                                       high=RADIUS[1], why=RADIUS_WHY, kernel=True,
                                        note="tip radius m(z+2)/2, reproduces the paper's m_e")
-    radius_table: float = parameter(0.582, 'r2', 'm', 'radius of the large gear', low=0.0,
-                                    strict=True, kernel=True)
+    radius_table: float = parameter(0.582, 'r2', 'm', 'radius of the large gear',
+                                    low=RADIUS[0], high=RADIUS[1], why=RADIUS_WHY, kernel=True)
     radius_pinion_3: float = parameter(0.078, 'r3', 'm', 'radius of pinion 3 (= r1 with a '
-                                       'preload)', low=0.0, strict=True, kernel=True)
-    teeth_pinion_1: int = parameter(24, 'z1', '', 'teeth of pinion 1', low=1, kernel=True)
-    teeth_table: int = parameter(192, 'z2', '', 'teeth of the large gear', low=1)
-    teeth_pinion_3: int = parameter(24, 'z3', '', 'teeth of pinion 3', low=1, kernel=True)
+                                       'preload)', low=RADIUS[0], high=RADIUS[1], why=RADIUS_WHY,
+                                       kernel=True)
+    teeth_pinion_1: int = parameter(24, 'z1', '', 'teeth of pinion 1', low=1, high=TEETH,
+                                    kernel=True)
+    teeth_table: int = parameter(192, 'z2', '', 'teeth of the large gear', low=1,
+                                  high=TEETH)
+    teeth_pinion_3: int = parameter(24, 'z3', '', 'teeth of pinion 3', low=1, high=TEETH,
+                                    kernel=True)
     mesh_stiffness_mean: float = parameter(1.0e7, 'k_m', 'N/m', 'mean mesh stiffness',
-                                           low=0.0, strict=True, note="ω0²·m_e of the paper")
+                                           low=1.0, high=STIFFNESS, why=STIFFNESS_WHY,
+                                           note="ω0²·m_e of the paper")
     mesh_stiffness_amplitude: float = parameter(
         1.0e6, 'k_a', 'N/m', 'mesh stiffness fluctuation amplitude (< k_eff)', low=0.0,
-        kernel=True, note="k_a' = 0.1")
+        high=STIFFNESS, why=STIFFNESS_WHY, kernel=True, note="k_a' = 0.1")
     mesh_stiffness_phase: float = parameter(0.0, 'ϕ_k', 'rad', 'phase of the stiffness '
-                                            'fluctuation', kernel=True)
+                                            'fluctuation', low=-PHASE, high=PHASE,
+                                            kernel=True)
     preload_stiffness: float = parameter(0.0, 'k_p', 'N/m', 'stiffness added by the preload',
-                                         low=0.0)
+                                         low=0.0, high=STIFFNESS, why=STIFFNESS_WHY)
     mesh_damping: float = parameter(717.4777661364236, 'c', 'N·s/m', 'mesh damping', low=0.0,
-                                    kernel=True, note='ζ = 0.05')
+                                    high=DAMPING, kernel=True, note='ζ = 0.05')
     ste_amplitudes: tuple[float, ...] = parameter(
         (1.5384e-3,), 'ε_n', 'm', 'static transmission error harmonics, n = index + 1',
+        low=-STE, high=STE, max_items=MAX_HARMONICS, why=HARMONICS_WHY,
         note='ε_1 = fa·l = 1538.4 × 1 µm')
     ste_phases: tuple[float, ...] = parameter((0.0,), 'ϕ_n', 'rad', 'phases of the STE '
-                                              'harmonics (a missing one is 0)')
-    backlash: float = parameter(75e-6, 'b', 'm', 'backlash half gap', low=0.0, kernel=True)
+                                              'harmonics (a missing one is 0)',
+                                              low=-PHASE, high=PHASE,
+                                              max_items=MAX_HARMONICS, why=HARMONICS_WHY)
+    backlash: float = parameter(75e-6, 'b', 'm', 'backlash half gap', low=0.0, high=STE,
+                                kernel=True)
     preload_torque: float = parameter(
-        350.0, 'T_p', 'N·m', 'preload bias torque on both pinions', low=0.0, kernel=True,
+        350.0, 'T_p', 'N·m', 'preload bias torque on both pinions', low=0.0, high=TORQUE,
+        kernel=True,
         note="min. 294 N·m holds an abrupt 400 N·m reversal at the paper's speed")
     thermal_coefficient: float = parameter(0.0, 'α', '1/K', 'thermal derating coefficient '
-                                           'of k_m')
-    temperature_rise: float = parameter(0.0, 'ΔT', 'K', 'temperature rise')
+                                           'of k_m', low=-1.0, high=1.0)
+    temperature_rise: float = parameter(0.0, 'ΔT', 'K', 'temperature rise', low=-1000.0,
+                                        high=1000.0)
     torque_fluctuation_amplitude: float = parameter(0.0, 'T_v', 'N·m', 'drive torque '
                                                     'fluctuation amplitude', low=0.0,
-                                                    kernel=True)
+                                                    high=TORQUE, kernel=True)
     torque_fluctuation_frequency: float = parameter(0.0, 'ω_v', 'rad/s', 'drive torque '
                                                     'fluctuation frequency', low=0.0,
-                                                    kernel=True)
+                                                    high=FREQUENCY, kernel=True)
     table_damping: float = parameter(0.0, 'c_t', 'N·m·s/rad', 'viscous table bearing loss',
-                                     low=0.0, kernel=True)
+                                     low=0.0, high=DAMPING, kernel=True)
     mesh_frequency: float = parameter(24 * PAPER_PINION_SPEED, 'ω_e', 'rad/s',
                                       'mesh frequency used when mesh_phase is time',
-                                      low=0.0, kernel=True, note='24 teeth × 24 r/min')
+                                      low=0.0, high=FREQUENCY, kernel=True,
+                                      note='24 teeth × 24 r/min')
     max_torque: float = parameter(400.0, 'T_max', 'N·m', 'largest accepted drive torque '
-                                  'command', low=0.0, strict=True,
+                                  'command', low=1e-3, high=TORQUE,
                                   note="the paper's drive torque")
+    effort_deadband: float = parameter(
+        1e-6, 'T_db', 'N·m', 'a cmd_effort or joint_commands effort of magnitude up to this is '
+        'zero torque and keeps the drive direction (rounding noise of a controller at rest '
+        'is no reversal)', low=0.0, high=10.0,
+        note='2.5e-9 of max_torque, above the rounding noise of a PD law on rad-scale states')
     drive_no_load_speed: float = parameter(
         8.0 * math.pi, 'ω_nl', 'rad/s', 'speed of the active pinion at which the drive '
         'torque line falls to zero (servo/DC characteristic); 0 = ideal torque source',
-        low=0.0, kernel=True,
+        low=1e-3, high=FREQUENCY, zero=True, kernel=True,
         note="240 r/min: terminal table speed 3.37 rad/s, mesh frequency 0.42·ω0")
     drive_stall_torque: float = parameter(
         1600.0, 'T_s', 'N·m', 'torque of the drive line at standstill; a nonzero command '
-        'delivers the smaller of the command and T_s·(1 − ω/ω_nl)', low=0.0, strict=True,
-        kernel=True, note="400 N·m up to 180 r/min, 7.5× the paper's 24 r/min")
+        'delivers the smaller of the command and T_s·(1 − ω/ω_nl)', low=1e-3,
+        high=TORQUE, kernel=True, note="400 N·m up to 180 r/min, 7.5× the paper's 24 r/min")
     mode: Mode = parameter(Mode.ANTI_BACKLASH, '', '', 'both pinions under preload, or '
                            'pinion 1 alone with backlash', read_only=True)
     mesh_phase: MeshPhase = parameter(MeshPhase.ANGLE, '', '', 'what drives the mesh phase: '
@@ -197,7 +240,7 @@ ANSWERS = f"{', '.join(ANSWER_TOPICS)} or ~/{TICK_TOPIC}"
 class SimSettings:
     """How the node runs the model: step, pacing, outputs, recording."""
 
-    dt: float = parameter(50e-6, 'dt', 's', 'RK4 integration step', low=0.0, strict=True,
+    dt: float = parameter(50e-6, 'dt', 's', 'RK4 integration step', low=1e-7, high=1e-2,
                           read_only=True)
     contact_location: bool = parameter(
         True, '', '', 'locate each change of mesh contact or of the drive line piece inside '
@@ -205,12 +248,15 @@ class SimSettings:
         'plain fixed-step RK4',
         read_only=True)
     publish_rate: float = parameter(1000.0, '', 'Hz', 'output rate; 1/publish_rate must be a '
-                                    'whole number of steps dt', low=0.0, strict=True)
+                                    'whole number of steps dt', low=1.0, high=1e6,
+                                    why='at least one output a second of simulation time')
     real_time_factor: float = parameter(1.0, '', '', 'simulation time / wall time; 0 = as '
-                                        'fast as possible', low=0.0)
+                                        'fast as possible', low=1e-2, high=1e3,
+                                        zero=True, why='below 1/100 of real time the '
+                                        'outputs of a 1 Hz node would come minutes apart')
     command_timeout: float = parameter(
         1.0, '', 's', 'simulation time without an accepted command after which the drive '
-        'torque and the load go to zero; 0 = off', low=0.0)
+        'torque and the load go to zero; 0 = off', low=1e-3, high=1e6, zero=True)
     record: str = parameter('', '', '', 'rosbag2 (MCAP) directory to record this run to; '
                             'empty = off', read_only=True)
     publish_clock: bool = parameter(True, '', '', 'publish simulation time on /clock',
@@ -219,7 +265,10 @@ class SimSettings:
                                f"controller's answer ({ANSWERS}) to the last joint_states",
                                read_only=True)
     joint_names: tuple[str, ...] = parameter(('pinion_1', 'table', 'pinion_3'), '', '',
-                                             'joint_states names of pinion 1, table, pinion 3')
+                                             'joint_states names of pinion 1, table, pinion 3; '
+                                             'fixed for a run: a recording and the tools that '
+                                             'read it know its joints by one set of names',
+                                             read_only=True)
 
     def __post_init__(self) -> None:
         validate(self)
@@ -388,7 +437,12 @@ def split_parameters(values: Mapping[str, Any]) -> tuple[TableParams, SimSetting
         raise ParameterError(name, values[name], 'is not a parameter of table_sim')
     params = TableParams(**{k: v for k, v in values.items() if k in _TABLE_FIELDS})
     settings = SimSettings(**{k: v for k, v in values.items() if k in _SIM_FIELDS})
-    check_step(params, settings.dt)
+    try:
+        check_step(params, settings.dt)
+    except (ArithmeticError, np.linalg.LinAlgError) as error:
+        raise ParameterError('dt', settings.dt, 'the stability limit of RK4 cannot be '
+                             f'computed for these parameters ({type(error).__name__}: '
+                             f'{error})') from None
     return params, settings
 
 

@@ -105,6 +105,7 @@ class Health:
     dt: float = 0.0
     lockstep: bool = False
     command_timed_out: bool = False   # command_timeout zeroed the input until the next command
+    commanded: bool = False           # a command was accepted since the start
     waiting: float = 0.0     # lockstep: s of wall time without the controller's answer
 
 
@@ -138,7 +139,13 @@ def diagnostic_values(params: TableParams, outputs: Outputs,
         if health.recorder_error is not None:
             level = WARN
             problems.append(f'recording failed: {health.recorder_error}')
-    if health.command_timed_out:     # not a problem: the table idles as it should
+    # Neither is a problem: the table idles as it should. Before the first command
+    # nothing has timed out: the input is zero because none ever came.
+    timed_out = health.command_timed_out and health.commanded
+    if not health.commanded:
+        problems.append('waiting for the first command: drive torque and load are zero '
+                        'until one comes')
+    elif timed_out:
         problems.append('no command within command_timeout: drive torque and load are zero '
                         'until the next command')
     message = '; '.join(problems) if problems else 'running'
@@ -161,7 +168,8 @@ def diagnostic_values(params: TableParams, outputs: Outputs,
         ('mesh_frequency_ratio', f'{mesh_frequency_ratio(params, outputs):.4f}'),
         ('fault', health.fault or ''),
         ('lockstep', 'true' if health.lockstep else 'false'),
-        ('command_timed_out', 'true' if health.command_timed_out else 'false'),
+        ('command_timed_out', 'true' if timed_out else 'false'),
+        ('waiting_for_first_command', 'false' if health.commanded else 'true'),
         ('lockstep_waiting_s', f'{health.waiting:.1f}'),
     ]
     if health.recorder is not None:

@@ -70,6 +70,43 @@ def test_zero_effort_means_no_torque_and_keeps_the_direction():
     assert apply_effort(NOW, [-0.0], 400.0) == DriveInput(0.0, -1, 15.0)
 
 
+@pytest.mark.parametrize('topic', ['cmd_effort', 'joint_commands'])
+def test_an_effort_within_the_deadband_is_no_torque_and_no_reversal(topic):
+    band = P.effort_deadband
+    assert 0.0 < band < 1e-3 * P.max_torque
+    value = (lambda e: [e]) if topic == 'cmd_effort' else (
+        lambda e: JointCommand(('pinion_1',), effort=(e,)))
+    for effort in (band, -band, 1e-14, -1e-14, 0.0, -0.0):
+        assert apply_command(NOW, topic, value(effort), P) == DriveInput(0.0, -1, 15.0)
+    # just outside it the sign is a direction again
+    assert apply_command(NOW, topic, value(2.0 * band), P) == DriveInput(2.0 * band, 1, 15.0)
+    # a deadband of 0 keeps only an exact zero
+    exact = P.replace(effort_deadband=0.0)
+    assert apply_command(NOW, topic, value(1e-14), exact) == DriveInput(1e-14, 1, 15.0)
+
+
+def test_a_controller_at_rest_flipping_its_sign_by_rounding_noise_reverses_nothing():
+    # the effort of a PD controller holding the table, rounding noise of either sign,
+    # then silence past command_timeout: no reversal, and the timeout says nothing of a
+    # 1e-14 N·m drive torque (there was none)
+    from screwgear_ros.events import Command
+    from screwgear_ros.params import SimSettings
+    from screwgear_ros.session import Session
+    session = Session(P, SimSettings(command_timeout=0.05))
+    reversals, notices = 0, []
+    for k in range(40):
+        session.submit(Command('cmd_effort', [(-1.0) ** k * 1e-14]))
+        tick = session.tick()
+        reversals += tick.reversal
+        assert tick.drive.torque == 0.0 and not tick.rejected
+    for _ in range(100):                            # 0.1 s without a command
+        tick = session.tick()
+        reversals += tick.reversal
+        notices += tick.notices
+    assert reversals == 0 and session.timed_out
+    assert not any('e-14' in n for n in notices), notices
+
+
 @pytest.mark.parametrize('effort', [[], [1.0, 2.0], [0.0, 0.0, 0.0], [math.nan], [math.inf],
                                     [-math.inf], [400.5], [-401.0], ['x']])
 def test_effort_of_the_wrong_length_or_value_is_rejected(effort):

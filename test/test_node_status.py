@@ -74,7 +74,7 @@ def test_mesh_phase_per_step_is_teeth_times_pinion_speed_times_dt():
 
 def health(**changes) -> Health:
     h = Health(requested_factor=1.0, achieved_factor=1.0, pacer=PacerStats(),
-               rejected={'cmd_torque': 2, 'cmd_direction': 1}, dt=DT)
+               rejected={'cmd_torque': 2, 'cmd_direction': 1}, dt=DT, commanded=True)
     for k, v in changes.items():
         setattr(h, k, v)
     return h
@@ -115,6 +115,20 @@ def test_lockstep_waiting_and_command_timeout_are_reported():
                                                                     achieved_factor=0.0))
     assert level == WARN and message.startswith('lockstep: waiting 4 s')   # not "cannot keep up"
     assert dict(values)['lockstep'] == 'true' and dict(values)['lockstep_waiting_s'] == '4.0'
+
+
+def test_before_the_first_command_nothing_has_timed_out_it_waits_for_one():
+    # command_timeout runs from the start, so the session says timed out one timeout
+    # after a start without commands; the diagnostics say what is true: none came yet.
+    for timed_out in (False, True):
+        level, message, values = diagnostic_values(
+            P, outputs(), health(commanded=False, command_timed_out=timed_out))
+        v = dict(values)
+        assert level == OK and message.startswith('waiting for the first command')
+        assert 'command_timeout' not in message
+        assert v['command_timed_out'] == 'false' and v['waiting_for_first_command'] == 'true'
+    v = dict(diagnostic_values(P, outputs(), health(command_timed_out=True))[2])
+    assert v['waiting_for_first_command'] == 'false' and v['command_timed_out'] == 'true'
 
 
 def test_status_line_shows_time_factor_angle_speed_path_and_te():

@@ -3,12 +3,14 @@ exact nanosecond simulation time; the warning rate limiter."""
 
 from __future__ import annotations
 
+import math
 import random
 import threading
+import time
 
 import pytest
 
-from screwgear_ros.pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns
+from screwgear_ros.pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns, wall_period
 from screwgear_ros.ratelimit import RateLimiter
 
 
@@ -192,3 +194,31 @@ def test_answer_gate_wakes_a_waiting_thread_on_answer_and_on_release() -> None:
     gate.release()                           # shutdown: no answer will come
     waiter.join(10.0)
     assert results == [True, False] and not waiter.is_alive()
+
+
+def test_a_change_wakes_the_pacer_however_far_its_deadline_is() -> None:
+    # a tick of 1 s at real-time factor 0.01 lasts 100 s of wall time: a change set
+    # meanwhile must not wait for that deadline; a stop neither
+    for event_name in ('wake', 'stop'):
+        pacer = Pacer(1.0, 0.01)
+        stop, wake = threading.Event(), threading.Event()
+        result: list[bool] = []
+        waiter = threading.Thread(target=lambda: result.append(pacer.wait(stop, wake)))
+        waiter.start()
+        time.sleep(0.05)
+        assert waiter.is_alive()                      # asleep until its deadline
+        (wake if event_name == 'wake' else stop).set()
+        waiter.join(timeout=20.0)
+        assert not waiter.is_alive(), f'{event_name} did not end the sleep'
+        assert result == [event_name == 'wake']
+        assert not wake.is_set()                      # taken: the next wait sleeps again
+
+
+def test_the_wall_period_of_any_accepted_pace_is_finite_and_else_refused() -> None:
+    assert wall_period(1e-3, 0.0) == 0.0
+    assert wall_period(1.0, 0.01) == pytest.approx(100.0)
+    for period, factor in ((1e300, 1e-300), (1.0, math.nan), (1.0, -1.0), (0.0, 1.0)):
+        with pytest.raises(ValueError):
+            wall_period(period, factor)
+        with pytest.raises(ValueError):
+            Pacer(period, factor)

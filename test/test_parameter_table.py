@@ -38,10 +38,11 @@ def test_descriptors_carry_the_declared_ranges_and_read_only_flags():
         if p.kind is Kind.FLOAT and low is not None:
             ranged += 1
             (r,) = d.floating_point_range
-            assert r.from_value == low and r.to_value == math.inf, p.name
+            assert r.from_value == (0.0 if p.declaration.zero else low), p.name
+            assert r.to_value == p.declaration.high, p.name
         elif p.kind is Kind.INTEGER:
             (r,) = d.integer_range
-            assert r.from_value == low == 1, p.name
+            assert r.from_value == low == 1 and r.to_value == p.declaration.high, p.name
         else:
             assert not d.floating_point_range and not d.integer_range, p.name
         if p.kind is Kind.CHOICE:
@@ -52,10 +53,15 @@ def test_descriptors_carry_the_declared_ranges_and_read_only_flags():
         d = p.declaration
         if p.kind is Kind.FLOAT and d.low is not None:
             cls = TableParams if p.name in {f.name for f in fields(TableParams)} else SimSettings
-            with pytest.raises(params.ParameterError):
-                cls(**{p.name: d.low - 1.0})
-            if not d.strict:
-                assert getattr(cls(**{p.name: d.low}), p.name) == d.low
+            for outside in (d.low - abs(d.low) - 1.0, d.high * 2.0 + 1.0):
+                with pytest.raises(params.ParameterError) as exc:
+                    cls(**{p.name: outside})
+                assert d.range_text() in exc.value.rule, p.name
+            for bound in (d.low, d.high) if not d.strict else (d.high,):
+                try:     # the bound passes its own range; another rule may still refuse it
+                    assert getattr(cls(**{p.name: bound}), p.name) == bound
+                except params.ParameterError as error:
+                    assert d.range_text() not in error.rule, (p.name, bound)
 
 
 def test_the_kernel_layout_packs_every_kernel_field_by_name():

@@ -20,9 +20,10 @@ Who owns what: ``_values`` (the parameter values in force on the ROS side) belon
 the executor thread: main() spins a SingleThreadedExecutor, so the parameter
 callbacks never run concurrently. The session's queue is guarded by its own lock;
 the session, the RunIO, the pacer, the rate limiter and the health record belong
-to the pacing thread, except ``RunIO.submit_change``, which the parameter callback
-calls to render a change's YAML and URDF off the pacing thread and submit it (the texts
-are handed over under RunIO's own lock). ``_gate`` is thread-safe, and so is ``_stop``
+to the pacing thread, except ``RunIO.prepare``, which the parameter callback calls to
+render a change's YAML and URDF off the pacing thread before it accepts the change (the
+texts are handed over under RunIO's own lock). ``_gate`` is thread-safe, and so are
+``_wake`` (a threading.Event the parameter callback sets to wake the pacer) and ``_stop``
 (a threading.Event that the signal thread of
 :func:`~screwgear_ros.ros.shutdown.stop_on_signals`, a failed pacing thread and
 ``close()`` set; never a signal handler). Nothing is ever set to None.
@@ -51,8 +52,10 @@ from std_srvs.srv import Trigger
 
 from ..commands import carries_no_command, command_value
 from ..events import Command, ParameterChange, Reset
-from ..pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns
-from ..params import ANSWER_TOPICS, ANSWERS, TICK_TOPIC, ParameterError, split_parameters
+from ..model import pack
+from ..pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns, wall_period
+from ..params import (ANSWER_TOPICS, ANSWERS, TICK_TOPIC, ParameterError, SimSettings,
+                      TableParams, split_parameters)
 from ..ratelimit import RateLimiter
 from ..warmup import compiled_now, without_blas_probe
 from ..session import Session, Tick
@@ -94,9 +97,10 @@ class TableSim(Node):
     def __init__(self, stop: threading.Event) -> None:
         super().__init__('table_sim')
         self._stop = stop
-        self._values = parameters.declare(self, self.get_logger().info)
+        self._values, completed = parameters.declare(self, self.get_logger().info)
         params, settings = split_parameters(self._values)   # ParameterError: refuse to start
         self._gate = AnswerGate()
+        self._wake = threading.Event()     # set when a parameter change is submitted
         self._warnings = RateLimiter(1.0)          # rejected inputs, per topic
         self._refusals = RateLimiter(1.0)          # inputs refused unread (executor thread)
         self._refused: dict[str, int] = {}         # their count per topic (executor thread)
@@ -136,6 +140,9 @@ class TableSim(Node):
         topics.update({'run_parameters': self._fqn + '/run_parameters',
                        'reset': self._fqn + '/reset'})
         self.io = RunIO(topics, settings.joint_names, publishers)
+        self._derive(params, settings, keep=False)   # ParameterError: refuse to start
+        if completed:
+            self.get_logger().info(completed)
         if settings.record:
             self.io.open_recorder(settings.record, on_error=self._recording_failed)
         self._thread = threading.Thread(target=self._run, name='table_sim pacing', daemon=True)
@@ -163,6 +170,7 @@ class TableSim(Node):
         message it writes after that is counted as dropped, never lost silently.
         """
         self._stop.set()
+        self._wake.set()
         self._gate.release()
         if self._thread.is_alive():
             self._thread.join(timeout=5.0)
@@ -216,10 +224,12 @@ class TableSim(Node):
             return SetParametersResult(successful=True)
         try:
             params, settings = split_parameters(candidate)
+            self._derive(params, settings)
         except ParameterError as error:
             return SetParametersResult(successful=False, reason=str(error))
         self._values = candidate
-        self.io.submit_change(self.session, ParameterChange(params, settings))  # texts here
+        self.session.submit(ParameterChange(params, settings))
+        self._wake.set()                     # the pacer runs the tick that applies it now
         return SetParametersResult(successful=True)
 
     def _check_name(self) -> None:
@@ -235,6 +245,25 @@ class TableSim(Node):
                 'back and forth); give each its own namespace (--ros-args -r __ns:=/axis_b)')
         if same > 1 or self._name_checks >= NAME_CHECKS:
             self._name_timer.cancel()
+
+    def _derive(self, params: TableParams, settings: SimSettings, keep: bool = True) -> None:
+        """Derive everything a parameter set needs before it is accepted: the pace, the
+        compiled model's packed parameters, the run_parameters text and the URDF
+        (with ``keep``, prepared here for the pacing thread; the start renders them again
+        once its recorder is open; the stability limit is split_parameters'). A failure
+        refuses the set with the reason instead of failing where it takes effect."""
+        try:
+            wall_period(settings.steps_per_publish * settings.dt, settings.real_time_factor)
+            pack(params)
+            if keep:
+                self.io.prepare(self.session, params, settings)
+            else:
+                self.io.render(self.session, params, settings)
+        except (ArithmeticError, ValueError) as error:
+            if isinstance(error, ParameterError):
+                raise
+            raise ParameterError('parameters', '…', 'what the node derives from them cannot '
+                                 f'be computed ({type(error).__name__}: {error})') from None
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         self.session.submit(Reset())
@@ -274,7 +303,7 @@ class TableSim(Node):
                         pacer.real_time_factor != s.real_time_factor:
                     pacer.restart(s.steps_per_publish * s.dt, s.real_time_factor)
                     self._health.requested_factor = s.real_time_factor
-            if not pacer.wait(self._stop):
+            if not pacer.wait(self._stop, self._wake):
                 break
             if s.lockstep:
                 self._gate.expect()
@@ -322,6 +351,8 @@ class TableSim(Node):
         """Log what a person should know about a tick (rate-limited where it repeats)."""
         if not (tick.applied or tick.rejected or tick.notices or tick.new_fault):
             return                          # most ticks: nothing happened to say
+        if not self._health.commanded:
+            self._health.commanded = any(isinstance(e, Command) for e in tick.applied)
         log = self.get_logger()
         for error in tick.rejected:
             emit, held = self._warnings.allow(error.topic)

@@ -14,7 +14,11 @@ Harmonics in one set: ``ste_amplitudes`` and ``ste_phases`` must have one entry 
 STE harmonic. When a set makes their lengths differ, the shorter one is completed
 with zeros (a missing phase is 0 rad, a missing amplitude 0 m: that harmonic off) and
 set together with it, so ``ros2 param set /table_sim ste_amplitudes "[1.0e-6, 2.0e-7]"``
-alone changes the number of harmonics; the node logs what it completed.
+alone changes the number of harmonics; the node logs what it completed once the set
+was applied. The same rules hold at start, for ``-p`` and ``--params-file`` values, as
+for a set at run time: an integer where a double is declared is that double (YAML and
+``ros2 param set`` read ``46`` as an integer), and one STE array given without the
+other completes the other.
 """
 
 from __future__ import annotations
@@ -27,8 +31,8 @@ from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescr
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from ..declare import Kind, declared
-from ..params import SimSettings, TableParams
+from ..declare import Kind, declared, excerpt
+from ..params import MAX_HARMONICS, SimSettings, TableParams
 
 #: Every node parameter, in declaration order.
 PARAMETERS = (*declared(TableParams), *declared(SimSettings))
@@ -42,13 +46,13 @@ def descriptor(p: Any) -> ParameterDescriptor:
     d = p.declaration
     head = ', '.join(x for x in (d.symbol, d.description) if x)
     text = f'{head}, {d.unit}' if d.unit else head
-    constraints = d.range_text()
+    constraints = d.range_text() + (f' ({d.why})' if d.why else '')
     if p.choices:
         constraints = 'one of ' + ', '.join(p.choices)
     desc = ParameterDescriptor(description=text, read_only=d.read_only,
                                additional_constraints=constraints)
     if d.low is not None or d.high is not None:
-        low = -math.inf if d.low is None else float(d.low)
+        low = -math.inf if d.low is None else 0.0 if d.zero else float(d.low)
         high = math.inf if d.high is None else float(d.high)
         if p.kind is Kind.FLOAT:
             desc.floating_point_range = [FloatingPointRange(from_value=low, to_value=high,
@@ -60,18 +64,59 @@ def descriptor(p: Any) -> ParameterDescriptor:
     return desc
 
 
-def declare(node: Node, log: Callable[[str], None]) -> dict[str, Any]:
-    """Declare every table_sim parameter on ``node``; return name → value in force.
+def declare(node: Node, log: Callable[[str], None]) -> tuple[dict[str, Any], str | None]:
+    """Declare every table_sim parameter on ``node``; return name → value in force and
+    what the start completed of the STE harmonics (None: nothing), for the caller to
+    log once the start's values are accepted.
 
-    ``log`` is told when a set completed the STE harmonics. Raises rclpy's
-    ParameterException when a parameter file gives a value of the wrong type (e.g. a
-    string for a number) or outside a declared range.
+    ``log`` is told, once a set applied it, when it completed the STE harmonics.
+    Raises rclpy's ParameterException when a parameter file gives a value of the wrong
+    type (e.g. a string for a number) or outside a declared range.
     """
-    node.add_pre_set_parameters_callback(
-        lambda params: _complete_harmonics(node, _integers_as_doubles(node, params), log))
+    notes: list[str] = []           # of the set in progress; logged once it was applied
+
+    def pre_set(params: list[Parameter]) -> list[Parameter]:
+        notes.clear()
+        params, note = _complete_harmonics(node, _integers_as_doubles(node, params))
+        notes.extend([note] if note else [])
+        return params
+
+    def post_set(params: list[Parameter]) -> None:
+        for note in notes:
+            log(note)
+        notes.clear()
+
+    note = _start_overrides(node)
     declared_now = node.declare_parameters('', [(p.name, p.ros_default, descriptor(p))
                                                 for p in PARAMETERS])
-    return {p.name: plain_value(p.value) for p in declared_now}
+    node.add_pre_set_parameters_callback(pre_set)
+    node.add_post_set_parameters_callback(post_set)
+    return {p.name: plain_value(p.value) for p in declared_now}, note
+
+
+def _start_overrides(node: Node) -> str | None:
+    """The start's values (``-p``, ``--params-file``) under the run-time rules:
+    integers for doubles become doubles, and one STE array given alone completes the
+    other (rclpy declares from these overrides). What was completed, or None."""
+    overrides = getattr(node, '_parameter_overrides', {})   # rclpy keeps them here
+    wanted = {p.name: p for p in PARAMETERS}
+    for name, given in list(overrides.items()):
+        p = wanted.get(name)
+        if p is not None and p.kind in (Kind.FLOAT, Kind.FLOATS):
+            overrides[name] = _as_double(given, p.kind is Kind.FLOAT)
+    given = [name for name in HARMONICS if name in overrides]
+    if len(given) != 1 or not _is_double_array(overrides[given[0]]):
+        return None
+    current = {name: list(overrides[name].value) if name in overrides
+               else list(wanted[name].ros_default) for name in HARMONICS}
+    amplitudes, phases, note = complete_harmonics(current['ste_amplitudes'],
+                                                  current['ste_phases'], given[0])
+    if note is not None:
+        other = HARMONICS[1] if given[0] == HARMONICS[0] else HARMONICS[0]
+        value = phases if other == 'ste_phases' else amplitudes
+        overrides[other] = Parameter(other, Parameter.Type.DOUBLE_ARRAY,
+                                     [float(v) for v in value])
+    return note
 
 
 def plain_value(value: Any) -> Any:
@@ -93,14 +138,14 @@ def complete_harmonics(amplitudes: list[float], phases: list[float],
                        changed: str) -> tuple[list[float], list[float], str | None]:
     """The STE arrays with the one not being set completed with zeros (or cut) to the
     length of the one being set (``changed``), and what was done (None: nothing)."""
-    if len(amplitudes) == len(phases):
-        return amplitudes, phases, None
+    if len(amplitudes) == len(phases) or max(len(amplitudes), len(phases)) > MAX_HARMONICS:
+        return amplitudes, phases, None    # nothing to do, or the validation refuses it
     if changed == 'ste_amplitudes':
         n, other, name = len(amplitudes), phases, 'ste_phases'
     else:
         n, other, name = len(phases), amplitudes, 'ste_amplitudes'
     fitted = (list(other) + [0.0] * n)[:n]
-    note = (f'{name} set to {fitted} to match {n} STE harmonic{"s" * (n != 1)} of '
+    note = (f'{name} set to {excerpt(fitted)} to match {n} STE harmonic{"s" * (n != 1)} of '
             f'{changed} (a missing entry is 0)')
     return ((amplitudes, fitted, note) if name == 'ste_phases' else (fitted, phases, note))
 
@@ -111,6 +156,20 @@ _DOUBLE_TYPES = {
 }
 
 
+def _as_double(p: Parameter, scalar: bool) -> Parameter:
+    """``p`` as a double (``scalar``) or a double array when it holds integers of that
+    shape; otherwise unchanged, for rclpy to refuse its type."""
+    if scalar and p.type_ == Parameter.Type.INTEGER:
+        return Parameter(p.name, Parameter.Type.DOUBLE, float(p.value))
+    if not scalar and p.type_ == Parameter.Type.INTEGER_ARRAY:
+        return Parameter(p.name, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in p.value])
+    return p
+
+
+def _is_double_array(p: Parameter) -> bool:
+    return p.type_ == Parameter.Type.DOUBLE_ARRAY
+
+
 def _integers_as_doubles(node: Node, params: Iterable[Parameter]) -> list[Parameter]:
     """Let `ros2 param set table_sim inertia_table 46` mean 46.0 (whole numbers parse
     as integers); other type mismatches are left for rclpy to refuse."""
@@ -118,33 +177,33 @@ def _integers_as_doubles(node: Node, params: Iterable[Parameter]) -> list[Parame
     for p in params:
         if node.has_parameter(p.name):
             wanted = node.describe_parameter(p.name).type
-            if _DOUBLE_TYPES.get(wanted) == p.type_.value:
-                kind = (Parameter.Type.DOUBLE if wanted == ParameterType.PARAMETER_DOUBLE
-                        else Parameter.Type.DOUBLE_ARRAY)
-                value = (float(p.value) if kind == Parameter.Type.DOUBLE
-                         else [float(v) for v in p.value])
-                p = Parameter(p.name, kind, value)
+            if wanted in _DOUBLE_TYPES:
+                p = _as_double(p, wanted == ParameterType.PARAMETER_DOUBLE)
         out.append(p)
     return out
 
 
-def _complete_harmonics(node: Node, params: list[Parameter],
-                        log: Callable[[str], None]) -> list[Parameter]:
-    """Pre-set: a set of one STE array that changes the harmonic count also sets the other."""
+def _complete_harmonics(node: Node,
+                        params: list[Parameter]) -> tuple[list[Parameter], str | None]:
+    """Pre-set: a set of one STE array that changes the harmonic count also sets the
+    other; what was completed (None: nothing). A value that is no double array is left
+    for rclpy to refuse by its type."""
     names = [p.name for p in params]
     if sum(name in HARMONICS for name in names) != 1 or not node.has_parameter(HARMONICS[0]):
-        return params
+        return params, None
     changed = next(p for p in params if p.name in HARMONICS)
+    if not _is_double_array(changed):
+        return params, None
     current = {name: list(node.get_parameter(name).value) for name in HARMONICS}
     current[changed.name] = plain_value(changed.value)
     amplitudes, phases, note = complete_harmonics(current['ste_amplitudes'],
                                                   current['ste_phases'], changed.name)
     if note is None:
-        return params
-    log(note)
+        return params, None
     other = 'ste_phases' if changed.name == 'ste_amplitudes' else 'ste_amplitudes'
     value = phases if other == 'ste_phases' else amplitudes
-    return [*params, Parameter(other, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in value])]
+    return ([*params, Parameter(other, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in value])],
+            note)
 
 
 def changed_values(current: dict[str, Any], params: Iterable[Parameter]) -> dict[str, Any]:
