@@ -44,13 +44,15 @@ ending early or with a non-zero status, a parameter change or reset refused (the
 node's reason), a service reply missing after REPLY_TIMEOUT, a lockstep node making no
 tick for STALL_TIMEOUT after an answer (a free-running node's /clock standing still as
 long), a comparison that compared nothing, a new recording that cannot be read, and
-SIGINT/SIGTERM: replay_run then stops within a second, saying how far it got.
+SIGINT/SIGTERM: replay_run then stops within a second, saying how far it got (a node it
+started gets SIGINT too and closes its bag on its own).
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import shutil
 import signal
 import sys
@@ -149,15 +151,15 @@ def _plan(schedule: Schedule, original: RecordedRun | None) -> LockstepPlan:
         raise ReplayError(str(exc)) from None
 
 
-def _child_exit(child: Any, log: Path, workdir: Path, stop: threading.Event):
+def _child_exit(child: Any, log: Path, workdir: Path, stop: threading.Event,
+                progress: Progress):
     """The exit callback for a spawned node: stop it; a clean end removes its workdir."""
     def finish(exc_type: type | None, exc: BaseException | None, tb: object) -> None:
         interrupted = stop.is_set() or isinstance(exc, Interrupted)
         status = stop_node(child, CHILD_GRACE if interrupted else CHILD_CLOSE)
         if status is None:
             if interrupted:
-                print(f'replay_run: table_sim (pid {child.pid}) is still closing its recording; '
-                      'it ends on its own', file=sys.stderr)
+                progress.closing = child.pid     # it ends on its own
                 return
             child.kill()
             child.wait()
@@ -183,7 +185,7 @@ def _replay(args: argparse.Namespace, schedule: Schedule, original: RecordedRun 
         workdir = Path(tempfile.mkdtemp(prefix='replay_run_'))
         child, log = spawn_node(schedule, record, args.ros_args, workdir, lockstep,
                                 rate if lockstep else START_FACTOR)
-        stack.push(_child_exit(child, log, workdir, stop))
+        stack.push(_child_exit(child, log, workdir, stop, progress))
         client = stack.enter_context(ReplayClient(args.node, ros_args, stop, child, log))
         client.set_dt(schedule.dt)
         if plan is not None:
@@ -264,8 +266,17 @@ def main(argv: list[str] | None = None) -> int:
     except Interrupted:
         kept = (f'; {args.record} keeps what was recorded until then'
                 if args.record and Path(args.record).exists() else '')
+        if progress.closing is not None:
+            kept += f' (table_sim, pid {progress.closing}, is still closing it)'
+
         done = f': {progress}' if what == 'replaying' else f' while {what}'
         print(f'replay_run: interrupted{done}{kept}', file=sys.stderr)
+        # Asked to stop, with nothing of ours left to write (the node closes its own bag):
+        # end without the interpreter's finalization, which tears down numba's compiled
+        # code and the DDS participant and can take seconds on a busy machine.
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(EXIT_ERROR)
     except BagError as exc:
         print(f'replay_run: {"cannot compare: " if what == "comparing" else ""}{exc}',
               file=sys.stderr)

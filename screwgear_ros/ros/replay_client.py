@@ -96,8 +96,8 @@ class ReplayClient:
         self.inputs = {topic: self.node.create_publisher(kind, topic, RELIABLE)
                        for topic, kind in INPUT_TYPES.items()}
         self.tick = self.node.create_publisher(Empty, f'{target}/{TICK_TOPIC}', RELIABLE)
-        self.node.create_subscription(JointState, 'joint_states', self._on_joint_states,
-                                      RELIABLE)
+        self._joint_states = self.node.create_subscription(
+            JointState, 'joint_states', self._on_joint_states, RELIABLE)
         self.node.create_subscription(JointState, 'mesh_state', self._on_mesh_state, RELIABLE)
         self.params = AsyncParameterClient(self.node, target)
         self.reset = self.node.create_client(Trigger, f'{target}/reset')
@@ -241,9 +241,11 @@ class ReplayClient:
         name = self.full_name
         same = [n for n, ns in self.node.get_node_names_and_namespaces()
                 if f'{ns.rstrip("/")}/{n}' == name]
-        if len(same) > 1:
-            raise ReplayError(f'{len(same)} nodes are named {name} in this ROS domain: the '
-                              'replay would drive them all, and both would answer to it '
+        tables = self._joint_states.get_publisher_count()
+        if len(same) > 1 or tables > 1:
+            raise ReplayError(f'{max(len(same), tables)} nodes are named {name} (or publish '
+                              f'its {self._joint_states.topic_name}) in this ROS domain: the '
+                              'replay would drive them all and follow both '
                               '(stop the other, or use another namespace or ROS_DOMAIN_ID)')
         others = [f'{p.topic_name} ({n - 1} other publisher{"s" * (n > 2)})'
                   for p in (*self.inputs.values(), self.tick)
@@ -256,6 +258,15 @@ class ReplayClient:
     def _check_graph_now_and_then(self) -> None:
         if time.monotonic() - self._graph_checked >= GRAPH_PERIOD:
             self.check_graph()
+
+    def settle_graph(self, seconds: float) -> None:
+        """:meth:`check_graph` for up to ``seconds`` more: what a node learns of the
+        others' names can lag behind the endpoints it has matched."""
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            self.check()
+            self.check_graph()
+            time.sleep(0.1)
 
     def stand(self) -> tuple[int, int]:
         """Where a lockstep node waits: (step of its joint_states, mesh_state count)."""

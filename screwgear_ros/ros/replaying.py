@@ -32,6 +32,7 @@ from .replay_client import CONNECT_TIMEOUT, ReplayClient, ReplayError
 
 START_FACTOR = 0.01      # free-running fresh node: real-time factor until connected
 CHILD_GRACE = 0.5        # s an interrupted replay waits for its node to close the bag
+GRAPH_SETTLE = 3.0       # s to wait for the graph to name what a fresh node's step betrays
 CHILD_CLOSE = 30.0       # s a finished replay waits for it (the comparison reads the bag)
 
 
@@ -43,6 +44,7 @@ class Progress:
     total: int = 0           # events to send
     ticks: int = 0           # lockstep: ticks answered
     step: int | None = None  # the node's last known step
+    closing: int | None = None   # pid of a spawned node still closing its bag at the end
 
     def __str__(self) -> str:
         where = '' if self.step is None else f', the node at step {self.step}'
@@ -58,7 +60,9 @@ def replay_lockstep(schedule: Schedule, plan: LockstepPlan, client: ReplayClient
     first, meshes = client.stand()
     progress.step = first
     if spawned and first != 0:
-        raise ReplayError(f'the fresh table_sim is at step {first}, not 0: something else '
+        client.settle_graph(GRAPH_SETTLE)      # a second node of its name, most likely
+        raise ReplayError(f'the fresh table_sim reports step {first}, not 0: a second node '
+                          f'publishes {client.full_name}\'s joint_states, or something else '
                           'answered its ticks before the replay connected')
     if not spawned:
         print(f'replay_run: the lockstep node is at t = {first * schedule.dt:.6f} s (step '
