@@ -69,7 +69,7 @@ from ..ros.replaying import (CHILD_CLOSE, CHILD_GRACE, START_FACTOR, Progress, r
 from ..ros.shutdown import STOP_SIGNALS, stop_on_signals
 from ..runs.bagread import BagError, RecordedRun, read_run
 from ..runs.compare import compare_runs, exact_comparison, format_comparison, format_exact
-from ..runs.replay import Schedule, load_scenario, schedule_from_run
+from ..runs.replay import Schedule, differences, load_scenario, schedule_from_run
 from ..runs.replay_plan import LockstepPlan, plan_from_run, plan_from_schedule
 
 EXIT_OK, EXIT_DIFFERENT, EXIT_ERROR = 0, 1, 2
@@ -197,7 +197,7 @@ def _replay(args: argparse.Namespace, schedule: Schedule, original: RecordedRun 
     client = stack.enter_context(ReplayClient(args.node, ros_args, stop))
     start = schedule.start
     live = client.node_parameters(sorted({*start, 'lockstep'}))
-    for line in _differences(live, start):
+    for line in differences(live, start):
         print(f'replay_run: warning: the running node has {line}; the replay will not '
               'reproduce the recording', file=sys.stderr)
     client.set_dt(float(live.get('dt') or schedule.dt))
@@ -209,16 +209,6 @@ def _replay(args: argparse.Namespace, schedule: Schedule, original: RecordedRun 
           'clock (usually their step, sometimes a tick or more later)', file=sys.stderr)
     replay_free(schedule, client, False, 0.0, args.lead_ticks, progress)
     return False
-
-
-def _plain(value: Any) -> Any:
-    return list(value) if isinstance(value, (list, tuple)) else value
-
-
-def _differences(live: dict[str, Any], start: dict[str, Any]) -> list[str]:
-    """The running node's parameters that differ from the schedule's start values."""
-    return [f'{n} = {live[n]!r} (recorded {start[n]!r})' for n in sorted(start)
-            if _plain(live.get(n)) != _plain(start[n])]
 
 
 def _compare(original: RecordedRun, record: str, lockstep: bool) -> int:

@@ -28,7 +28,7 @@ import yaml
 from ..events import Reset
 from ..runs.replay import Schedule
 from ..runs.replay_plan import LockstepPlan, sending_order
-from .replay_client import CONNECT_TIMEOUT, ReplayClient, ReplayError
+from .replay_client import ReplayClient, ReplayError
 
 START_FACTOR = 0.01      # free-running fresh node: real-time factor until connected
 CHILD_GRACE = 0.5        # s an interrupted replay waits for its node to close the bag
@@ -156,5 +156,5 @@ def stop_node(child: subprocess.Popen, grace: float) -> int | None:
     return child.returncode
 
 
-__all__ = ['CONNECT_TIMEOUT', 'Progress', 'replay_lockstep', 'replay_free', 'spawn_node',
+__all__ = ['Progress', 'replay_lockstep', 'replay_free', 'spawn_node',
            'stop_node', 'CHILD_GRACE', 'CHILD_CLOSE']

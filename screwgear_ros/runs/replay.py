@@ -132,6 +132,15 @@ def ros_values(params: TableParams, settings: SimSettings) -> dict[str, Any]:
     return {k: v for k, v in values.items() if k not in NOT_REPLAYED}
 
 
+def differences(live: dict[str, Any], start: dict[str, Any]) -> list[str]:
+    """The values of a running node (``live``, by ROS name) that differ from a schedule's
+    start values, as 'name = live (recorded start)'."""
+    def plain(value: Any) -> Any:
+        return list(value) if isinstance(value, (list, tuple)) else value
+    return [f'{n} = {live.get(n)!r} (recorded {start[n]!r})' for n in sorted(start)
+            if plain(live.get(n)) != plain(start[n])]
+
+
 @dataclass
 class Schedule:
     """What a replay does: start a node with ``params``/``settings``, then submit
@@ -241,4 +250,4 @@ def load_scenario(path: str | Path) -> Schedule:
 
 
 __all__ = ['ReplayedOutputs', 'replay_in_process', 'NOT_REPLAYED',
-           'ros_values', 'Schedule', 'replayed_events', 'schedule_from_run', 'load_scenario']
+           'ros_values', 'differences', 'Schedule', 'replayed_events', 'schedule_from_run', 'load_scenario']
