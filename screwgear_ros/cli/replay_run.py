@@ -153,18 +153,19 @@ def _plan(schedule: Schedule, original: RecordedRun | None) -> LockstepPlan:
 
 def _child_exit(child: Any, log: Path, workdir: Path, stop: threading.Event,
                 progress: Progress):
-    """The exit callback for a spawned node: stop it; a clean end removes its workdir."""
+    """The exit callback for a spawned node: stop it; its workdir (parameters file, log)
+    is kept only when the node failed, for its log."""
     def finish(exc_type: type | None, exc: BaseException | None, tb: object) -> None:
         interrupted = stop.is_set() or isinstance(exc, Interrupted)
         status = stop_node(child, CHILD_GRACE if interrupted else CHILD_CLOSE)
-        if status is None:
-            if interrupted:
-                progress.closing = child.pid     # it ends on its own
-                return
+        if status is None and interrupted:
+            progress.closing = child.pid         # it ends on its own
+            status = 0
+        elif status is None:
             child.kill()
             child.wait()
             status = -signal.SIGKILL
-        if status == 0 and exc is None:
+        if status == 0:
             shutil.rmtree(workdir, ignore_errors=True)
         elif exc is None:
             raise ReplayError(f'table_sim ended with {status}; its log: {log}')
@@ -186,7 +187,8 @@ def _replay(args: argparse.Namespace, schedule: Schedule, original: RecordedRun 
         child, log = spawn_node(schedule, record, args.ros_args, workdir, lockstep,
                                 rate if lockstep else START_FACTOR)
         stack.push(_child_exit(child, log, workdir, stop, progress))
-        client = stack.enter_context(ReplayClient(args.node, ros_args, stop, child, log))
+        client = stack.enter_context(ReplayClient(args.node, ros_args, stop, child, log,
+                                                  record))
         client.set_dt(schedule.dt)
         if plan is not None:
             replay_lockstep(schedule, plan, client, True, progress)

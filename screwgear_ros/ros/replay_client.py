@@ -73,11 +73,13 @@ class ReplayClient:
     relative to this process's namespace unless absolute."""
 
     def __init__(self, target: str, ros_args: list[str], stop: threading.Event,
-                 child: subprocess.Popen | None = None, child_log: Path | None = None) -> None:
+                 child: subprocess.Popen | None = None, child_log: Path | None = None,
+                 record: Path | None = None) -> None:
         self.target = target
         self.stop = stop
         self.child = child
         self.child_log = child_log
+        self.record = record      # where the spawned node records: how to tell it apart
         self.context = rclpy.Context()
         rclpy.init(args=ros_args, context=self.context,
                    signal_handler_options=SignalHandlerOptions.NO)
@@ -232,6 +234,13 @@ class ReplayClient:
         # request's writer was created after them).
         self.confirm('connecting')
         self.check_graph()
+        if self.record is not None:
+            found = self.node_parameters(['record'])['record']
+            if found != str(self.record):
+                raise ReplayError(f'another node named {self.full_name} answers in this ROS '
+                                  f'domain (it records to {found!r}, not to {str(self.record)!r} '
+                                  'as the one replay_run started): stop it, or use another '
+                                  'namespace or ROS_DOMAIN_ID')
 
     def check_graph(self) -> None:
         """ReplayError if another node has the target's full name, or anything else
