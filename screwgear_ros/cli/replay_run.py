@@ -260,7 +260,6 @@ def main(argv: list[str] | None = None) -> int:
                 if args.record and Path(args.record).exists() else '')
         if progress.closing is not None:
             kept += f' (table_sim, pid {progress.closing}, is still closing it)'
-
         done = f': {progress}' if what == 'replaying' else f' while {what}'
         print(f'replay_run: interrupted{done}{kept}', file=sys.stderr)
         # Asked to stop, with nothing of ours left to write (the node closes its own bag):
