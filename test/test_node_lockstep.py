@@ -48,10 +48,11 @@ def test_lockstep_ticks_once_per_answer_and_stays_responsive_while_waiting(tmp_p
             assert all(r.successful for r in results)
             assert peer.call(Trigger, '/table_sim/reset').success
             effort = peer.publisher('/cmd_effort', Float64MultiArray)
-            tick = peer.publisher('/table_sim/tick', Empty)
             for k in range(1, 6):                 # each answer releases exactly one tick
                 effort.publish(Float64MultiArray(data=[100.0 * (-1) ** k]))
                 js.wait_next(lambda m, k=k: stamp_ns(m) == k * TICK_NS, 30.0, f'tick {k}')
+            tick = peer.publisher('/table_sim/tick', Empty)
+            peer.get_parameters('table_sim', ['lockstep'])     # the node matched `tick`
             tick.publish(Empty())                 # a tool's answer: a tick, no command
             last = js.wait_next(lambda m: stamp_ns(m) == 6 * TICK_NS, 30.0, 'tick 6')
             assert last.effort[2] == -(100.0 + 350.0)       # the last cmd_effort (-100): -(T + T_p)
@@ -82,7 +83,7 @@ def test_command_timeout_stops_the_drive_when_the_commands_stop(tmp_path):
     try:
         with Peer('test_timeout') as peer:
             effort = peer.publisher('/cmd_effort', Float64MultiArray)
-            tick = peer.publisher('/table_sim/tick', Empty)
+            ticks: list = []                     # the tick publisher, once there is one
             seen: dict[int, JointState] = {}
 
             def answer(msg: JointState) -> None:
@@ -90,19 +91,27 @@ def test_command_timeout_stops_the_drive_when_the_commands_stop(tmp_path):
                 if t in seen:
                     return                       # a re-send: answered already
                 seen[t] = msg
-                if t == 0:
-                    effort.publish(Float64MultiArray(data=[120.0]))
-                elif t < 70 * TICK_NS:
-                    tick.publish(Empty())
+                if ticks and TICK_NS < t < 70 * TICK_NS:
+                    ticks[0].publish(Empty())
 
             js = peer.subscribe('/joint_states', JointState)
             peer.node.create_subscription(JointState, '/joint_states', answer, 100)
+            js.wait_for(lambda m: stamp_ns(m) == 0, STARTUP_TIMEOUT, 'joint_states')
+            effort.publish(Float64MultiArray(data=[120.0]))     # answers tick 0
+            js.wait_for(lambda m: stamp_ns(m) == TICK_NS, 30.0, 'tick 1')
+            # From now on only ~/tick answers; the node has matched the publisher once it
+            # served a request sent after it was created.
+            ticks.append(peer.publisher('/table_sim/tick', Empty))
+            peer.get_parameters('table_sim', ['lockstep'])
+            ticks[0].publish(Empty())                           # answers tick 1
             # `seen` itself: js's subscription can take tick 70 before `answer`'s does
             wait_until(lambda: 70 * TICK_NS in seen, STARTUP_TIMEOUT, '70 ticks answered')
             drive = {t // TICK_NS: m.effort[0] - 350.0 for t, m in seen.items()}
             assert [drive[k] for k in (1, 49, 50)] == [120.0, 120.0, 120.0]
             assert [drive[k] for k in (51, 60, 70)] == [0.0, 0.0, 0.0]
             effort.publish(Float64MultiArray(data=[80.0]))   # the next command resumes
+            peer.get_parameters('table_sim', ['lockstep'])   # taken (the module docstring)
+            ticks[0].publish(Empty())
             js.wait_for(lambda m: stamp_ns(m) == 71 * TICK_NS and m.effort[0] == 430.0,
                         30.0, 'the drive resumed')
         assert_clean_exit(sim, signal.SIGINT)
@@ -110,3 +119,38 @@ def test_command_timeout_stops_the_drive_when_the_commands_stop(tmp_path):
         sim.kill()
     log = sim.output()[1]
     assert log.count('(command_timeout)') == 1 and 'set to zero until the next command' in log
+
+
+def test_while_a_tool_publishes_on_tick_commands_do_not_answer(tmp_path):
+    """A tool that answers with ~/tick owns the ticks: while its publisher exists, any
+    number of cmd_effort messages are applied, in order, at the next tick, and none of
+    them releases it; the one ~/tick does. (This is what lets replay_run send several
+    commands in one tick.)"""
+    bag = tmp_path / 'run'
+    sim = start_process('table_sim', params={'lockstep': True, 'real_time_factor': 0.0,
+                                             'record': str(bag)}, workdir=tmp_path / 'sim')
+    try:
+        with Peer('test_tool_ticks') as peer:
+            js = peer.subscribe('/joint_states', JointState)
+            effort = peer.publisher('/cmd_effort', Float64MultiArray)
+            tick = peer.publisher('/table_sim/tick', Empty)
+            js.wait_for(lambda m: stamp_ns(m) == 0, STARTUP_TIMEOUT, 'joint_states')
+            peer.get_parameters('table_sim', ['lockstep'])     # the node matched `tick`
+            for k in range(1, 3):
+                for value in (10.0 * k, 20.0 * k, -30.0 * k):
+                    effort.publish(Float64MultiArray(data=[value]))
+                    # taken before the next is sent (the node serves messages first)
+                    peer.get_parameters('table_sim', ['lockstep'])
+                time.sleep(0.5)                     # no answer yet: no tick
+                assert max(stamp_ns(m) for m in js.snapshot()) == (k - 1) * TICK_NS
+                tick.publish(Empty())
+                last = js.wait_next(lambda m, k=k: stamp_ns(m) == k * TICK_NS, 30.0,
+                                    f'tick {k}')
+                assert last.effort[2] == -(30.0 * k + 350.0)   # the last cmd_effort in force
+        assert_clean_exit(sim, signal.SIGINT)
+    finally:
+        sim.kill()
+    run = read_run(bag)
+    assert [(e.value, e.step) for _, e in run.events if isinstance(e, Command)] == [
+        ([10.0], 0), ([20.0], 0), ([-30.0], 0),
+        ([20.0], TICK_STEPS), ([40.0], TICK_STEPS), ([-60.0], TICK_STEPS)]

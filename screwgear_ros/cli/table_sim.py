@@ -10,7 +10,9 @@ A thin shell over :class:`screwgear_ros.session.Session` (``shared/spec/interfac
   the tick to :class:`screwgear_ros.ros.run_io.RunIO`, which publishes and records;
 * with ``lockstep`` the pacing thread starts tick k+1 only once the controller has
   answered tick k's ``joint_states`` (a ``cmd_effort`` or ``joint_commands``, or
-  ``~/tick`` from a tool): :class:`screwgear_ros.pacing.AnswerGate`;
+  ``~/tick`` from a tool): :class:`screwgear_ros.pacing.AnswerGate`; while anything
+  publishes on ``~/tick``, only ``~/tick`` answers (commands are then applied but
+  answer nothing, so a tool can send any number of them in one tick);
 * a ``joint_commands`` message that carries no command yet (ros2_control's NaN before
   any controller wrote the interface) is not submitted: no command, no warning, no
   rejection; in lockstep it still answers the tick, as ``~/tick`` does;
@@ -121,7 +123,7 @@ class TableSim(Node):
         subs = {topic: self.create_subscription(INPUT_TYPES[topic], topic,
                                                 partial(self._on_command, topic), 10, raw=True)
                 for topic in ordered}
-        self.create_subscription(Empty, f'~/{TICK_TOPIC}', self._on_tick, 10)
+        self._tick_sub = self.create_subscription(Empty, f'~/{TICK_TOPIC}', self._on_tick, 10)
         self.create_service(Trigger, '~/reset', self._on_reset, qos_profile=SERVICE_QOS)
         self._name_checks = 0
         self._name_timer = self.create_timer(NAME_CHECK_PERIOD, self._check_name)
@@ -205,15 +207,21 @@ class TableSim(Node):
                     refused + (f' ({held} more refused since the last warning)' if held else ''))
         else:
             self._command(topic, inputs.decode(topic, data))
-        if refused is not None and topic in ANSWER_TOPICS:
+        if refused is not None and self._answers(topic):
             self._gate.answer()         # an answer, if a bad one, as a rejected command is
 
     def _command(self, topic: str, msg: Any) -> None:
         value = command_value(topic, msg)
         if not carries_no_command(topic, value):
             self.session.submit(Command(topic, value))
-        if topic in ANSWER_TOPICS:
+        if self._answers(topic):
             self._gate.answer()
+
+    def _answers(self, topic: str) -> bool:
+        """Whether a message on ``topic`` answers the last tick in lockstep. A tool that
+        answers with ~/tick owns the ticks: while anything publishes there, commands are
+        only applied, so a replay can send several in one tick."""
+        return topic in ANSWER_TOPICS and not self._tick_sub.get_publisher_count()
 
     def _on_tick(self, msg: Empty) -> None:
         self._gate.answer()

@@ -132,6 +132,15 @@ def ros_values(params: TableParams, settings: SimSettings) -> dict[str, Any]:
     return {k: v for k, v in values.items() if k not in NOT_REPLAYED}
 
 
+def differences(live: dict[str, Any], start: dict[str, Any]) -> list[str]:
+    """The values of a running node (``live``, by ROS name) that differ from a schedule's
+    start values, as 'name = live (recorded start)'."""
+    def plain(value: Any) -> Any:
+        return list(value) if isinstance(value, (list, tuple)) else value
+    return [f'{n} = {live.get(n)!r} (recorded {start[n]!r})' for n in sorted(start)
+            if plain(live.get(n)) != plain(start[n])]
+
+
 @dataclass
 class Schedule:
     """What a replay does: start a node with ``params``/``settings``, then submit
@@ -172,20 +181,27 @@ class Schedule:
         return {k: v for k, v in after.items() if before.get(k) != v}
 
 
-def schedule_from_run(run: RecordedRun) -> Schedule:
-    """The recorded events of a run, to replay at their recorded steps. Parameter changes
-    that change nothing a replay sets (a real_time_factor change) are left out."""
-    start = run.parameters
-    schedule = Schedule(start.params, start.settings, end_step=run.end_step)
-    before = schedule.start
-    for _, event in run.events:
+def replayed_events(run: RecordedRun) -> list[tuple[int, Event]]:
+    """The recorded (file position, event)s a replay plays: parameter changes that change
+    nothing a replay sets (a real_time_factor change) are left out."""
+    before = ros_values(run.parameters.params, run.parameters.settings)
+    kept = []
+    for order, event in run.events:
         if isinstance(event, ParameterChange):
             after = ros_values(event.params, event.settings)
             if after == before:
                 continue
             before = after
-        schedule.events.append(event)
-    return schedule
+        kept.append((order, event))
+    return kept
+
+
+def schedule_from_run(run: RecordedRun) -> Schedule:
+    """The recorded events of a run (:func:`replayed_events`), to replay at their
+    recorded steps."""
+    start = run.parameters
+    return Schedule(start.params, start.settings, [e for _, e in replayed_events(run)],
+                    end_step=run.end_step)
 
 
 def load_scenario(path: str | Path) -> Schedule:
@@ -234,4 +250,4 @@ def load_scenario(path: str | Path) -> Schedule:
 
 
 __all__ = ['ReplayedOutputs', 'replay_in_process', 'NOT_REPLAYED',
-           'ros_values', 'Schedule', 'schedule_from_run', 'load_scenario']
+           'ros_values', 'differences', 'Schedule', 'replayed_events', 'schedule_from_run', 'load_scenario']
