@@ -1,0 +1,374 @@
+"""The table in-process, with no ROS: :class:`Simulation`, a Python API over the node's
+own :class:`~screwgear_ros.session.Session`.
+
+A simulation is built from what the node takes (its parameter file, parameters by name,
+its defaults otherwise), every value checked by the node's own validation
+(:func:`screwgear_ros.params.split_parameters`, the same messages). It then runs the
+node's tick: :meth:`Simulation.step` submits the commands a controller would publish on
+the node's input topics (validated by :mod:`screwgear_ros.commands`, as the node
+validates them) and integrates one tick (1/``publish_rate`` s); the commands take effect
+at the tick's first step, as an answer does in lockstep. :meth:`Simulation.run` closes
+the loop with ``controller(observation) -> effort`` at every tick, returns the samples
+as NumPy arrays and can record the run as table_sim records it (``check_run`` and
+``replay_run`` take the bag). A controller that is deterministic gives the same bits
+here as around ``table_sim`` in lockstep.
+
+Everything a simulation is made of (parameters, settings) is an immutable, picklable
+value, and a run depends on nothing else: the same inputs give the same bits in any
+process, in any order.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import numpy as np
+import yaml
+
+from .commands import InputRejected, apply_command
+from .events import Command
+from .params import ParameterError, SimSettings, TableParams, default_values, split_parameters
+from .pacing import sim_time_ns
+from .session import Session, Tick
+
+#: Keys of a ROS 2 parameter file whose ``ros__parameters`` table_sim takes: any node
+#: (``/**``) and the node's own name, with or without its leading slash.
+NODE_KEYS = ('/**', 'table_sim', '/table_sim', '/**/table_sim')
+
+
+class ParameterFileError(ValueError):
+    """A parameter file that cannot be read as table_sim's parameters; says why."""
+
+
+def file_values(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The table_sim parameters of a ROS 2 parameter file (``/**:`` or node-name keys
+    with ``ros__parameters``, in file order; or a bare mapping of parameter names)."""
+    try:
+        with open(path, encoding='utf-8') as stream:
+            document = yaml.safe_load(stream)
+    except OSError as exc:
+        raise ParameterFileError(f'{path}: cannot read: {exc.strerror or exc}') from None
+    except yaml.YAMLError as exc:
+        raise ParameterFileError(f'{path}: not valid YAML: {exc}') from None
+    if document is None:
+        return {}
+    if not isinstance(document, dict):
+        raise ParameterFileError(f'{path}: a parameter file is a mapping, not '
+                                 f'{type(document).__name__}')
+    sections = {k: v for k, v in document.items()
+                if isinstance(v, dict) and 'ros__parameters' in v}
+    if not sections:
+        return dict(document)
+    values: dict[str, Any] = {}
+    for key, section in sections.items():
+        if key in NODE_KEYS:
+            entries = section['ros__parameters'] or {}
+            if not isinstance(entries, dict):
+                raise ParameterFileError(f'{path}: {key}: ros__parameters must be a mapping')
+            values.update(entries)
+    if not any(key in NODE_KEYS for key in sections):
+        raise ParameterFileError(f'{path}: no parameters for table_sim (keys '
+                                 f'{", ".join(NODE_KEYS)}); found {", ".join(map(str, sections))}')
+    return values
+
+
+def resolve(values: Mapping[str, Any] | None = None, **overrides: Any) -> tuple[
+        TableParams, SimSettings]:
+    """The node's defaults, then ``values``, then ``overrides``, by parameter name,
+    validated as the node validates them (ParameterError naming the parameter)."""
+    return split_parameters({**default_values(), **dict(values or {}), **overrides})
+
+
+@dataclass(slots=True)
+class Observation:
+    """What one tick publishes, SI units. Read-only by convention (slotted, not frozen:
+    one is made a tick). ``position``, ``velocity`` and ``effort`` are per joint in
+    joint_states order (pinion 1, table, pinion 3); ``delta``, ``delta_rate`` and
+    ``mesh_force`` are mesh_state's values (mesh 1, mesh 3)."""
+
+    time: float                                # simulation time, s (step·dt)
+    step: int                                  # integration steps since the start
+    position: tuple[float, float, float]       # rad
+    velocity: tuple[float, float, float]       # rad/s
+    effort: tuple[float, float, float]         # N·m
+    transmission_error: float                  # δ of the active path, m
+    delta: tuple[float, float]                 # δ1, δ3, m
+    delta_rate: tuple[float, float]            # δ̇1, δ̇3, m/s
+    mesh_force: tuple[float, float]            # F1, F3, N
+    active_path: int                           # 1 or 3
+    fault: str | None                          # why the plant stands still, if it does
+
+
+def _observation(tick_outputs: Any, fault: str | None) -> Observation:
+    o = tick_outputs
+    return Observation(o.time, o.step, o.position, o.velocity, o.effort,
+                       o.delta[0] if o.active_path == 1 else o.delta[1], o.delta,
+                       o.delta_rate, o.mesh_force, o.active_path, fault)
+
+
+#: Columns of :attr:`Run.rows`: the joint_states row (θ, ω, effort of the three joints),
+#: the transmission error, mesh_state (δ, δ̇, F of both meshes), the active path.
+POSITION, VELOCITY, EFFORT = slice(0, 3), slice(3, 6), slice(6, 9)
+TE = 9
+DELTA, DELTA_RATE, MESH_FORCE = slice(10, 12), slice(12, 14), slice(14, 16)
+PATH = 16
+WIDTH = 17
+
+
+@dataclass
+class Run:
+    """The samples of a closed-loop run: sample 0 is the start (what :meth:`Simulation.reset`
+    returned), sample i > 0 what tick i made. ``command[i]`` is the effort the controller
+    answered sample i with (NaN: no command; the last sample is not answered)."""
+
+    params: TableParams
+    settings: SimSettings
+    step: np.ndarray          # (n,) int64
+    rows: np.ndarray          # (n, WIDTH) float64, columns above
+    command: np.ndarray       # (n,) float64, N·m
+    fault: str | None = None  # why the plant stood still, if it faulted
+    record: Path | None = None
+
+    @property
+    def time(self) -> np.ndarray:
+        """Simulation time of each sample, s."""
+        return self.step * self.settings.dt
+
+    @property
+    def position(self) -> np.ndarray:
+        return self.rows[:, POSITION]
+
+    @property
+    def velocity(self) -> np.ndarray:
+        return self.rows[:, VELOCITY]
+
+    @property
+    def effort(self) -> np.ndarray:
+        return self.rows[:, EFFORT]
+
+    @property
+    def transmission_error(self) -> np.ndarray:
+        return self.rows[:, TE]
+
+    @property
+    def delta(self) -> np.ndarray:
+        return self.rows[:, DELTA]
+
+    @property
+    def delta_rate(self) -> np.ndarray:
+        return self.rows[:, DELTA_RATE]
+
+    @property
+    def mesh_force(self) -> np.ndarray:
+        return self.rows[:, MESH_FORCE]
+
+    @property
+    def active_path(self) -> np.ndarray:
+        return self.rows[:, PATH].astype(np.int8)
+
+    @property
+    def joint_states(self) -> np.ndarray:
+        """(n, 9): θ, ω, effort of the three joints, as a joint_states row."""
+        return self.rows[:, 0:9]
+
+    def __len__(self) -> int:
+        return len(self.step)
+
+
+Controller = Callable[[Observation], 'float | None']
+
+
+class Simulation:
+    """The table in-process: see the module docstring.
+
+    ``Simulation(params, settings)`` from validated values, or
+    :meth:`from_yaml` / :meth:`from_values` from what the node takes. :meth:`reset`
+    starts a run; :meth:`step` and :meth:`run` drive it.
+    """
+
+    def __init__(self, params: TableParams | None = None,
+                 settings: SimSettings | None = None) -> None:
+        params = TableParams() if params is None else params
+        settings = SimSettings() if settings is None else settings
+        if not isinstance(params, TableParams) or not isinstance(settings, SimSettings):
+            raise TypeError('Simulation(params, settings) takes a TableParams and a SimSettings '
+                            '(Simulation.from_values builds them from parameter names)')
+        self.params, self.settings = resolve({**params.as_dict(), **settings.as_dict()})
+        self._session: Session | None = None
+
+    @classmethod
+    def from_values(cls, values: Mapping[str, Any] | None = None, /,
+                    **overrides: Any) -> 'Simulation':
+        """The node's defaults, then ``values``, then ``overrides``, by parameter name.
+        Raises :class:`~screwgear_ros.params.ParameterError` as the node refuses a value."""
+        return cls(*resolve(values, **overrides))
+
+    @classmethod
+    def from_yaml(cls, path: str | os.PathLike[str], **overrides: Any) -> 'Simulation':
+        """The node's parameter file ``path`` (``/**:`` or ``table_sim:`` keys with
+        ``ros__parameters``), then ``overrides`` by parameter name, the node's defaults
+        for the rest. Raises :class:`ParameterFileError` (unreadable file) or
+        :class:`~screwgear_ros.params.ParameterError` (a value the node refuses)."""
+        values = file_values(path)
+        try:
+            return cls.from_values(values, **overrides)
+        except ParameterError as exc:
+            where = 'keyword argument' if exc.name in overrides else str(path)
+            raise ParameterError(exc.name, exc.value, f'{exc.rule} ({where})') from None
+
+    def with_values(self, **overrides: Any) -> 'Simulation':
+        """A new simulation with some parameters changed (validated)."""
+        return Simulation.from_values({**self.params.as_dict(), **self.settings.as_dict()},
+                                      **overrides)
+
+    # ------------------------------------------------------------------ one run
+
+    @property
+    def session(self) -> Session:
+        """The session of the run in progress (RuntimeError before :meth:`reset`)."""
+        if self._session is None:
+            raise RuntimeError('no run in progress: call reset() first')
+        return self._session
+
+    @property
+    def tick_period(self) -> float:
+        """Simulation time of one tick, s (steps_per_publish · dt)."""
+        return self.settings.steps_per_publish * self.settings.dt
+
+    def reset(self) -> Observation:
+        """Start a new run at step 0 at the preload equilibrium, at rest, with no input;
+        its first observation (what the node publishes before its first tick)."""
+        self._session = session = Session(self.params, self.settings)
+        return _observation(session.outputs, session.plant.fault)
+
+    def step(self, effort: float | None = None, *, torque: float | None = None,
+             direction: int | None = None, load: float | None = None) -> Observation:
+        """Submit the given commands, in the order of the arguments, then one tick.
+
+        ``effort``: cmd_effort's signed drive torque (N·m; the sign is the direction,
+        zero keeps it); ``torque``: cmd_torque (N·m, 0 … max_torque); ``direction``:
+        cmd_direction (+1 or −1); ``load``: load_torque (N·m at the table). Each means
+        what it means on the node's topic and is validated the same way, against the
+        input and parameters in force: a refused command raises
+        :class:`~screwgear_ros.commands.InputRejected` with the node's message, and
+        nothing is submitted or integrated. Returns the tick's observation.
+        """
+        session = self.session
+        commands = []
+        if effort is not None:
+            commands.append(('cmd_effort', [effort]))
+        if torque is not None:
+            commands.append(('cmd_torque', torque))
+        if direction is not None:
+            commands.append(('cmd_direction', direction))
+        if load is not None:
+            commands.append(('load_torque', load))
+        if commands:
+            drive, params = session.plant.input, session.plant.params
+            names = session.settings.joint_names
+            for topic, value in commands:        # all or nothing (InputRejected)
+                drive = apply_command(drive, topic, value, params, names)
+            for topic, value in commands:
+                session.submit(Command(topic, value))
+        tick = session.tick()
+        return _observation(tick.outputs, tick.fault)
+
+    def run(self, controller: Controller, duration: float,
+            record: str | os.PathLike[str] | None = None) -> Run:
+        """A new run of ``duration`` s of simulation time (rounded to whole ticks), closed
+        by ``controller(observation) -> effort`` at every tick: the effort it returns
+        for the observation of tick k (cmd_effort's signed drive torque, N·m; None: no
+        command) takes effect at the first step of tick k + 1.
+
+        ``record``: a new rosbag2 directory to record the run to, exactly as table_sim
+        records it (``check_run`` and ``replay_run`` take it). An effort the node would
+        refuse raises :class:`~screwgear_ros.commands.InputRejected` and ends the run;
+        the recording then holds the run up to there, closed and readable.
+        """
+        if not (isinstance(duration, (int, float)) and math.isfinite(duration)
+                and duration >= 0.0):
+            raise ValueError(f'duration must be a finite number of seconds >= 0, '
+                             f'got {duration!r}')
+        ticks = int(round(duration / self.tick_period))
+        first = self.reset()
+        session = self.session
+        recording = None
+        if record is not None:
+            from .runs.session_record import SessionRecording
+            recording = SessionRecording(record, session)
+        steps = np.empty(ticks + 1, dtype=np.int64)
+        rows = np.empty((ticks + 1, WIDTH))
+        command = np.full(ticks + 1, np.nan)
+        try:
+            done = _loop(session, controller, first, ticks, steps, rows, command,
+                         recording.tick if recording is not None else None)
+        finally:
+            if recording is not None:
+                recording.close()
+        return Run(self.params, self.settings, steps[:done], rows[:done], command[:done],
+                   session.plant.fault, None if record is None else Path(record))
+
+
+def _loop(session: Session, controller: Controller, first: Observation, ticks: int,
+          steps: np.ndarray, rows: np.ndarray, command: np.ndarray,
+          record: Callable[[Tick], None] | None) -> int:
+    """The closed loop of :meth:`Simulation.run`; the samples done (ticks + 1 unless an
+    effort was refused)."""
+    plant = session.plant
+    submit, tick_once = session.submit, session.tick
+    names = session.settings.joint_names
+    samples: list[Observation] = [first]
+    efforts: list[float] = []
+    observation = first
+    try:
+        for _ in range(ticks):
+            effort = controller(observation)
+            if effort is not None:
+                value = [effort]
+                apply_command(plant.input, 'cmd_effort', value, plant.params, names)
+                submit(Command('cmd_effort', value))
+                efforts.append(effort)
+            else:
+                efforts.append(math.nan)
+            tick = tick_once()
+            if record is not None:
+                record(tick)
+            o = tick.outputs
+            observation = Observation(o.time, o.step, o.position, o.velocity, o.effort,
+                                      o.delta[0] if o.active_path == 1 else o.delta[1],
+                                      o.delta, o.delta_rate, o.mesh_force, o.active_path,
+                                      tick.fault)
+            samples.append(observation)
+    finally:
+        _fill(samples, steps, rows)
+        command[:len(efforts)] = efforts
+    return len(samples)
+
+
+def _fill(samples: list[Observation], steps: np.ndarray, rows: np.ndarray) -> None:
+    """The samples into the run's arrays, one column block at a time."""
+    n = len(samples)
+    steps[:n] = [s.step for s in samples]
+    rows[:n, POSITION] = [s.position for s in samples]
+    rows[:n, VELOCITY] = [s.velocity for s in samples]
+    rows[:n, EFFORT] = [s.effort for s in samples]
+    rows[:n, TE] = [s.transmission_error for s in samples]
+    rows[:n, DELTA] = [s.delta for s in samples]
+    rows[:n, DELTA_RATE] = [s.delta_rate for s in samples]
+    rows[:n, MESH_FORCE] = [s.mesh_force for s in samples]
+    rows[:n, PATH] = [s.active_path for s in samples]
+
+
+def stamp_ns(observation: Observation, dt: float) -> int:
+    """The header stamp (ns) the node puts on this observation's messages."""
+    return sim_time_ns(observation.step, dt)
+
+
+__all__ = ['NODE_KEYS', 'ParameterFileError', 'file_values', 'resolve', 'Observation', 'Run',
+           'Controller', 'Simulation', 'InputRejected', 'stamp_ns',
+           'POSITION', 'VELOCITY', 'EFFORT', 'TE', 'DELTA', 'DELTA_RATE', 'MESH_FORCE',
+           'PATH', 'WIDTH']
