@@ -5,7 +5,8 @@ from glob import glob
 from setuptools import find_packages, setup
 
 PACKAGE = 'screwgear_ros'
-EXECUTABLES = ['table_sim', 'demo_controller', 'check_run', 'replay_run', 'paper_report', 'plot_run']
+EXECUTABLES = ['table_sim', 'demo_controller', 'check_run', 'replay_run', 'paper_report', 'plot_run',
+               'run_scenario']
 
 setup(
     name=PACKAGE,

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from .pacing import sim_time_ns
 
@@ -67,8 +67,10 @@ class DemoGains:
 class DemoLaw:
     """The PID law with its state (module docstring); :meth:`answer` one joint state."""
 
-    def __init__(self, gains: DemoGains | None = None) -> None:
+    def __init__(self, gains: DemoGains | None = None,
+                 setpoint: Callable[[float], float] | None = None) -> None:
         self.gains = gains or DemoGains()
+        self.setpoint = setpoint     # t (s) → target (rad) instead of targets and dwell
         self.restart()
 
     def restart(self) -> None:
@@ -80,6 +82,8 @@ class DemoLaw:
 
     def target(self, t: float) -> float:
         """Target angle, rad, at simulation time t (s) since the first joint state."""
+        if self.setpoint is not None:
+            return self.setpoint(t)
         targets = self.gains.targets
         return targets[int(t // self.gains.dwell) % len(targets)]
 
@@ -124,12 +128,12 @@ class DemoController:
 
     def __init__(self, gains: DemoGains | None = None, *, dt: float = 50e-6,
                  joint_names: Sequence[str] = ('pinion_1', 'table', 'pinion_3'),
-                 **values: Any) -> None:
+                 setpoint: Callable[[float], float] | None = None, **values: Any) -> None:
         gains = gains or DemoGains(**values)
         if gains.joint not in joint_names:
             raise ValueError(f'demo controller: joint {gains.joint!r} is not one of the '
                              f'joint_states names {list(joint_names)}')
-        self.law = DemoLaw(gains)
+        self.law = DemoLaw(gains, setpoint)
         self.dt = float(dt)
         self._index = list(joint_names).index(gains.joint)
 

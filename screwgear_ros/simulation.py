@@ -22,18 +22,18 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 import yaml
 
 from .commands import InputRejected, apply_command
-from .events import Command
+from .events import Command, Event, ParameterChange
 from .params import ParameterError, SimSettings, TableParams, default_values, split_parameters
 from .pacing import sim_time_ns
-from .session import Session, Tick
+from .session import Session
 
 #: Keys of a ROS 2 parameter file whose ``ros__parameters`` table_sim takes: any node
 #: (``/**``) and the node's own name, with or without its leading slash.
@@ -111,12 +111,14 @@ def _observation(tick_outputs: Any, fault: str | None) -> Observation:
 
 
 #: Columns of :attr:`Run.rows`: the joint_states row (θ, ω, effort of the three joints),
-#: the transmission error, mesh_state (δ, δ̇, F of both meshes), the active path.
+#: the transmission error, mesh_state (δ, δ̇, F of both meshes), the active path, the
+#: commanded direction in force during the tick that made the sample (at sample 0: the
+#: initial one).
 POSITION, VELOCITY, EFFORT = slice(0, 3), slice(3, 6), slice(6, 9)
 TE = 9
 DELTA, DELTA_RATE, MESH_FORCE = slice(10, 12), slice(12, 14), slice(14, 16)
-PATH = 16
-WIDTH = 17
+PATH, DIRECTION = 16, 17
+WIDTH = 18
 
 
 @dataclass
@@ -132,6 +134,9 @@ class Run:
     command: np.ndarray       # (n,) float64, N·m
     fault: str | None = None  # why the plant stood still, if it faulted
     record: Path | None = None
+    #: Scheduled commands the session refused when they were to take effect (the node
+    #: logs these and keeps the last valid command in force), as (step, message).
+    rejected: list[tuple[int, str]] = field(default_factory=list)
 
     @property
     def time(self) -> np.ndarray:
@@ -169,6 +174,11 @@ class Run:
     @property
     def active_path(self) -> np.ndarray:
         return self.rows[:, PATH].astype(np.int8)
+
+    @property
+    def direction(self) -> np.ndarray:
+        """The commanded direction (+1, −1) in force during the tick of each sample."""
+        return self.rows[:, DIRECTION].astype(np.int8)
 
     @property
     def joint_states(self) -> np.ndarray:
@@ -277,22 +287,28 @@ class Simulation:
         tick = session.tick()
         return _observation(tick.outputs, tick.fault)
 
-    def run(self, controller: Controller, duration: float,
-            record: str | os.PathLike[str] | None = None) -> Run:
+    def run(self, controller: Controller | None, duration: float,
+            record: str | os.PathLike[str] | None = None, *,
+            events: Sequence[Event] = ()) -> Run:
         """A new run of ``duration`` s of simulation time (rounded to whole ticks), closed
         by ``controller(observation) -> effort`` at every tick: the effort it returns
         for the observation of tick k (cmd_effort's signed drive torque, N·m; None: no
-        command) takes effect at the first step of tick k + 1.
+        command) takes effect at the first step of tick k + 1, as a lockstep answer does.
 
         ``record``: a new rosbag2 directory to record the run to, exactly as table_sim
-        records it (``check_run`` and ``replay_run`` take it). An effort the node would
-        refuse raises :class:`~screwgear_ros.commands.InputRejected` and ends the run;
-        the recording then holds the run up to there, closed and readable.
+        records it (``check_run`` and ``replay_run`` take it). ``events``: session
+        events with their ``step`` set (a scenario's actions), each submitted once the
+        outputs of its step are out, before the controller's answer, as ``replay_run``
+        plays them into a node. An effort the node would refuse raises
+        :class:`~screwgear_ros.commands.InputRejected` and ends the run; the recording
+        then holds the run up to there, closed and readable.
         """
-        if not (isinstance(duration, (int, float)) and math.isfinite(duration)
-                and duration >= 0.0):
+        if isinstance(duration, bool) or not (isinstance(duration, (int, float))
+                                              and math.isfinite(duration) and duration >= 0.0):
             raise ValueError(f'duration must be a finite number of seconds >= 0, '
                              f'got {duration!r}')
+        if any(event.step is None for event in events):
+            raise ValueError('every event of a run needs the step it takes effect at')
         ticks = int(round(duration / self.tick_period))
         first = self.reset()
         session = self.session
@@ -303,31 +319,39 @@ class Simulation:
         steps = np.empty(ticks + 1, dtype=np.int64)
         rows = np.empty((ticks + 1, WIDTH))
         command = np.full(ticks + 1, np.nan)
+        rejected: list[tuple[int, str]] = []
         try:
             done = _loop(session, controller, first, ticks, steps, rows, command,
-                         recording.tick if recording is not None else None)
+                         sorted(events, key=lambda e: e.step), recording, rejected)
         finally:
             if recording is not None:
                 recording.close()
         return Run(self.params, self.settings, steps[:done], rows[:done], command[:done],
-                   session.plant.fault, None if record is None else Path(record))
+                   session.plant.fault, None if record is None else Path(record), rejected)
 
 
-def _loop(session: Session, controller: Controller, first: Observation, ticks: int,
-          steps: np.ndarray, rows: np.ndarray, command: np.ndarray,
-          record: Callable[[Tick], None] | None) -> int:
+def _loop(session: Session, controller: Controller | None, first: Observation, ticks: int,
+          steps: np.ndarray, rows: np.ndarray, command: np.ndarray, events: list[Event],
+          recording: Any, rejected: list[tuple[int, str]]) -> int:
     """The closed loop of :meth:`Simulation.run`; the samples done (ticks + 1 unless an
     effort was refused)."""
     plant = session.plant
     submit, tick_once = session.submit, session.tick
+    record = recording.tick if recording is not None else None
     names = session.settings.joint_names
     samples: list[Observation] = [first]
+    directions: list[int] = [plant.input.direction]
     efforts: list[float] = []
     observation = first
+    pending, due = 0, events[0].step if events else None
     try:
         for _ in range(ticks):
-            effort = controller(observation)
+            if due is not None and due <= observation.step:
+                pending, due = _submit_due(session, events, pending, recording)
+            effort = None if controller is None else controller(observation)
             if effort is not None:
+                if isinstance(effort, np.generic):
+                    effort = effort.item()
                 value = [effort]
                 apply_command(plant.input, 'cmd_effort', value, plant.params, names)
                 submit(Command('cmd_effort', value))
@@ -337,16 +361,35 @@ def _loop(session: Session, controller: Controller, first: Observation, ticks: i
             tick = tick_once()
             if record is not None:
                 record(tick)
+            if tick.rejected:
+                rejected.extend((tick.start, str(error)) for error in tick.rejected)
             o = tick.outputs
             observation = Observation(o.time, o.step, o.position, o.velocity, o.effort,
                                       o.delta[0] if o.active_path == 1 else o.delta[1],
                                       o.delta, o.delta_rate, o.mesh_force, o.active_path,
                                       tick.fault)
             samples.append(observation)
+            directions.append(tick.drive.direction)
     finally:
         _fill(samples, steps, rows)
+        rows[:len(directions), DIRECTION] = directions
         command[:len(efforts)] = efforts
     return len(samples)
+
+
+def _submit_due(session: Session, events: list[Event], first: int,
+                recording: Any) -> tuple[int, int | None]:
+    """Submit the events from ``first`` on whose step the session has reached; (the next
+    one, its step or None)."""
+    k = first
+    while k < len(events) and events[k].step <= session.step:
+        event = replace(events[k], step=None)
+        if recording is not None and isinstance(event, ParameterChange):
+            recording.submit_change(event)
+        else:
+            session.submit(event)
+        k += 1
+    return k, events[k].step if k < len(events) else None
 
 
 def _fill(samples: list[Observation], steps: np.ndarray, rows: np.ndarray) -> None:
@@ -371,4 +414,4 @@ def stamp_ns(observation: Observation, dt: float) -> int:
 __all__ = ['NODE_KEYS', 'ParameterFileError', 'file_values', 'resolve', 'Observation', 'Run',
            'Controller', 'Simulation', 'InputRejected', 'stamp_ns',
            'POSITION', 'VELOCITY', 'EFFORT', 'TE', 'DELTA', 'DELTA_RATE', 'MESH_FORCE',
-           'PATH', 'WIDTH']
+           'PATH', 'DIRECTION', 'WIDTH']
