@@ -24,6 +24,8 @@ setup(
     ],
     install_requires=['setuptools', 'numpy', 'scipy', 'numba', 'PyYAML', 'mcap',
                       'mcap-ros2-support', 'rosbags', 'tqdm', 'matplotlib'],
+    # pip install screwgear_ros[gym]: the Gymnasium environment (screwgear_ros.gym).
+    extras_require={'gym': ['gymnasium>=1.0']},
     zip_safe=True,
     maintainer='screwgear_ros developers',
     maintainer_email='screwgear-ros@example.org',
