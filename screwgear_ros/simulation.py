@@ -33,7 +33,9 @@ from .commands import InputRejected, apply_command
 from .events import Command, Event, ParameterChange
 from .params import ParameterError, SimSettings, TableParams, default_values, split_parameters
 from .pacing import sim_time_ns
-from .session import Session
+from .integrator import OBSERVED
+from .plant import OBSERVED_DELTA, OBSERVED_JOINTS
+from .session import Session, Tick
 
 #: Keys of a ROS 2 parameter file whose ``ros__parameters`` table_sim takes: any node
 #: (``/**``) and the node's own name, with or without its leading slash.
@@ -110,15 +112,13 @@ def _observation(tick_outputs: Any, fault: str | None) -> Observation:
                        o.delta_rate, o.mesh_force, o.active_path, fault)
 
 
-#: Columns of :attr:`Run.rows`: the joint_states row (θ, ω, effort of the three joints),
-#: the transmission error, mesh_state (δ, δ̇, F of both meshes), the active path, the
-#: commanded direction in force during the tick that made the sample (at sample 0: the
-#: initial one).
-POSITION, VELOCITY, EFFORT = slice(0, 3), slice(3, 6), slice(6, 9)
-TE = 9
-DELTA, DELTA_RATE, MESH_FORCE = slice(10, 12), slice(12, 14), slice(14, 16)
-PATH, DIRECTION = 16, 17
-WIDTH = 18
+#: Columns of :attr:`Run.observed`, the plant's observed vector of each sample
+#: (:data:`~screwgear_ros.integrator.OBSERVED` wide): θ, ω and effort of the three joints
+#: (a joint_states row), then δ, δ̇ and F of mesh 1 and of mesh 3 (mesh_state's values).
+JOINTS = OBSERVED_JOINTS
+MESH_1, MESH_3 = OBSERVED_DELTA[1], OBSERVED_DELTA[3]
+DELTA, DELTA_RATE, MESH_FORCE = [MESH_1, MESH_3], [MESH_1 + 1, MESH_3 + 1], \
+    [MESH_1 + 2, MESH_3 + 2]
 
 
 @dataclass
@@ -130,7 +130,9 @@ class Run:
     params: TableParams
     settings: SimSettings
     step: np.ndarray          # (n,) int64
-    rows: np.ndarray          # (n, WIDTH) float64, columns above
+    observed: np.ndarray      # (n, OBSERVED) float64, columns above
+    path: np.ndarray          # (n,) int8: the active path, 1 or 3
+    direction: np.ndarray     # (n,) int8: the commanded direction during the sample's tick
     command: np.ndarray       # (n,) float64, N·m
     fault: str | None = None  # why the plant stood still, if it faulted
     record: Path | None = None
@@ -144,46 +146,43 @@ class Run:
         return self.step * self.settings.dt
 
     @property
+    def joint_states(self) -> np.ndarray:
+        """(n, 9): θ, ω, effort of the three joints, as a joint_states row."""
+        return self.observed[:, JOINTS]
+
+    @property
     def position(self) -> np.ndarray:
-        return self.rows[:, POSITION]
+        return self.observed[:, 0:3]
 
     @property
     def velocity(self) -> np.ndarray:
-        return self.rows[:, VELOCITY]
+        return self.observed[:, 3:6]
 
     @property
     def effort(self) -> np.ndarray:
-        return self.rows[:, EFFORT]
-
-    @property
-    def transmission_error(self) -> np.ndarray:
-        return self.rows[:, TE]
+        return self.observed[:, 6:9]
 
     @property
     def delta(self) -> np.ndarray:
-        return self.rows[:, DELTA]
+        """(n, 2): δ1, δ3, m."""
+        return self.observed[:, DELTA]
 
     @property
     def delta_rate(self) -> np.ndarray:
-        return self.rows[:, DELTA_RATE]
+        return self.observed[:, DELTA_RATE]
 
     @property
     def mesh_force(self) -> np.ndarray:
-        return self.rows[:, MESH_FORCE]
+        return self.observed[:, MESH_FORCE]
+
+    @property
+    def transmission_error(self) -> np.ndarray:
+        """δ of the active path, m (the transmission_error topic)."""
+        return np.where(self.path == 1, self.observed[:, MESH_1], self.observed[:, MESH_3])
 
     @property
     def active_path(self) -> np.ndarray:
-        return self.rows[:, PATH].astype(np.int8)
-
-    @property
-    def direction(self) -> np.ndarray:
-        """The commanded direction (+1, −1) in force during the tick of each sample."""
-        return self.rows[:, DIRECTION].astype(np.int8)
-
-    @property
-    def joint_states(self) -> np.ndarray:
-        """(n, 9): θ, ω, effort of the three joints, as a joint_states row."""
-        return self.rows[:, 0:9]
+        return self.path
 
     def __len__(self) -> int:
         return len(self.step)
@@ -299,9 +298,11 @@ class Simulation:
         records it (``check_run`` and ``replay_run`` take it). ``events``: session
         events with their ``step`` set (a scenario's actions), each submitted once the
         outputs of its step are out, before the controller's answer, as ``replay_run``
-        plays them into a node. An effort the node would refuse raises
-        :class:`~screwgear_ros.commands.InputRejected` and ends the run; the recording
-        then holds the run up to there, closed and readable.
+        plays them into a node. An effort the node refuses raises
+        :class:`~screwgear_ros.commands.InputRejected` with the node's message and ends
+        the run: the session validated it when it was to take effect, as the node does,
+        and ran that tick with the last valid command, as the node does; the recording
+        holds the run up to there, that tick included, closed and readable.
         """
         if isinstance(duration, bool) or not (isinstance(duration, (int, float))
                                               and math.isfinite(duration) and duration >= 0.0):
@@ -316,65 +317,80 @@ class Simulation:
         if record is not None:
             from .runs.session_record import SessionRecording
             recording = SessionRecording(record, session)
-        steps = np.empty(ticks + 1, dtype=np.int64)
-        rows = np.empty((ticks + 1, WIDTH))
+        observed = np.empty((ticks + 1, OBSERVED))
         command = np.full(ticks + 1, np.nan)
+        columns: tuple[list[int], list[int], list[int]] = ([], [], [])
         rejected: list[tuple[int, str]] = []
         try:
-            done = _loop(session, controller, first, ticks, steps, rows, command,
-                         sorted(events, key=lambda e: e.step), recording, rejected)
+            _loop(session, controller, first, ticks, observed, command, columns,
+                  sorted(events, key=lambda e: e.step), recording, rejected)
         finally:
             if recording is not None:
                 recording.close()
-        return Run(self.params, self.settings, steps[:done], rows[:done], command[:done],
-                   session.plant.fault, None if record is None else Path(record), rejected)
+        steps, paths, directions = columns
+        n = len(steps)
+        return Run(self.params, self.settings, np.array(steps, dtype=np.int64), observed[:n],
+                   np.array(paths, dtype=np.int8), np.array(directions, dtype=np.int8),
+                   command[:n], session.plant.fault, None if record is None else Path(record),
+                   rejected)
 
 
 def _loop(session: Session, controller: Controller | None, first: Observation, ticks: int,
-          steps: np.ndarray, rows: np.ndarray, command: np.ndarray, events: list[Event],
-          recording: Any, rejected: list[tuple[int, str]]) -> int:
-    """The closed loop of :meth:`Simulation.run`; the samples done (ticks + 1 unless an
-    effort was refused)."""
+          observed: np.ndarray, command: np.ndarray,
+          columns: tuple[list[int], list[int], list[int]], events: list[Event],
+          recording: Any, rejected: list[tuple[int, str]]) -> None:
+    """The closed loop of :meth:`Simulation.run`: every sample's observed vector into
+    ``observed``, its step, path and direction appended to ``columns``, the answers
+    into ``command`` (each tick's outputs kept as one array copy: no object per tick
+    outlives the tick)."""
     plant = session.plant
     submit, tick_once = session.submit, session.tick
     record = recording.tick if recording is not None else None
-    names = session.settings.joint_names
-    samples: list[Observation] = [first]
-    directions: list[int] = [plant.input.direction]
-    efforts: list[float] = []
+    steps, paths, directions = columns
+    vector = plant.observed
+    observed[0] = vector
+    steps.append(first.step)
+    paths.append(first.active_path)
+    directions.append(plant.input.direction)
     observation = first
-    pending, due = 0, events[0].step if events else None
-    try:
-        for _ in range(ticks):
-            if due is not None and due <= observation.step:
-                pending, due = _submit_due(session, events, pending, recording)
-            effort = None if controller is None else controller(observation)
-            if effort is not None:
-                if isinstance(effort, np.generic):
-                    effort = effort.item()
-                value = [effort]
-                apply_command(plant.input, 'cmd_effort', value, plant.params, names)
-                submit(Command('cmd_effort', value))
-                efforts.append(effort)
-            else:
-                efforts.append(math.nan)
-            tick = tick_once()
-            if record is not None:
-                record(tick)
-            if tick.rejected:
-                rejected.extend((tick.start, str(error)) for error in tick.rejected)
-            o = tick.outputs
-            observation = Observation(o.time, o.step, o.position, o.velocity, o.effort,
-                                      o.delta[0] if o.active_path == 1 else o.delta[1],
-                                      o.delta, o.delta_rate, o.mesh_force, o.active_path,
-                                      tick.fault)
-            samples.append(observation)
-            directions.append(tick.drive.direction)
-    finally:
-        _fill(samples, steps, rows)
-        rows[:len(directions), DIRECTION] = directions
-        command[:len(efforts)] = efforts
-    return len(samples)
+    due = events[0].step if events else None
+    pending = 0
+    for i in range(1, ticks + 1):
+        if due is not None and due <= observation.step:
+            pending, due = _submit_due(session, events, pending, recording)
+        effort = None if controller is None else controller(observation)
+        if effort is not None:
+            if isinstance(effort, np.generic):
+                effort = effort.item()
+            value = [effort]
+            submit(Command('cmd_effort', value))
+            command[i - 1] = effort
+        else:
+            value = None
+        tick = tick_once()
+        if record is not None:
+            record(tick)
+        if tick.rejected:
+            _refused(tick, value, rejected)
+        o = tick.outputs
+        observation = Observation(o.time, o.step, o.position, o.velocity, o.effort,
+                                  o.delta[0] if o.active_path == 1 else o.delta[1],
+                                  o.delta, o.delta_rate, o.mesh_force, o.active_path,
+                                  tick.fault)
+        observed[i] = vector
+        steps.append(o.step)
+        paths.append(o.active_path)
+        directions.append(tick.drive.direction)
+
+
+def _refused(tick: Tick, value: list[Any] | None, rejected: list[tuple[int, str]]) -> None:
+    """Refusals of a tick: the controller's answer raises (the session validated it as
+    the node does; the tick ran with the last valid command, as in the node), a
+    scheduled command's is kept in ``rejected``."""
+    for error in tick.rejected:
+        if value is not None and error.topic == 'cmd_effort' and error.value == value:
+            raise error
+        rejected.append((tick.start, str(error)))
 
 
 def _submit_due(session: Session, events: list[Event], first: int,
@@ -392,20 +408,6 @@ def _submit_due(session: Session, events: list[Event], first: int,
     return k, events[k].step if k < len(events) else None
 
 
-def _fill(samples: list[Observation], steps: np.ndarray, rows: np.ndarray) -> None:
-    """The samples into the run's arrays, one column block at a time."""
-    n = len(samples)
-    steps[:n] = [s.step for s in samples]
-    rows[:n, POSITION] = [s.position for s in samples]
-    rows[:n, VELOCITY] = [s.velocity for s in samples]
-    rows[:n, EFFORT] = [s.effort for s in samples]
-    rows[:n, TE] = [s.transmission_error for s in samples]
-    rows[:n, DELTA] = [s.delta for s in samples]
-    rows[:n, DELTA_RATE] = [s.delta_rate for s in samples]
-    rows[:n, MESH_FORCE] = [s.mesh_force for s in samples]
-    rows[:n, PATH] = [s.active_path for s in samples]
-
-
 def stamp_ns(observation: Observation, dt: float) -> int:
     """The header stamp (ns) the node puts on this observation's messages."""
     return sim_time_ns(observation.step, dt)
@@ -413,5 +415,4 @@ def stamp_ns(observation: Observation, dt: float) -> int:
 
 __all__ = ['NODE_KEYS', 'ParameterFileError', 'file_values', 'resolve', 'Observation', 'Run',
            'Controller', 'Simulation', 'InputRejected', 'stamp_ns',
-           'POSITION', 'VELOCITY', 'EFFORT', 'TE', 'DELTA', 'DELTA_RATE', 'MESH_FORCE',
-           'PATH', 'DIRECTION', 'WIDTH']
+           'JOINTS', 'MESH_1', 'MESH_3', 'DELTA', 'DELTA_RATE', 'MESH_FORCE']

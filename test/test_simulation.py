@@ -156,7 +156,7 @@ def test_run_is_deterministic_and_its_inputs_pickle():
         return max(-300.0, min(300.0, 3000.0 * (0.01 - o.position[1]) - 200.0 * o.velocity[1]))
 
     a, b = sim.run(pd, 0.2), clone.run(pd, 0.2)
-    assert a.rows.tobytes() == b.rows.tobytes()
+    assert a.observed.tobytes() == b.observed.tobytes()
 
 
 def test_a_refused_effort_in_run_ends_it_with_the_recording_closed(tmp_path):
@@ -164,7 +164,9 @@ def test_a_refused_effort_in_run_ends_it_with_the_recording_closed(tmp_path):
     with pytest.raises(InputRejected, match=r'\|effort\| must be <= 400'):
         sim.run(lambda o: 100.0 if o.step < 200 else 1000.0, 0.05, record=tmp_path / 'bag')
     run = read_run(tmp_path / 'bag')          # a complete, readable bag of the ticks done
-    assert list(run.joint_states.steps) == [20 * k for k in range(11)]
+    # the tick the refused effort was for ran with the last valid command, as in the node
+    assert list(run.joint_states.steps) == [20 * k for k in range(12)]
+    assert run.joint_states.values[-1, 6] == 100.0 + 350.0
 
 
 def test_a_recorded_run_passes_check_run(tmp_path):
