@@ -108,3 +108,39 @@ def test_simulation_run_and_the_lockstep_node_record_the_same_bits(tmp_path):
     angle = run.position[:, 1]
     assert angle.max() > 5e-3 and angle.min() < -2e-3
     assert {1, 3} <= set(run.active_path.tolist())
+
+
+def test_the_demo_controller_gives_the_same_bits_in_process_and_as_a_node(tmp_path):
+    """demo_controller (the rclpy node) around table_sim in lockstep, and the same law
+    in-process (screwgear_ros.control.DemoController): the same joint_states."""
+    from screwgear_ros.control import DemoController
+    targets, dwell, ticks = [0.03, -0.03], 0.25, 600
+    values = {**VALUES, 'table_damping': 0.0}     # the demo's tuning: no bearing loss
+    bag = tmp_path / 'node'
+    sim = start_process('table_sim', params={**values, 'lockstep': True,
+                                             'real_time_factor': 0.0, 'record': str(bag)},
+                        workdir=tmp_path / 'sim')
+    ctl = None
+    try:
+        with Peer('test_demo_identity') as peer:
+            js = peer.subscribe('/joint_states', JointState, transform=stamp_ns)
+            ctl = start_process('demo_controller', params={'targets': targets, 'dwell': dwell},
+                                workdir=tmp_path / 'ctl')
+            js.wait_for(lambda t: t >= ticks * TICK_NS, STARTUP_TIMEOUT + RUN_TIMEOUT,
+                        f'{ticks} lockstep ticks')
+        assert_clean_exit(sim, signal.SIGINT)
+        assert_clean_exit(ctl, signal.SIGINT)
+    finally:
+        sim.kill()
+        if ctl is not None:
+            ctl.kill()
+    simulation = Simulation.from_values(values)
+    controller = DemoController(targets=targets, dwell=dwell, dt=simulation.settings.dt)
+    simulation.run(controller, ticks * 1e-3, record=tmp_path / 'in_process')
+    node_stamps, node_rows = recorded_joint_states(bag)
+    own_stamps, own_rows = recorded_joint_states(tmp_path / 'in_process')
+    assert len(node_stamps) >= ticks + 1
+    np.testing.assert_array_equal(node_stamps[:ticks + 1], own_stamps)
+    assert node_rows[:ticks + 1].tobytes() == own_rows.tobytes()
+    angle = own_rows[:, 1]
+    assert angle.max() > 0.02 and angle.min() < -0.02      # it followed both targets
