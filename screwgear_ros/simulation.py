@@ -229,6 +229,15 @@ class Simulation:
             where = 'keyword argument' if exc.name in overrides else str(path)
             raise ParameterError(exc.name, exc.value, f'{exc.rule} ({where})') from None
 
+    def __getstate__(self) -> dict[str, Any]:
+        """A pickled simulation is its parameters and settings (a run in progress stays
+        behind: it is resumed nowhere else)."""
+        return {'params': self.params, 'settings': self.settings}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.params, self.settings = state['params'], state['settings']
+        self._session = None
+
     def with_values(self, **overrides: Any) -> 'Simulation':
         """A new simulation with some parameters changed (validated)."""
         return Simulation.from_values({**self.params.as_dict(), **self.settings.as_dict()},

@@ -157,6 +157,12 @@ def test_run_is_deterministic_and_its_inputs_pickle():
 
     a, b = sim.run(pd, 0.2), clone.run(pd, 0.2)
     assert a.observed.tobytes() == b.observed.tobytes()
+    # after a run too (a simulation pickles as its parameters), and scenarios pickle
+    again = pickle.loads(pickle.dumps(sim)).run(pd, 0.2)
+    assert again.observed.tobytes() == a.observed.tobytes()
+    from screwgear_ros.scenario import load_scenario
+    scenario = load_scenario(CONFIG.parent / 'docs' / 'examples' / 'demo_position_steps.yaml')
+    assert pickle.loads(pickle.dumps(scenario)) == scenario
 
 
 def test_a_refused_effort_in_run_ends_it_with_the_recording_closed(tmp_path):
