@@ -14,7 +14,10 @@ Prints, measured in this run, interleaved ``--repeat`` times (median, and the ra
   with one ``cmd_effort`` (the same PD law), ticks/s;
 * **ping-pong floor**: a bare rclpy round trip between two processes (one JointState
   out, one Float64MultiArray back, no physics), round trips/s: what any DDS loop written
-  with rclpy costs at least.
+  with rclpy costs at least;
+* **table_sim alone**: the node flat out (real-time factor 0, no lockstep), ticks/s from
+  the stamps a subscriber here receives: the node's own cost of a tick, publishing
+  included (a lockstep tick costs that, plus a round trip, plus the hand-offs).
 
 Ratios are the goal figures (in-process ≥ 0.8 of the physics alone and ≥ 30× lockstep;
 lockstep against the floor). Timings on a shared machine are noisy: compare the
@@ -118,6 +121,41 @@ def lockstep(window: float) -> float:
         sim.kill()
 
 
+def flat_out(window: float) -> float:
+    """Ticks/s of table_sim alone (no lockstep, real-time factor 0), from the stamps of
+    the joint_states this process receives: what the node's own tick costs."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from sensor_msgs.msg import JointState
+    sim = start_process('table_sim', params={**VALUES, 'real_time_factor': 0.0})
+    rclpy.init()
+    node = rclpy.create_node('bench_loop_watch')
+    try:
+        stamps: list[tuple[float, int]] = []
+        node.create_subscription(
+            JointState, '/joint_states',
+            lambda m: stamps.append((time.perf_counter(),
+                                     m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec)),
+            100)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        deadline = time.monotonic() + STARTUP_TIMEOUT
+        while len(stamps) < 200 and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+        n0 = len(stamps)
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < window:
+            executor.spin_once(timeout_sec=0.1)
+        (w0, s0), (w1, s1) = stamps[n0], stamps[-1]
+        executor.shutdown()
+        return (s1 - s0) * 1e-6 / (w1 - w0)       # 1 kHz: one tick per ms of simulation
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        sim.stop()
+        sim.kill()
+
+
 _ECHO = textwrap.dedent('''
     import rclpy
     from sensor_msgs.msg import JointState
@@ -196,7 +234,7 @@ def main() -> int:
     physics_alone(200)                  # load the compiled kernels
     in_process(200)
     seen: dict[str, list[float]] = {'physics': [], 'in_process': [], 'ratio': [],
-                                    'lockstep': [], 'ping_pong': []}
+                                    'lockstep': [], 'ping_pong': [], 'flat_out': []}
     for _ in range(args.repeat):
         a = physics_alone(IN_PROCESS_TICKS)
         b = in_process(IN_PROCESS_TICKS)
@@ -206,6 +244,7 @@ def main() -> int:
         if not args.no_dds:
             seen['lockstep'].append(lockstep(args.window))
             seen['ping_pong'].append(ping_pong(args.window))
+            seen['flat_out'].append(flat_out(args.window))
     load = os.getloadavg()[0]
     print(f'closed loops, {args.repeat} × interleaved, load average {load:.1f}, '
           f'{os.cpu_count()} cores; median (min … max)')
@@ -219,6 +258,7 @@ def main() -> int:
         inproc = statistics.median(seen['in_process'])
         print(f'DDS lockstep, table_sim + rclpy PD        ticks/s {spread(seen["lockstep"])}')
         print(f'rclpy ping-pong floor (2 processes)   round trips/s {spread(seen["ping_pong"])}')
+        print(f'table_sim alone flat out (no lockstep)    ticks/s {spread(seen["flat_out"])}')
         print(f'  in-process / lockstep                           {inproc / lock:10.1f}')
         print(f'  lockstep / ping-pong floor                      {lock / floor:10.2f}')
     return 0

@@ -324,6 +324,12 @@ class Scenario:
             simulation: Simulation | None = None) -> Run:
         """Run the scenario in-process (optionally on ``simulation``, e.g. the scenario's
         with some parameters changed), recording to ``record`` if given."""
+        for action in self.actions:
+            if action.kind == 'parameters' and 'publish_rate' in action.value:
+                raise ScenarioError(f'{self.path}: line {action.line}: an in-process run counts '
+                                    'its ticks at the publish_rate it starts with; change '
+                                    'publish_rate at the start (replay_run --script plays '
+                                    'such a change into a node)')
         simulation = simulation or self.simulation()
         controller = (None if self.controller is None
                       else self.controller.make(simulation, self.setpoint))

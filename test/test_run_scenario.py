@@ -188,3 +188,11 @@ def test_step_metrics_against_a_known_response():
     outside = np.flatnonzero(np.abs(y - 1) > SETTLING_BAND)
     assert step.settling_time == pytest.approx(t[outside[-1] + 1])
     assert 3.5 / (zeta * wn) < step.settling_time * 1.3      # the classic estimate, roughly
+
+
+def test_an_in_process_run_refuses_a_publish_rate_change(tmp_path):
+    path = tmp_path / 's.yaml'
+    path.write_text('duration: 0.2\nactions:\n  - {time: 0.1, parameters: {publish_rate: 500.0}}\n')
+    proc = installed('run_scenario', path)
+    assert proc.returncode == 2 and f'{path}: line 3: ' in proc.stderr and 'publish_rate' in proc.stderr
+    assert load_scenario(path).schedule().events        # a replay still plays it
