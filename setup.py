@@ -5,7 +5,8 @@ from glob import glob
 from setuptools import find_packages, setup
 
 PACKAGE = 'screwgear_ros'
-EXECUTABLES = ['table_sim', 'demo_controller', 'check_run', 'replay_run', 'paper_report', 'plot_run']
+EXECUTABLES = ['table_sim', 'demo_controller', 'check_run', 'replay_run', 'paper_report', 'plot_run',
+               'run_scenario']
 
 setup(
     name=PACKAGE,
@@ -23,6 +24,8 @@ setup(
     ],
     install_requires=['setuptools', 'numpy', 'scipy', 'numba', 'PyYAML', 'mcap',
                       'mcap-ros2-support', 'rosbags', 'tqdm', 'matplotlib'],
+    # pip install screwgear_ros[gym]: the Gymnasium environment (screwgear_ros.gym).
+    extras_require={'gym': ['gymnasium>=1.0']},
     zip_safe=True,
     maintainer='screwgear_ros developers',
     maintainer_email='screwgear-ros@example.org',

@@ -1,7 +1,39 @@
 """screwgear_ros: a real-time ROS 2 plant of a double screw gear anti-backlash rotary table.
 
 The physics core (params, model, integrator, reference, normalized, plant) imports no
-ROS; the node and command-line tools in this package drive it.
+ROS; the node and command-line tools in this package drive it. The Python API
+(``screwgear_ros.Simulation``, :mod:`screwgear_ros.simulation`) runs the node's own
+simulation loop in-process, without ROS; its names are imported on first use, so that
+``import screwgear_ros`` alone loads neither ROS nor the compiled model.
 """
 
+from importlib import import_module
+from typing import Any
+
 __version__ = '0.1.0'
+
+#: Public names and the module that defines each.
+_API = {
+    'Simulation': 'simulation', 'Observation': 'simulation', 'Run': 'simulation',
+    'InputRejected': 'commands', 'ParameterError': 'params',
+    'TableParams': 'params', 'SimSettings': 'params',
+    'Scenario': 'scenario', 'load_scenario': 'scenario', 'ScenarioError': 'scenario',
+    'run_metrics': 'metrics', 'Metrics': 'metrics',
+    'DemoController': 'control',
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _API.get(name)
+    if module is None:
+        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    value = getattr(import_module(f'.{module}', __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_API])
+
+
+__all__ = ['__version__', *_API]

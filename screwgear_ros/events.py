@@ -25,6 +25,11 @@ class Command:
     value: Any
     step: int | None = None
 
+    def at(self, step: int) -> 'Command':
+        """This command, taking effect at ``step`` (dataclasses.replace, without its
+        generic field walk: the session stamps every command it applies)."""
+        return Command(self.topic, self.value, step)
+
 
 @dataclass(frozen=True)
 class ParameterChange:
@@ -34,12 +39,18 @@ class ParameterChange:
     settings: SimSettings
     step: int | None = None
 
+    def at(self, step: int) -> 'ParameterChange':
+        return ParameterChange(self.params, self.settings, step)
+
 
 @dataclass(frozen=True)
 class Reset:
     """Back to the preload equilibrium at rest; simulation time keeps running."""
 
     step: int | None = None
+
+    def at(self, step: int) -> 'Reset':
+        return Reset(step)
 
 
 Event = Command | ParameterChange | Reset

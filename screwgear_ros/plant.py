@@ -178,6 +178,15 @@ class Plant:
                 self._input.torque, float(self._input.direction), self._input.load)
         return self.last_outputs()
 
+    @property
+    def observed(self) -> np.ndarray:
+        """The observed vector the last advance (or :meth:`outputs`) left (OBSERVED wide:
+        the state, then its outputs), read-only; valid until the next advance. For a
+        caller that keeps every tick's outputs: one array copy instead of an object."""
+        view = self._observed.view()
+        view.flags.writeable = False
+        return view
+
     def last_outputs(self) -> Outputs:
         """The outputs the last advance (or :meth:`outputs`) observed, without computing
         them again."""

@@ -171,7 +171,7 @@ class Session:
                 plant.reset()
             else:
                 raise TypeError(f'not a session event: {event!r}')
-            applied.append(replace(event, step=start))
+            applied.append(event.at(start))
         return tuple(applied), tuple(rejected), tuple(notices)
 
     def _time_out(self, start: int, applied: tuple[Event, ...]) -> str | None:

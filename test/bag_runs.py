@@ -1,9 +1,9 @@
 """In-process recorded runs: the node's own session and RunIO, with no DDS and no node.
 
-:func:`record_session` plays a :class:`~screwgear_ros.runs.replay.Schedule` into a
-:class:`~screwgear_ros.session.Session` and records it with the node's
-:class:`~screwgear_ros.ros.run_io.RunIO` (publishers none), so a bag is written
-exactly as table_sim writes it, tick by tick, as fast as the machine goes.
+:func:`record_session` (from :mod:`screwgear_ros.runs.session_record`) plays a
+:class:`~screwgear_ros.runs.replay.Schedule` into a :class:`~screwgear_ros.session.Session`
+and records it with the node's :class:`~screwgear_ros.ros.run_io.RunIO` (publishers none),
+so a bag is written exactly as table_sim writes it, tick by tick, as fast as the machine goes.
 :func:`copy_bag` rewrites a bag message by message (to corrupt one on purpose).
 """
 
@@ -12,42 +12,18 @@ from __future__ import annotations
 import shutil
 import subprocess
 from pathlib import Path
-from typing import Any, Callable
+from typing import Callable
 
 import numpy as np
 import yaml
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
 
-from screwgear_ros.events import Command, ParameterChange
+from screwgear_ros.events import Command
 from screwgear_ros.params import SimSettings, TableParams
-from screwgear_ros.ros.run_io import RunIO, topic_names
 from screwgear_ros.runs import RunRecorder, TopicSpec
-from screwgear_ros.runs.replay import Schedule
+from screwgear_ros.runs.session_record import record_session
 from screwgear_ros.session import Session
-
-
-def record_session(path: str | Path, schedule: Schedule, namespace: str = '',
-                   prepare: bool = False, **recorder_options: Any) -> RunRecorder:
-    """Run ``schedule`` in-process, recording to ``path`` as the node would; each event
-    is submitted once the outputs of its step are out (it takes effect at the next
-    tick's first step). ``prepare``: render each parameter change's texts before it is
-    submitted, as the node's executor does (RunIO.prepare). Returns the closed recorder
-    (for its counters)."""
-    session = Session(schedule.params, schedule.settings)
-    io = RunIO(topic_names(namespace, clock=schedule.settings.publish_clock),
-               schedule.settings.joint_names)
-    recorder = io.open_recorder(path, **recorder_options)
-    io.start(session)
-    while session.step < schedule.end_step:
-        for event in schedule.due(session.step):
-            if prepare and isinstance(event, ParameterChange):
-                io.submit_change(session, event)
-            else:
-                session.submit(event)
-        io.tick(session, session.tick())
-    recorder.close()
-    return recorder
 
 
 def reversal_run(params: TableParams, settings: SimSettings, torque: float, reversal: int,

@@ -24,12 +24,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
-from ..commands import INPUT_TOPICS
-from ..events import Command, Event, ParameterChange, Reset, describe
-from ..params import (ParameterError, SimSettings, TableParams, default_values,
-                      split_parameters)
+from ..events import Event, ParameterChange, describe
+from ..params import SimSettings, TableParams
 from ..session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
 from .bagread import BagError, RecordedRun
 
@@ -205,48 +202,17 @@ def schedule_from_run(run: RecordedRun) -> Schedule:
 
 
 def load_scenario(path: str | Path) -> Schedule:
-    """A scripted run (the test bags are recorded from these), YAML::
-
-        parameters: {table_damping: 8867.0, publish_rate: 200.0}   # node start values
-        duration: 4.0                                               # s of simulation
-        actions:                                                    # at simulation times, s
-          - {time: 0.2, cmd_torque: 400.0}
-          - {time: 1.5, parameters: {mesh_damping: 1000.0}}
-          - {time: 2.0, reset: true}
-
-    Raises ValueError saying what is wrong.
-    """
-    document = yaml.safe_load(Path(path).read_text(encoding='utf-8')) or {}
-    values = {**default_values(), **dict(document.get('parameters') or {})}
-    try:
-        params, settings = split_parameters(values)
-    except ParameterError as exc:
-        raise ValueError(f'{path}: {exc}') from None
-    dt = settings.dt
-    schedule = Schedule(params, settings, end_step=int(round(float(document['duration']) / dt)))
-    timed = []
-    for entry in document.get('actions') or []:
-        entry = dict(entry)
-        step = int(round(float(entry.pop('time')) / dt))
-        if len(entry) != 1:
-            raise ValueError(f'{path}: each action has a time and one of '
-                             f'{", ".join(INPUT_TOPICS)}, parameters, reset: {entry}')
-        timed.append((step, *entry.popitem()))
-    for step, kind, value in sorted(timed, key=lambda item: item[0]):
-        if kind == 'reset':
-            schedule.events.append(Reset(step))
-        elif kind == 'parameters':
-            values = {**values, **dict(value)}
-            try:
-                params, settings = split_parameters(values)
-            except ParameterError as exc:
-                raise ValueError(f'{path}: at step {step}: {exc}') from None
-            schedule.events.append(ParameterChange(params, settings, step))
-        elif kind in INPUT_TOPICS:
-            schedule.events.append(Command(kind, value, step))
-        else:
-            raise ValueError(f'{path}: unknown action {kind!r}')
-    return schedule
+    """The timed actions of a scenario file (docs/scenarios.md; the test bags are recorded
+    from these) as a schedule. Raises ValueError (:class:`~screwgear_ros.scenario.ScenarioError`)
+    naming the line of what is wrong, and for a scenario with a controller: that runs
+    in-process (``run_scenario``), a replay plays actions only."""
+    from ..scenario import load_scenario as load    # the format's one reader
+    scenario = load(path)
+    if scenario.controller is not None:
+        raise ValueError(f'{path}: line {scenario.controller.line}: this scenario closes '
+                         'its loop with a controller, which run_scenario runs in-process; '
+                         'replay_run --script plays a scenario\'s timed actions only')
+    return scenario.schedule()
 
 
 __all__ = ['ReplayedOutputs', 'replay_in_process', 'NOT_REPLAYED',

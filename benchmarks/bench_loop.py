@@ -1,0 +1,268 @@
+"""Closed loops around the table: in-process against DDS, side by side, in one run.
+
+    . scripts/env.sh && ROS_DOMAIN_ID=<free id> python -P benchmarks/bench_loop.py [--repeat 3]
+
+Prints, measured in this run, interleaved ``--repeat`` times (median, and the range):
+
+* **physics alone**: the ticks of the in-process loop below integrated with no
+  controller, in one compiled call per chunk (``Session.tick_quietly``): the anchor;
+* **in-process**: ``Simulation.run`` closed with a Python PD law on the table angle
+  (each tick's answer applied at the next tick's first step), ticks/s and its ratio to
+  the physics alone;
+* **DDS lockstep**: ``table_sim`` (lockstep, real-time factor 0, not recording) with a
+  minimal rclpy controller in this process answering each new ``joint_states`` stamp
+  with one ``cmd_effort`` (the same PD law), ticks/s;
+* **ping-pong floor**: a bare rclpy round trip between two processes (one JointState
+  out, one Float64MultiArray back, no physics), round trips/s: what any DDS loop written
+  with rclpy costs at least;
+* **table_sim alone**: the node flat out (real-time factor 0, no lockstep), ticks/s from
+  the stamps a subscriber here receives: the node's own cost of a tick, publishing
+  included (a lockstep tick costs that, plus a round trip, plus the hand-offs).
+
+Ratios are the goal figures (in-process ≥ 0.8 of the physics alone and ≥ 30× lockstep;
+lockstep against the floor). Timings on a shared machine are noisy: compare the
+ratios of one run, run twice.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
+from ros_procs import STARTUP_TIMEOUT, start_process  # noqa: E402
+
+VALUES = {'table_damping': 8867.0, 'command_timeout': 0.0, 'publish_rate': 1000.0}
+IN_PROCESS_TICKS = 4000
+WINDOW = 5.0        # s of wall time per DDS measurement
+
+
+def pd(o) -> float:
+    """The benchmark's controller: PD on the table angle towards 10 mrad."""
+    wanted = 3000.0 * (0.01 - o.position[1]) - 200.0 * o.velocity[1]
+    return 300.0 if wanted > 300.0 else -300.0 if wanted < -300.0 else wanted
+
+
+def physics_alone(ticks: int) -> float:
+    """Ticks/s of the same ticks with no controller: one compiled call per chunk."""
+    from screwgear_ros import Simulation
+    from screwgear_ros.session import ROW
+    sim = Simulation.from_values(VALUES)
+    sim.reset()
+    sim.step(150.0)                      # a moving table, as in the closed loop
+    rows = np.empty((ticks, ROW))
+    started = time.perf_counter()
+    done = sim.session.tick_quietly(ticks, rows)
+    return done / (time.perf_counter() - started)
+
+
+def in_process(ticks: int) -> float:
+    from screwgear_ros import Simulation
+    sim = Simulation.from_values(VALUES)
+    period = sim.tick_period
+    started = time.perf_counter()
+    run = sim.run(pd, ticks * period)
+    return (len(run) - 1) / (time.perf_counter() - started)
+
+
+def lockstep(window: float) -> float:
+    """Ticks/s of table_sim in lockstep answered by a minimal rclpy controller here."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+
+    from screwgear_ros.simulation import Observation
+    sim = start_process('table_sim', params={**VALUES, 'lockstep': True,
+                                             'real_time_factor': 0.0})
+    rclpy.init()
+    node = rclpy.create_node('bench_loop_controller')
+    try:
+        publisher = node.create_publisher(Float64MultiArray, '/cmd_effort', 10)
+        seen = {'last': -1, 'count': 0}
+        nan = float('nan')
+
+        def answer(msg: JointState) -> None:
+            stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+            if stamp <= seen['last'] or publisher.get_subscription_count() == 0:
+                return
+            seen['last'] = stamp
+            seen['count'] += 1
+            o = Observation(stamp * 1e-9, 0, msg.position, msg.velocity, msg.effort, nan,
+                            (nan, nan), (nan, nan), (nan, nan), 1, None)
+            publisher.publish(Float64MultiArray(data=[pd(o)]))
+
+        node.create_subscription(JointState, '/joint_states', answer, 10)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        deadline = time.monotonic() + STARTUP_TIMEOUT
+        while seen['count'] < 200 and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+        if seen['count'] < 200:
+            raise RuntimeError('table_sim did not run in lockstep:\n' + sim.output()[1])
+        n0, t0 = seen['count'], time.perf_counter()
+        while time.perf_counter() - t0 < window:
+            executor.spin_once(timeout_sec=0.1)
+        rate = (seen['count'] - n0) / (time.perf_counter() - t0)
+        executor.shutdown()
+        return rate
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        sim.stop()
+        sim.kill()
+
+
+def flat_out(window: float) -> float:
+    """Ticks/s of table_sim alone (no lockstep, real-time factor 0), from the stamps of
+    the joint_states this process receives: what the node's own tick costs."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from sensor_msgs.msg import JointState
+    sim = start_process('table_sim', params={**VALUES, 'real_time_factor': 0.0})
+    rclpy.init()
+    node = rclpy.create_node('bench_loop_watch')
+    try:
+        stamps: list[tuple[float, int]] = []
+        node.create_subscription(
+            JointState, '/joint_states',
+            lambda m: stamps.append((time.perf_counter(),
+                                     m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec)),
+            100)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        deadline = time.monotonic() + STARTUP_TIMEOUT
+        while len(stamps) < 200 and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+        n0 = len(stamps)
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < window:
+            executor.spin_once(timeout_sec=0.1)
+        (w0, s0), (w1, s1) = stamps[n0], stamps[-1]
+        executor.shutdown()
+        return (s1 - s0) * 1e-6 / (w1 - w0)       # 1 kHz: one tick per ms of simulation
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        sim.stop()
+        sim.kill()
+
+
+_ECHO = textwrap.dedent('''
+    import rclpy
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+    rclpy.init()
+    node = rclpy.create_node('bench_loop_echo')
+    pub = node.create_publisher(Float64MultiArray, '/bench_loop/answer', 10)
+    node.create_subscription(JointState, '/bench_loop/state',
+                             lambda m: pub.publish(Float64MultiArray(data=[m.position[1]])), 10)
+    try:
+        rclpy.spin(node)
+    except BaseException:
+        pass
+''')
+
+
+def ping_pong(window: float) -> float:
+    """Round trips/s of a bare rclpy ping-pong with an echo process."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+
+    echo = subprocess.Popen([sys.executable, '-P', '-c', _ECHO])
+    rclpy.init()
+    node = rclpy.create_node('bench_loop_ping')
+    try:
+        pub = node.create_publisher(JointState, '/bench_loop/state', 10)
+        count = {'n': 0}
+        names = ['pinion_1', 'table', 'pinion_3']
+
+        def send() -> None:
+            msg = JointState(name=names, position=[0.0, float(count['n']), 0.0],
+                             velocity=[0.0] * 3, effort=[0.0] * 3)
+            pub.publish(msg)
+
+        def on_answer(msg: Float64MultiArray) -> None:
+            count['n'] += 1
+            send()
+
+        node.create_subscription(Float64MultiArray, '/bench_loop/answer', on_answer, 10)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        deadline = time.monotonic() + STARTUP_TIMEOUT
+        while count['n'] < 200 and time.monotonic() < deadline:
+            if pub.get_subscription_count() and count['n'] == 0:
+                send()                  # (re)start the ping until the echo answers
+            executor.spin_once(timeout_sec=0.1)
+        n0, t0 = count['n'], time.perf_counter()
+        while time.perf_counter() - t0 < window:
+            executor.spin_once(timeout_sec=0.1)
+        rate = (count['n'] - n0) / (time.perf_counter() - t0)
+        executor.shutdown()
+        return rate
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        echo.terminate()
+        echo.wait(10)
+
+
+def spread(values: list[float]) -> str:
+    return (f'{statistics.median(values):10.0f}  ({min(values):.0f} … {max(values):.0f})')
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('--repeat', type=int, default=3)
+    parser.add_argument('--window', type=float, default=WINDOW,
+                        help='s of wall time per DDS measurement')
+    parser.add_argument('--no-dds', action='store_true', help='in-process figures only')
+    args = parser.parse_args()
+    if not os.environ.get('ROS_DOMAIN_ID') and not args.no_dds:
+        print('warning: ROS_DOMAIN_ID is not set: other DDS traffic on domain 0 may mix in',
+              file=sys.stderr)
+    physics_alone(200)                  # load the compiled kernels
+    in_process(200)
+    seen: dict[str, list[float]] = {'physics': [], 'in_process': [], 'ratio': [],
+                                    'lockstep': [], 'ping_pong': [], 'flat_out': []}
+    for _ in range(args.repeat):
+        a = physics_alone(IN_PROCESS_TICKS)
+        b = in_process(IN_PROCESS_TICKS)
+        seen['physics'].append(a)
+        seen['in_process'].append(b)
+        seen['ratio'].append(b / a)
+        if not args.no_dds:
+            seen['lockstep'].append(lockstep(args.window))
+            seen['ping_pong'].append(ping_pong(args.window))
+            seen['flat_out'].append(flat_out(args.window))
+    load = os.getloadavg()[0]
+    print(f'closed loops, {args.repeat} × interleaved, load average {load:.1f}, '
+          f'{os.cpu_count()} cores; median (min … max)')
+    print(f'physics alone (1 compiled call / chunk)   ticks/s {spread(seen["physics"])}')
+    print(f'in-process Simulation.run, Python PD      ticks/s {spread(seen["in_process"])}')
+    print(f'  ratio to the physics alone (same run)           '
+          f'{statistics.median(seen["ratio"]):10.2f}  ({min(seen["ratio"]):.2f} … '
+          f'{max(seen["ratio"]):.2f})')
+    if not args.no_dds:
+        lock, floor = statistics.median(seen['lockstep']), statistics.median(seen['ping_pong'])
+        inproc = statistics.median(seen['in_process'])
+        print(f'DDS lockstep, table_sim + rclpy PD        ticks/s {spread(seen["lockstep"])}')
+        print(f'rclpy ping-pong floor (2 processes)   round trips/s {spread(seen["ping_pong"])}')
+        print(f'table_sim alone flat out (no lockstep)    ticks/s {spread(seen["flat_out"])}')
+        print(f'  in-process / lockstep                           {inproc / lock:10.1f}')
+        print(f'  lockstep / ping-pong floor                      {lock / floor:10.2f}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,79 @@
+"""In-process recorded runs: the node's own session and RunIO, with no DDS and no node.
+
+:class:`SessionRecording` records a :class:`~screwgear_ros.session.Session` that the
+caller ticks, with the node's :class:`~screwgear_ros.ros.run_io.RunIO` (publishers none),
+so a bag is written exactly as table_sim writes it, tick by tick, as fast as the machine
+goes and dropping nothing (the recorder makes a tick wait for room rather than drop
+it). :func:`record_session` plays a :class:`~screwgear_ros.runs.replay.Schedule` into a
+fresh session that way. RunIO encodes the node's messages, so recording needs rclpy's
+message packages; they are imported here, when a recording starts, and never by
+``import screwgear_ros``.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+from ..events import ParameterChange
+from ..session import Session, Tick
+from .recorder import RunRecorder
+from .replay import Schedule
+
+
+class SessionRecording:
+    """The node's recording of ``session``, from its current outputs on: create it
+    before the first tick, hand it every tick (:meth:`tick`), then :meth:`close` (or use
+    it as a context manager; closing twice is harmless). ``namespace``: the namespace the
+    recorded topics are in, as a node started in it would name them."""
+
+    def __init__(self, path: str | os.PathLike[str], session: Session, namespace: str = '',
+                 **recorder_options: Any) -> None:
+        from ..ros.run_io import RunIO, topic_names    # rclpy's messages: only to record
+        self.session = session
+        self.io = RunIO(topic_names(namespace, clock=session.settings.publish_clock),
+                        session.settings.joint_names)
+        self.recorder: RunRecorder = self.io.open_recorder(path, **recorder_options)
+        self.io.start(session)
+
+    def submit_change(self, change: ParameterChange) -> None:
+        """Submit a parameter change to the session with its texts rendered first, as the
+        node's executor does (RunIO.submit_change)."""
+        self.io.submit_change(self.session, change)
+
+    def tick(self, tick: Tick) -> None:
+        """Record what the session's last tick did and made."""
+        self.io.tick(self.session, tick)
+
+    def close(self) -> RunRecorder:
+        """Close the bag (waits until every message is written); the closed recorder."""
+        self.recorder.close()
+        return self.recorder
+
+    def __enter__(self) -> 'SessionRecording':
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def record_session(path: str | os.PathLike[str], schedule: Schedule, namespace: str = '',
+                   prepare: bool = False, **recorder_options: Any) -> RunRecorder:
+    """Run ``schedule`` in-process, recording to ``path`` as the node would; each event
+    is submitted once the outputs of its step are out (it takes effect at the next
+    tick's first step). ``prepare``: render each parameter change's texts before it is
+    submitted, as the node's executor does (RunIO.prepare). Returns the closed recorder
+    (for its counters)."""
+    session = Session(schedule.params, schedule.settings)
+    with SessionRecording(path, session, namespace, **recorder_options) as recording:
+        while session.step < schedule.end_step:
+            for event in schedule.due(session.step):
+                if prepare and isinstance(event, ParameterChange):
+                    recording.submit_change(event)
+                else:
+                    session.submit(event)
+            recording.tick(session.tick())
+    return recording.recorder
+
+
+__all__ = ['SessionRecording', 'record_session']
