@@ -13,6 +13,7 @@ import pytest
 from bag_runs import installed, installed_check_run
 from screwgear_ros import Simulation
 from screwgear_ros.metrics import SETTLING_BAND, run_metrics
+from screwgear_ros.params import ParameterError, default_values, split_parameters
 from screwgear_ros.runs.bagread import read_run
 from screwgear_ros.scenario import ScenarioError, Setpoint, load_scenario
 
@@ -59,13 +60,20 @@ def test_a_recorded_scenario_passes_check_run_and_holds_its_actions(tmp_path):
     assert again.returncode == 2 and 'exists' in again.stderr
 
 
+def _node_refusal(**values) -> str:
+    """What the node's own validation says of ``values`` (a scenario must say the same)."""
+    with pytest.raises(ParameterError) as error:
+        split_parameters({**default_values(), **values})
+    return error.value.rule
+
+
 BROKEN = {
     'unknown key': ('duration: 1.0\nactoins: []\n', 2, "unknown scenario key 'actoins'"),
     'unknown parameter': ('duration: 1.0\nparameters:\n  backlash: 1.0e-5\n  baklash: 2\n',
                           4, "'baklash'"),
     'bad parameter value': ('parameters: {publish_rate: 200.0}\nduration: 1.0\nactions:\n'
                             '  - {time: 0.5, parameters: {mesh_damping: -3.0}}\n', 4,
-                            'must be >= 0'),
+                            _node_refusal(mesh_damping=-3.0)),
     'action after duration': ('duration: 1.0\nactions:\n  - {time: 0.2, cmd_torque: 10.0}\n'
                               '  - {time: 1.5, cmd_torque: 20.0}\n', 4, 'after the end'),
     'wrong type': ('duration: 1.0\nactions:\n  - {time: 0.2, cmd_torque: fast}\n', 3,
