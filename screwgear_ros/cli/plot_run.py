@@ -1,8 +1,9 @@
 """plot_run BAG [-o OUT.png]: draw a recorded table_sim run (see screwgear_ros.runs.plot).
 
 Prints the path of the figure it wrote. Exit status: 0 written, 2 the bag cannot be
-read (not a bag, no run_parameters, truncated, inconsistent) or the figure cannot be
-written there.
+read (not a bag, no run_parameters, truncated, damaged, inconsistent), its recorded
+parameters cannot be simulated, or the figure cannot be written there. Never a
+traceback: anything else unexpected also exits 2, with its type and message.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..model import EquilibriumNotFound
 from ..runs.bagread import BagError, read_run
 from ..runs.plot import DEFAULT_NAME, FigureFileError, default_output, output_path, run_figure, save
 
@@ -39,6 +41,14 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_UNUSABLE
     except FigureFileError as exc:
         print(f'plot_run: {exc}', file=sys.stderr)
+        return EXIT_UNUSABLE
+    except (EquilibriumNotFound, ValueError) as exc:   # ParameterError is a ValueError
+        print(f'plot_run: cannot plot {args.bag}: the recorded parameters cannot be '
+              f'simulated: {exc}', file=sys.stderr)
+        return EXIT_UNUSABLE
+    except Exception as exc:  # noqa: BLE001 - never a traceback (module docstring)
+        print(f'plot_run: cannot plot {args.bag}: unexpected {type(exc).__name__}: {exc}',
+              file=sys.stderr)
         return EXIT_UNUSABLE
     print(written)
     return EXIT_OK

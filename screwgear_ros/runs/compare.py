@@ -26,7 +26,8 @@ import numpy as np
 
 from ..events import Command, Event, ParameterChange, describe
 from .bagread import RecordedRun
-from .check import FLOOR_ABS, FLOOR_REL, SignalError, signal_error, signal_names
+from .check import (FLOOR_ABS, FLOOR_REL, NothingToCompare, SignalError, signal_error,
+                    signal_names)
 from .replay import replay_in_process
 
 #: Tolerance = SAFETY × first-order bound of the measured timing jitter's effect.
@@ -125,7 +126,8 @@ def _signal_matrix(js: np.ndarray, te: np.ndarray, rows_js: np.ndarray,
 
 
 def compare_runs(original: RecordedRun, new: RecordedRun) -> Comparison:
-    """Event timing and trajectory difference of ``new`` against ``original``."""
+    """Event timing and trajectory difference of ``new`` against ``original``. Raises
+    :class:`NothingToCompare` when they share no sample to judge."""
     ticks = original.parameters.settings.steps_per_publish
     timings = match_events(original, new)
     delays = [abs(t.delay) for t in timings if t.delay is not None]
@@ -148,6 +150,11 @@ def compare_runs(original: RecordedRun, new: RecordedRun) -> Comparison:
     b_js = b_js[keep]
     a_te, keep = away(a_te, original.transmission_error.steps)
     b_te = b_te[keep]
+    if not len(a_js):
+        raise NothingToCompare(
+            f'{new.path} and {original.path} share no output sample outside the timing '
+            f'budget of an event ({len(original.joint_states)} samples in the original, '
+            f'{len(new.joint_states)} in the replay): there is nothing to compare')
     result = Comparison(timings, ticks, jitter, len(a_js),
                         len(original.joint_states) - len(a_js))
     orig = _signal_matrix(original.joint_states.values, original.transmission_error.values[:, 0],
@@ -236,7 +243,8 @@ class ExactComparison:
 
 def exact_comparison(original: RecordedRun, new: RecordedRun) -> ExactComparison:
     """Every physical event at its recorded step, and every output sample of
-    ``original`` equal bit for bit in ``new`` (which may run on past its end)."""
+    ``original`` equal bit for bit in ``new`` (which may run on past its end). Raises
+    :class:`NothingToCompare` when no sample is compared."""
     timings = match_events(original, new)
     names = [name for name, _ in signal_names(original)]
     columns = [(original.joint_states, new.joint_states, names[:9]),
@@ -262,6 +270,10 @@ def exact_comparison(original: RecordedRun, new: RecordedRun) -> ExactComparison
                                    float(b.values[k, c]))
             if first is None or found.step < first.step:
                 first = found
+    if not samples:
+        raise NothingToCompare(f'{new.path} holds none of the {len(original.joint_states)} '
+                               f'output samples of {original.path}: there is nothing to '
+                               'compare')
     return ExactComparison(timings, samples, first, missing)
 
 
@@ -286,6 +298,6 @@ def format_exact(c: ExactComparison) -> str:
     return '\n'.join(lines)
 
 
-__all__ = ['SAFETY', 'EventTiming', 'Comparison', 'match_events', 'shift_event',
+__all__ = ['SAFETY', 'NothingToCompare', 'EventTiming', 'Comparison', 'match_events', 'shift_event',
            'compare_runs', 'format_comparison', 'Difference', 'ExactComparison',
            'exact_comparison', 'format_exact']

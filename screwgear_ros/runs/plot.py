@@ -31,7 +31,7 @@ from ..plant import DriveInput
 from ..report.common import COLORS, plt
 from ..session import Tick
 from .bagread import BagError, RecordedRun
-from .check import CheckReport, signal_names
+from .check import MESH_SIGNALS, CheckReport, signal_names
 from .replay import replay_in_process
 
 #: Resolution the figures are written at (and readable at), dots per inch.
@@ -312,16 +312,19 @@ def _draw_path(a: Axes, run: RecordedRun, marks: RunMarks, t_end: float) -> None
 def check_figure(run: RecordedRun, report: CheckReport) -> Figure:
     """|node − reference| of every checked signal against its tolerance, log scale:
     rows pinion 1, table, pinion 3 (position, velocity, effort), then the
-    transmission error; one time axis. Each axes is labelled with its signal's name."""
-    names = signal_names(run)
+    transmission error, then mesh 1 and mesh 3 (δ, δ̇, F); one time axis. Each axes is
+    labelled with its signal's name."""
+    names = signal_names(run) + MESH_SIGNALS
     joints = len(run.parameters.settings.joint_names)
     by_name = {s.name: s for s in report.signals}
-    fig = plt.figure(figsize=(14, 11), dpi=DPI, layout='constrained')
-    grid = fig.add_gridspec(joints + 1, 3)
+    fig = plt.figure(figsize=(14, 16), dpi=DPI, layout='constrained')
+    grid = fig.add_gridspec(joints + 3, 3)
     marks = run_marks(run)
     first: Axes | None = None
     for k, (name, unit) in enumerate(names):
-        cell = grid[joints, :] if k == 3 * joints else grid[k % joints, k // joints]
+        mesh = k - 3 * joints - 1          # δ1, δ3, δ̇1, δ̇3, F1, F3: a column per quantity
+        cell = (grid[joints, :] if k == 3 * joints else grid[k % joints, k // joints]
+                if k < 3 * joints else grid[joints + 1 + mesh % 2, mesh // 2])
         a = fig.add_subplot(cell, sharex=first)
         first = first or a
         a.set_label(name)
@@ -349,7 +352,7 @@ def check_figure(run: RecordedRun, report: CheckReport) -> Figure:
                     color='k' if signal.ok else COLORS[1], fontweight='normal'
                     if signal.ok else 'bold')
         a.set_ylabel(f'|error| [{unit}]')
-        if k % joints == joints - 1 or k == 3 * joints:
+        if mesh >= 0 and mesh % 2 == 1:     # the bottom row
             a.set_xlabel('simulation time [s]')
     handles = [Line2D([], [], color=COLORS[0], label='|node − reference| at each sample'),
                Line2D([], [], label=f'tolerance ({report.safety:g} × Richardson estimate of '
