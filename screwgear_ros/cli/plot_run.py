@@ -9,6 +9,7 @@ traceback: anything else unexpected also exits 2, with its type and message.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 from ..model import EquilibriumNotFound
@@ -16,6 +17,17 @@ from ..runs.bagread import BagError, read_run
 from ..runs.plot import DEFAULT_NAME, FigureFileError, default_output, output_path, run_figure, save
 
 EXIT_OK, EXIT_UNUSABLE = 0, 2
+
+
+def _span(text: str) -> tuple[float, float]:
+    """'T0:T1' (s) as (t0, t1), t0 < t1, both finite."""
+    try:
+        t0, t1 = (float(v) for v in text.split(':'))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{text!r} is not T0:T1 (two times in s)') from None
+    if not (math.isfinite(t0) and math.isfinite(t1) and t0 < t1):
+        raise argparse.ArgumentTypeError(f'{text!r}: T0 must be before T1, both finite')
+    return t0, t1
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -31,11 +43,14 @@ def main(argv: list[str] | None = None) -> int:
                         f'(default: BAG/{DEFAULT_NAME})')
     parser.add_argument('--allow-truncated', action='store_true',
                         help='plot the readable part of a bag whose recording was killed')
+    parser.add_argument('--zoom', metavar='T0:T1', type=_span,
+                        help='draw only simulation times T0 to T1 s (e.g. one step response), '
+                        'each panel scaled to what it shows there')
     args = parser.parse_args(argv)
     try:
         out = output_path(args.output) if args.output else None
         run = read_run(args.bag, allow_truncated=args.allow_truncated)
-        written = save(run_figure(run), out or default_output(run))
+        written = save(run_figure(run, args.zoom), out or default_output(run))
     except BagError as exc:
         print(exc.report('plot_run', 'plot', args.bag), file=sys.stderr)
         return EXIT_UNUSABLE
