@@ -35,8 +35,8 @@ largest estimate over the run. A recording made with the fixed step (``contact_l
 off, or recorded before it existed) drops to order 0.3–1 at every impact, where the
 error reached 2.0 times the estimate on the checked-in conventional bag: such runs keep
 ``SAFETY_FIXED_STEP`` (4). Never less than ``FLOOR_REL`` × the signal's largest
-magnitude (10× the reference solver's rtol, so the reference's own error and float
-round-off never fail a run).
+magnitude (10× the looser of the reference's two rtols, so float round-off never
+fails a run).
 
 The RK4 replay at dt/2 runs in a second process (forked) while this one replays at dt
 and solves the reference; with one core, or ``parallel=False``, it runs after them.
