@@ -116,6 +116,14 @@ def _summary_start(mcap_file: Path) -> int:
     return start
 
 
+def _first_chunk(data: bytes | bytearray) -> int:
+    """Offset of the first Chunk record of an MCAP file."""
+    at = 8
+    while data[at] != 0x06:
+        at += 9 + struct.unpack_from('<Q', data, at + 1)[0]
+    return at
+
+
 def corrupt(kind: str, src: Path, dst: Path, rng: random.Random) -> str:
     """Write a corrupted copy of ``src`` at ``dst``; returns what was done."""
     if kind in ('data_flip', 'summary_flip', 'footer_flip', 'cut'):
@@ -127,7 +135,10 @@ def corrupt(kind: str, src: Path, dst: Path, rng: random.Random) -> str:
             at = rng.randrange(0, len(data))
             mcap_file.write_bytes(bytes(data[:at]))
             return f'cut at {at} of {len(data)}'
-        lo, hi = {'data_flip': (8, start), 'summary_flip': (start, len(data) - 37),
+        # data flips from the first chunk on: the records before it (header, the rosbag2
+        # metadata record) no tool reads, and the oracle (mcap's reader) stops at them
+        first_chunk = _first_chunk(data)
+        lo, hi = {'data_flip': (first_chunk, start), 'summary_flip': (start, len(data) - 37),
                   'footer_flip': (len(data) - 37, len(data))}[kind]
         flips = [rng.randrange(lo, hi) for _ in range(rng.choice((1, 2)))]
         for at in flips:

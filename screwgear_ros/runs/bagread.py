@@ -133,7 +133,13 @@ def find_mcap(path: str | Path) -> tuple[Path, Path]:
     candidates: list[Path] = []
     if meta.is_file():
         try:
-            info = yaml.safe_load(meta.read_bytes().decode('utf-8'))['rosbag2_bagfile_information']
+            document = yaml.safe_load(meta.read_bytes().decode('utf-8'))
+            info = document.get('rosbag2_bagfile_information') if isinstance(document,
+                                                                              dict) else None
+            if not isinstance(info, dict) or not isinstance(
+                    info.get('relative_file_paths', []), list):
+                raise TypeError('rosbag2_bagfile_information is not a mapping with a list of '
+                                'relative_file_paths')
             if info.get('storage_identifier') != 'mcap':
                 raise BagError('not_a_bag', f'{path}: storage {info.get("storage_identifier")!r}'
                                ' is not mcap')
