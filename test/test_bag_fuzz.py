@@ -10,7 +10,8 @@ asked for (--allow-truncated), as far as it reads.
 Each case is one seeded corruption: bit flips in the data section, the summary
 section or the footer, a cut at a random offset, metadata.yaml replaced by garbage
 (invalid UTF-8 among it), a topic's messages deleted, a topic renamed or declared
-with another type, one message's CDR cut short. Most cases call the tools' main()
+with another type, one message's CDR cut short, a run_parameters value made extreme
+or of the wrong type. Most cases call the tools' main()
 in-process with their output captured; a few run the installed console scripts.
 """
 
@@ -124,6 +125,27 @@ def _first_chunk(data: bytes | bytearray) -> int:
     return at
 
 
+def _bad_parameters(src: Path, dst: Path, rng: random.Random) -> str:
+    """One value of every run_parameters message replaced by an extreme or a wrong type."""
+    from rosbags.typesys import Stores, get_typestore
+    store = get_typestore(Stores.ROS2_JAZZY)
+    value = rng.choice([float('inf'), float('nan'), -1e300, 0, 'text', [1.0, 2.0], None])
+    chosen: list[str] = []
+
+    def edit(topic: str, raw: bytes) -> bytes:
+        if topic != 'run_parameters':
+            return raw
+        msg = store.deserialize_cdr(raw, 'std_msgs/msg/String')
+        document = yaml.safe_load(msg.data)
+        if not chosen:
+            chosen.append(rng.choice(sorted(document)))
+        document[chosen[0]] = value
+        return bytes(store.serialize_cdr(store.types['std_msgs/msg/String'](
+            data=yaml.safe_dump(document)), 'std_msgs/msg/String'))
+    retyped_copy(src, dst, edit=edit)
+    return f'run_parameters {chosen[0]} = {value!r}'
+
+
 def corrupt(kind: str, src: Path, dst: Path, rng: random.Random) -> str:
     """Write a corrupted copy of ``src`` at ``dst``; returns what was done."""
     if kind in ('data_flip', 'summary_flip', 'footer_flip', 'cut'):
@@ -157,6 +179,8 @@ def corrupt(kind: str, src: Path, dst: Path, rng: random.Random) -> str:
         ])
         (dst / 'metadata.yaml').write_bytes(garbage)
         return f'metadata.yaml garbage {garbage[:24]!r}'
+    if kind == 'parameters':
+        return _bad_parameters(src, dst, rng)
     rel = rng.choice(['joint_states', 'transmission_error', 'mesh_state', 'active_path',
                       'run_parameters', 'cmd_torque'])
     if kind == 'delete':
@@ -185,7 +209,7 @@ def corrupt(kind: str, src: Path, dst: Path, rng: random.Random) -> str:
 
 
 KINDS = ['data_flip', 'summary_flip', 'footer_flip', 'cut', 'metadata', 'delete', 'rename',
-         'retype', 'cdr']
+         'retype', 'cdr', 'parameters']
 #: (kind, bag, seed) of every case: seeded, a few dozen.
 CASES = [(kind, BAGS[k % len(BAGS)], SEED + 100 * i + k)
          for i, kind in enumerate(KINDS) for k in range(2)]

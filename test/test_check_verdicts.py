@@ -269,3 +269,23 @@ def test_a_run_ringing_about_the_drive_corner_is_judged_by_a_converged_reference
     converged = np.abs(rk[4] - rk[8]).max(axis=0)
     assert np.all(converged < 0.01 * tolerance)
     assert np.all(np.abs(rk[8] - tight).max(axis=0) < 0.1 * tolerance)
+
+
+def test_run_parameters_with_an_infinite_start_step_are_refused_with_the_reason(
+        tmp_path: Path) -> None:
+    """A value the parameter loader does not foresee is still a refused bag, not an
+    'unexpected' error."""
+    import yaml
+
+    def edit(topic, msgtype, t, raw):
+        if topic.endswith('/run_parameters'):
+            document = yaml.safe_load(STORE.deserialize_cdr(raw, msgtype).data)
+            document['start_step'] = float('inf')
+            raw = bytes(STORE.serialize_cdr(STORE.types[msgtype](data=yaml.safe_dump(document)),
+                                            msgtype))
+        return t, raw
+    copy_bag(DATA / 'steady_drive', tmp_path / 'bag', edit)
+    for result in (check_run(tmp_path / 'bag'),
+                   installed('plot_run', tmp_path / 'bag', '-o', tmp_path / 'p.png')):
+        _refused(result, 'run_parameters refused', 'OverflowError')
+        assert 'unexpected' not in result.stderr

@@ -385,7 +385,10 @@ def scan(mcap_path: Path, status: dict[str, Any]) -> _Scan:
     ``status['summary']`` says if it is damaged (the data section is read either
     way, as MCAP's own recovery rebuilds the index from it)."""
     result = _Scan()
-    data = memoryview(mcap_path.read_bytes())
+    try:
+        data = memoryview(mcap_path.read_bytes())
+    except OSError as exc:
+        raise BagError('not_a_bag', f'{mcap_path}: cannot be read: {exc.strerror or exc}') from None
     if bytes(data[:len(MCAP_MAGIC)]) != MCAP_MAGIC:
         if not MCAP_MAGIC.startswith(bytes(data)):
             raise BagError('not_a_bag', f'{mcap_path} is not an MCAP file')
@@ -666,6 +669,9 @@ def _parse(text: str, topic: str) -> RunParameters:
         return load(text)
     except RunParametersError as exc:
         raise BagError('no_parameters', f'{topic}: {exc}') from None
+    except Exception as exc:  # noqa: BLE001 - a value load() does not foresee (inf, NaN…)
+        raise BagError('no_parameters', f'{topic}: run_parameters refused: '
+                       f'{type(exc).__name__}: {exc}') from None
 
 
 __all__ = ['BagError', 'Command', 'ParameterChange', 'Reset', 'Event', 'Signal',
