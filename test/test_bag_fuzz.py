@@ -139,11 +139,17 @@ def _bad_parameters(src: Path, dst: Path, rng: random.Random) -> str:
         document = yaml.safe_load(msg.data)
         if not chosen:
             chosen.append(rng.choice(sorted(document)))
+            chosen.append(document[chosen[0]] == value or chosen[0] == 'package_version')
         document[chosen[0]] = value
         return bytes(store.serialize_cdr(store.types['std_msgs/msg/String'](
             data=yaml.safe_dump(document)), 'std_msgs/msg/String'))
     retyped_copy(src, dst, edit=edit)
-    return f'run_parameters {chosen[0]} = {value!r}'
+    return f'run_parameters {chosen[0]} = {value!r}' + (NO_CHANGE if chosen[1] else '')
+
+
+#: What :func:`corrupt` adds when the bag's physics did not change (a value set to what
+#: it was, or the package version): its messages differ, but a PASS is right.
+NO_CHANGE = ' (no physical change)'
 
 
 def corrupt(kind: str, src: Path, dst: Path, rng: random.Random) -> str:
@@ -242,7 +248,7 @@ def test_a_corrupted_bag_gets_a_documented_answer(kind: str, name: str, seed: in
     src, dst = DATA / name, tmp_path / 'bag'
     what = corrupt(kind, src, dst, rng)
     allow = ['--allow-truncated'] if rng.random() < 0.5 else []
-    whole = intact(src, dst, bool(allow))
+    whole = intact(src, dst, bool(allow)) or what.endswith(NO_CHANGE)
     code, out, err = run_main(check_run.main, ['--no-progress', '--serial', *allow, str(dst)])
     judge('check_run', code, out, err, whole, what)
     code, out, err = run_main(plot_run.main, [*allow, str(dst), '-o',
