@@ -4,7 +4,9 @@ The MCAP file is read record by record in file order (:func:`scan`; ``mcap``'s
 record classes for schemas, channels and chunks, :func:`iter_messages` with ``mcap``'s
 stream reader for tools that want every message), so messages with equal log times keep
 the order the node wrote them in (which is the order it applied them), and a bag whose
-writer was killed reads up to its last complete chunk. Messages are decoded with the
+writer was killed reads up to its last complete chunk. Only the data section is read:
+the summary repeats it and is checked, never trusted. A bag that cannot be used raises
+:class:`BagError` saying why, whatever failed underneath. Messages are decoded with the
 ROS 2 Jazzy CDR codec of ``rosbags``, except the ~4 per tick of fixed layout
 (joint_states, transmission_error, mesh_state, clock): a chunk's message records are
 located in one pass and those messages are
@@ -56,7 +58,8 @@ CONTRACT = {**OUTPUT_TOPICS, **INPUT_TOPICS, RUN_PARAMETERS: 'std_msgs/msg/Strin
 
 class BagError(Exception):
     """A path that cannot be checked; ``kind`` is 'not_a_bag', 'no_parameters',
-    'truncated' or 'invalid'."""
+    'truncated', 'invalid', 'no_data' (plot_run) or 'nothing_to_compare'
+    (:class:`~screwgear_ros.runs.check.NothingToCompare`)."""
 
     def __init__(self, kind: str, message: str) -> None:
         self.kind = kind
@@ -160,7 +163,7 @@ def find_mcap(path: str | Path) -> tuple[Path, Path]:
 
 
 def iter_messages(mcap_path: Path, status: dict[str, Any]) -> Iterator[tuple[str, str, int, bytes]]:
-    """(topic, type, log time ns, CDR bytes) in file order.
+    """(topic, type, log time ns, CDR bytes) of the data section, in file order.
 
     Stops quietly where the file stops making sense and records why in
     ``status['truncated']`` (a killed writer leaves no footer and a partial chunk).
