@@ -2,10 +2,14 @@
 
 Exit status: 0 every signal within tolerance, 1 some signal outside it (the report
 says which, by how much, when), 2 the path cannot be checked (not a bag, no
-run_parameters in it, truncated, inconsistent), the reference solver cannot follow the
+run_parameters in it, truncated, damaged, inconsistent: a contract topic declared with
+another type, a message that does not decode), nothing to compare (no output recorded
+after the start of the run), the reference solver cannot follow the
 run (its step size collapses below the spacing of floating-point numbers, e.g. a run
 driven through the mesh resonance, or the state becomes non-finite: stderr says why, at
-what simulation time and in which segment), the recorded parameters cannot be
+what simulation time and in which segment), the reference cannot judge the run (its
+own error, taken as the difference of its solutions at two tolerances, straddles a
+signal's tolerance), the recorded parameters cannot be
 simulated (refused by the model: an equilibrium not found, an unstable step), or the
 --plot figure cannot be written. Never a traceback: anything else unexpected also
 exits 2, with its type and message.
@@ -84,6 +88,12 @@ def main(argv: list[str] | None = None) -> int:
         except figure_errors as exc:
             print(f'check_run: {exc}', file=sys.stderr)
             return EXIT_UNUSABLE
+    if report.undecided:
+        print(f'check_run: cannot judge {args.bag}: the reference solution\'s own error '
+              '(its difference between two tolerances) reaches the tolerance of '
+              f'{", ".join(s.name for s in report.undecided)}, so neither PASS nor FAIL '
+              'holds', file=sys.stderr)
+        return EXIT_UNUSABLE
     return EXIT_OK if report.ok else EXIT_FAIL
 
 

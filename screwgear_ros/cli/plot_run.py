@@ -1,19 +1,33 @@
 """plot_run BAG [-o OUT.png]: draw a recorded table_sim run (see screwgear_ros.runs.plot).
 
 Prints the path of the figure it wrote. Exit status: 0 written, 2 the bag cannot be
-read (not a bag, no run_parameters, truncated, inconsistent) or the figure cannot be
-written there.
+read (not a bag, no run_parameters, truncated, damaged, inconsistent), its recorded
+parameters cannot be simulated, or the figure cannot be written there. Never a
+traceback: anything else unexpected also exits 2, with its type and message.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
+from ..model import EquilibriumNotFound
 from ..runs.bagread import BagError, read_run
 from ..runs.plot import DEFAULT_NAME, FigureFileError, default_output, output_path, run_figure, save
 
 EXIT_OK, EXIT_UNUSABLE = 0, 2
+
+
+def _span(text: str) -> tuple[float, float]:
+    """'T0:T1' (s) as (t0, t1), t0 < t1, both finite."""
+    try:
+        t0, t1 = (float(v) for v in text.split(':'))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{text!r} is not T0:T1 (two times in s)') from None
+    if not (math.isfinite(t0) and math.isfinite(t1) and t0 < t1):
+        raise argparse.ArgumentTypeError(f'{text!r}: T0 must be before T1, both finite')
+    return t0, t1
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -29,16 +43,27 @@ def main(argv: list[str] | None = None) -> int:
                         f'(default: BAG/{DEFAULT_NAME})')
     parser.add_argument('--allow-truncated', action='store_true',
                         help='plot the readable part of a bag whose recording was killed')
+    parser.add_argument('--zoom', metavar='T0:T1', type=_span,
+                        help='draw only simulation times T0 to T1 s (e.g. one step response), '
+                        'each panel scaled to what it shows there')
     args = parser.parse_args(argv)
     try:
         out = output_path(args.output) if args.output else None
         run = read_run(args.bag, allow_truncated=args.allow_truncated)
-        written = save(run_figure(run), out or default_output(run))
+        written = save(run_figure(run, args.zoom), out or default_output(run))
     except BagError as exc:
         print(exc.report('plot_run', 'plot', args.bag), file=sys.stderr)
         return EXIT_UNUSABLE
     except FigureFileError as exc:
         print(f'plot_run: {exc}', file=sys.stderr)
+        return EXIT_UNUSABLE
+    except (EquilibriumNotFound, ValueError) as exc:   # ParameterError is a ValueError
+        print(f'plot_run: cannot plot {args.bag}: the recorded parameters cannot be '
+              f'simulated: {exc}', file=sys.stderr)
+        return EXIT_UNUSABLE
+    except Exception as exc:  # noqa: BLE001 - never a traceback (module docstring)
+        print(f'plot_run: cannot plot {args.bag}: unexpected {type(exc).__name__}: {exc}',
+              file=sys.stderr)
         return EXIT_UNUSABLE
     print(written)
     return EXIT_OK

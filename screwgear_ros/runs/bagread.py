@@ -4,7 +4,9 @@ The MCAP file is read record by record in file order (:func:`scan`; ``mcap``'s
 record classes for schemas, channels and chunks, :func:`iter_messages` with ``mcap``'s
 stream reader for tools that want every message), so messages with equal log times keep
 the order the node wrote them in (which is the order it applied them), and a bag whose
-writer was killed reads up to its last complete chunk. Messages are decoded with the
+writer was killed reads up to its last complete chunk. Only the data section is read:
+the summary repeats it and is checked, never trusted. A bag that cannot be used raises
+:class:`BagError` saying why, whatever failed underneath. Messages are decoded with the
 ROS 2 Jazzy CDR codec of ``rosbags``, except the ~4 per tick of fixed layout
 (joint_states, transmission_error, mesh_state, clock): a chunk's message records are
 located in one pass and those messages are
@@ -31,7 +33,7 @@ import yaml
 from mcap.exceptions import InvalidMagic, McapError
 from mcap.opcode import Opcode
 from mcap.data_stream import ReadDataStream
-from mcap.records import Channel, Chunk, Footer, Message, Schema
+from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Schema
 from mcap.stream_reader import StreamReader
 
 from ..commands import INPUT_TOPICS, command_value
@@ -49,11 +51,15 @@ OUTPUT_TOPICS = {
 }
 RUN_PARAMETERS = 'run_parameters'
 RESET = 'reset'
+#: Every topic of the recording contract (relative name → the only type it may have).
+CONTRACT = {**OUTPUT_TOPICS, **INPUT_TOPICS, RUN_PARAMETERS: 'std_msgs/msg/String',
+            RESET: 'std_msgs/msg/Empty'}
 
 
 class BagError(Exception):
     """A path that cannot be checked; ``kind`` is 'not_a_bag', 'no_parameters',
-    'truncated' or 'invalid'."""
+    'truncated', 'invalid', 'no_data' (plot_run) or 'nothing_to_compare'
+    (:class:`~screwgear_ros.runs.check.NothingToCompare`)."""
 
     def __init__(self, kind: str, message: str) -> None:
         self.kind = kind
@@ -96,6 +102,9 @@ class RecordedRun:
     topics: dict[str, str]                  # resolved topic name → type
     message_count: int
     truncated: str | None = None            # why the file ends early, if it does
+    #: what is wrong with the summary section (None: it checks out, or there is none);
+    #: it is never used, the data section is read either way
+    summary: str | None = None
     names: dict[str, str] = field(default_factory=dict)  # relative → resolved name
     #: (log time, header stamp) of every joint_states whose stamp is not its log time, ns
     stamp_mismatches: list[tuple[int, int]] = field(default_factory=list)
@@ -127,12 +136,19 @@ def find_mcap(path: str | Path) -> tuple[Path, Path]:
     candidates: list[Path] = []
     if meta.is_file():
         try:
-            info = yaml.safe_load(meta.read_text(encoding='utf-8'))['rosbag2_bagfile_information']
+            document = yaml.safe_load(meta.read_bytes().decode('utf-8'))
+            info = document.get('rosbag2_bagfile_information') if isinstance(document,
+                                                                              dict) else None
+            if not isinstance(info, dict) or not isinstance(
+                    info.get('relative_file_paths', []), list):
+                raise TypeError('rosbag2_bagfile_information is not a mapping with a list of '
+                                'relative_file_paths')
             if info.get('storage_identifier') != 'mcap':
                 raise BagError('not_a_bag', f'{path}: storage {info.get("storage_identifier")!r}'
                                ' is not mcap')
             candidates = [path / Path(p).name for p in info.get('relative_file_paths', [])]
-        except (yaml.YAMLError, KeyError, TypeError, AttributeError) as exc:
+        except (yaml.YAMLError, KeyError, TypeError, AttributeError, UnicodeDecodeError,
+                OSError) as exc:
             raise BagError('not_a_bag', f'{meta}: not a rosbag2 metadata file ({exc})') from None
     else:
         candidates = sorted(path.glob('*.mcap'))
@@ -147,7 +163,7 @@ def find_mcap(path: str | Path) -> tuple[Path, Path]:
 
 
 def iter_messages(mcap_path: Path, status: dict[str, Any]) -> Iterator[tuple[str, str, int, bytes]]:
-    """(topic, type, log time ns, CDR bytes) in file order.
+    """(topic, type, log time ns, CDR bytes) of the data section, in file order.
 
     Stops quietly where the file stops making sense and records why in
     ``status['truncated']`` (a killed writer leaves no footer and a partial chunk).
@@ -183,8 +199,8 @@ def iter_messages(mcap_path: Path, status: dict[str, Any]) -> Iterator[tuple[str
                 schemas[record.id] = record.name
             elif isinstance(record, Channel):
                 channels[record.id] = (record.topic, schemas.get(record.schema_id, ''))
-            elif isinstance(record, Footer):
-                break
+            elif isinstance(record, (DataEnd, Footer)):
+                break      # the summary after it repeats the data section (unchecked)
 
 
 def _relative(topic: str) -> str:
@@ -221,15 +237,9 @@ BULK_TOPICS = ('joint_states', 'transmission_error', 'mesh_state', 'clock')
 
 def _wanted(rel: str, msgtype: str) -> str | None:
     """'bulk', 'message' (decoded one by one) or None (not read) for a topic."""
-    if rel in OUTPUT_TOPICS:
-        if msgtype != OUTPUT_TOPICS[rel]:
-            return None
-        return 'bulk' if rel in BULK_TOPICS else 'message'
-    if ((rel in INPUT_TOPICS and msgtype == INPUT_TOPICS[rel])
-            or (rel == RUN_PARAMETERS and msgtype == 'std_msgs/msg/String')
-            or (rel == RESET and msgtype == 'std_msgs/msg/Empty')):
-        return 'message'
-    return None
+    if CONTRACT.get(rel) != msgtype:
+        return None
+    return 'bulk' if rel in BULK_TOPICS else 'message'
 
 
 def _gather(buf: np.ndarray, starts: np.ndarray, width: int) -> np.ndarray:
@@ -372,10 +382,16 @@ def scan(mcap_path: Path, status: dict[str, Any]) -> _Scan:
     """The file's records in order, as :func:`iter_messages` reads them: a killed
     writer's file reads up to its last whole chunk (``status['truncated']`` says why),
     and so does one with a damaged chunk. Keeps the messages of the topics
-    :func:`read_run` uses, undecoded. Message indexes and the summary are skipped
-    unread (they only repeat what the data section says)."""
+    :func:`read_run` uses, undecoded. Message indexes and the summary are never used:
+    they only repeat what the data section says, and a damaged copy must not
+    override it. The summary is checked against the footer's CRC, and
+    ``status['summary']`` says if it is damaged (the data section is read either
+    way, as MCAP's own recovery rebuilds the index from it)."""
     result = _Scan()
-    data = memoryview(mcap_path.read_bytes())
+    try:
+        data = memoryview(mcap_path.read_bytes())
+    except OSError as exc:
+        raise BagError('not_a_bag', f'{mcap_path}: cannot be read: {exc.strerror or exc}') from None
     if bytes(data[:len(MCAP_MAGIC)]) != MCAP_MAGIC:
         if not MCAP_MAGIC.startswith(bytes(data)):
             raise BagError('not_a_bag', f'{mcap_path} is not an MCAP file')
@@ -405,6 +421,9 @@ def scan(mcap_path: Path, status: dict[str, Any]) -> _Scan:
                 result._schema(Schema.read(ReadDataStream(io.BytesIO(record))))
             elif opcode == Opcode.CHANNEL:
                 result._channel(Channel.read(ReadDataStream(io.BytesIO(record))))
+            elif opcode == Opcode.DATA_END:
+                status['summary'] = _summary_damage(mcap_path.name, data, body + length)
+                break
             elif opcode == Opcode.FOOTER:
                 break
         except BagError:
@@ -415,6 +434,26 @@ def scan(mcap_path: Path, status: dict[str, Any]) -> _Scan:
             break
         pos = body + length
     return result
+
+
+_FOOTER = struct.Struct('<BQQQI')     # opcode, length, summary start, offsets start, CRC
+
+
+def _summary_damage(name: str, data: memoryview, summary_start: int) -> str | None:
+    """Why the summary section after the data section's end (at ``summary_start``) and
+    the footer do not check out, or None if they do (the footer's ``summary_crc``
+    covers the summary and the footer up to that field; 0 means not computed)."""
+    at = len(data) - len(MCAP_MAGIC) - _FOOTER.size
+    if at < summary_start or bytes(data[len(data) - len(MCAP_MAGIC):]) != MCAP_MAGIC:
+        return f'{name} has no valid footer after its data section'
+    opcode, length, start, offsets, crc = _FOOTER.unpack_from(data, at)
+    if opcode != Opcode.FOOTER or length != _FOOTER.size - MCAP_RECORD.size:
+        return f'{name} has no valid footer after its data section'
+    if start not in (0, summary_start) or (offsets and not start <= offsets <= at):
+        return f'{name}: its footer points the summary to byte {start}, not {summary_start}'
+    if crc and zlib.crc32(data[summary_start if start else at:at + _FOOTER.size - 4]) != crc:
+        return f'{name}: its summary section does not match the CRC in its footer (damaged)'
+    return None
 
 
 def _fixed_bytes(template: Template) -> np.ndarray:
@@ -471,7 +510,7 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
     """Read a table_sim recording. Raises :class:`BagError` when it cannot be used."""
     bag_dir, mcap_path = find_mcap(path)
     store = typestore()
-    status: dict[str, Any] = {'truncated': None}
+    status: dict[str, Any] = {'truncated': None, 'summary': None}
     found = scan(mcap_path, status)
     topics: dict[str, str] = {}
     names: dict[str, str] = {}
@@ -483,6 +522,10 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
                                                       or rel == RUN_PARAMETERS):
             raise BagError('invalid', f'{path}: two topics named {rel!r} ({names[rel]}, '
                            f'{topic}); one table per bag')
+        if rel in CONTRACT and msgtype != CONTRACT[rel]:
+            raise BagError('invalid', f'{path}: topic {topic} is declared as '
+                           f'{msgtype or "(no schema)"!s}, but table_sim records it as '
+                           f'{CONTRACT[rel]}: the bag is inconsistent')
     one_by_one: list[tuple[int, str, str, int, bytes]] = []
     bulk: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray | list[bytes]]]] = {}
     for channel, kept in found.kept.items():
@@ -496,10 +539,19 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
                                   log_time.tolist(), part))
     one_by_one.sort(key=lambda m: m[0])
 
+    def decode(raw: bytes, msgtype: str, topic: str) -> Any:
+        """``raw`` decoded; a message that is not valid CDR of its type is an invalid bag
+        (whatever the codec raised)."""
+        try:
+            return store.deserialize_cdr(raw, msgtype)
+        except Exception as exc:  # noqa: BLE001 - the codec's errors are of many types
+            raise BagError('invalid', f'{path}: a message on {topic} is not a valid {msgtype} '
+                           f'({type(exc).__name__}: {exc})') from None
+
     first: RunParameters | None = None
     for order, topic, msgtype, log_time, data in one_by_one:
         if _relative(topic) == RUN_PARAMETERS and msgtype == 'std_msgs/msg/String':
-            first = _parse(store.deserialize_cdr(data, msgtype).data, topic)
+            first = _parse(decode(data, msgtype, topic).data, topic)
             first_order = order
             break
     if first is None and status['truncated']:
@@ -528,41 +580,61 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
             continue
         step = int(steps_of(np.array([log_time]), topic)[0])
         if rel == 'active_path':
-            active_path.add(step, order, store.deserialize_cdr(data, msgtype).data)
+            value = decode(data, msgtype, topic).data
+            if value not in (1, 3):
+                raise BagError('invalid', f'{path}: {topic} says path {value}; the paths are '
+                               '1 and 3')
+            active_path.add(step, order, value)
         elif rel in INPUT_TOPICS:
-            msg = store.deserialize_cdr(data, msgtype)
-            events.append((order, Command(rel, command_value(rel, msg), step)))
+            msg = decode(data, msgtype, topic)
+            try:
+                value = command_value(rel, msg)
+            except (TypeError, ValueError) as exc:
+                raise BagError('invalid', f'{path}: a message on {topic} carries no command '
+                               f'value ({exc})') from None
+            events.append((order, Command(rel, value, step)))
         elif rel == RUN_PARAMETERS:
-            params = _parse(store.deserialize_cdr(data, msgtype).data, topic)
+            params = _parse(decode(data, msgtype, topic).data, topic)
             if params.settings.dt != first.settings.dt:
                 raise BagError('invalid', f'{topic}: dt changed during the run')
             events.append((order, ParameterChange(params.params, params.settings, step)))
         elif rel == RESET:
             events.append((order, Reset(step)))
 
+    def sized(msg: Any, topic: str, n: int) -> None:
+        if not len(msg.position) == len(msg.velocity) == len(msg.effort) == n:
+            raise BagError('invalid', f'{path}: a message on {topic} has {len(msg.position)} '
+                           f'positions, {len(msg.velocity)} velocities and {len(msg.effort)} '
+                           f'efforts for {n} names')
+
     def joint_state(raw: bytes) -> tuple[np.ndarray, int]:
-        msg = store.deserialize_cdr(raw, OUTPUT_TOPICS['joint_states'])
+        topic = names['joint_states']
+        msg = decode(raw, OUTPUT_TOPICS['joint_states'], topic)
         try:
             idx = [list(msg.name).index(n) for n in joints]
         except ValueError:
-            raise BagError('invalid', f'{names["joint_states"]}: joints {list(msg.name)} do '
+            raise BagError('invalid', f'{topic}: joints {list(msg.name)} do '
                            f'not include {joints}') from None
+        sized(msg, topic, len(msg.name))
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         return np.concatenate([msg.position[idx], msg.velocity[idx], msg.effort[idx]]), stamp
 
     def mesh_state(raw: bytes) -> tuple[np.ndarray, int]:
-        msg = store.deserialize_cdr(raw, OUTPUT_TOPICS['mesh_state'])
+        topic = names['mesh_state']
+        msg = decode(raw, OUTPUT_TOPICS['mesh_state'], topic)
+        sized(msg, topic, 2)
         return np.concatenate([msg.position, msg.velocity, msg.effort]), 0
 
     def float64(raw: bytes) -> tuple[np.ndarray, int]:
-        return np.array([store.deserialize_cdr(raw, OUTPUT_TOPICS['transmission_error']).data]), 0
+        topic = names['transmission_error']
+        return np.array([decode(raw, OUTPUT_TOPICS['transmission_error'], topic).data]), 0
 
     def mesh_template(parts: list[np.ndarray | list[bytes]]) -> Template | None:
         """The layout of the first mesh_state message's names (the node's: one δ1, δ3)."""
         if not parts:
             return None
         raw = parts[0][0].tobytes() if isinstance(parts[0], np.ndarray) else parts[0][0]
-        msg = store.deserialize_cdr(raw, OUTPUT_TOPICS['mesh_state'])
+        msg = decode(raw, OUTPUT_TOPICS['mesh_state'], names['mesh_state'])
         return joint_state_template(list(msg.name)) if len(msg.name) == 2 else None
 
     layouts = {'joint_states': (lambda parts: joint_state_template(joints), 9, joint_state),
@@ -591,7 +663,7 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
     return RecordedRun(bag_dir, mcap_path, first, events, signals['joint_states'],
                        signals['transmission_error'], signals['mesh_state'],
                        active_path.signal(), signals['clock'], topics, found.count,
-                       status['truncated'], names, stamp_mismatches)
+                       status['truncated'], status['summary'], names, stamp_mismatches)
 
 
 
@@ -600,6 +672,9 @@ def _parse(text: str, topic: str) -> RunParameters:
         return load(text)
     except RunParametersError as exc:
         raise BagError('no_parameters', f'{topic}: {exc}') from None
+    except Exception as exc:  # noqa: BLE001 - a value load() does not foresee (inf, NaN…)
+        raise BagError('no_parameters', f'{topic}: run_parameters refused: '
+                       f'{type(exc).__name__}: {exc}') from None
 
 
 __all__ = ['BagError', 'Command', 'ParameterChange', 'Reset', 'Event', 'Signal',

@@ -275,7 +275,9 @@ class ExactComparison:
 
 def exact_comparison(original: RecordedRun, new: RecordedRun) -> ExactComparison:
     """Every physical event at its recorded step, and every output sample of
-    ``original`` equal bit for bit in ``new`` (which may run on past its end)."""
+    ``original`` equal bit for bit in ``new`` (which may run on past its end). A
+    comparison of no sample says so (:attr:`ExactComparison.nothing_compared`) and is
+    never :attr:`~ExactComparison.ok`."""
     timings = match_events(original, new)
     names = [name for name, _ in signal_names(original)]
     columns = [(original.joint_states, new.joint_states, names[:9]),

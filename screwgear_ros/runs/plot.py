@@ -31,7 +31,7 @@ from ..plant import DriveInput
 from ..report.common import COLORS, plt
 from ..session import Tick
 from .bagread import BagError, RecordedRun
-from .check import CheckReport, signal_names
+from .check import MESH_SIGNALS, CheckReport, signal_names
 from .replay import replay_in_process
 
 #: Resolution the figures are written at (and readable at), dots per inch.
@@ -64,6 +64,7 @@ class Mark(StrEnum):
     """What a drawn artist is (its gid)."""
 
     PARAMETER_CHANGE = 'parameter change'
+    PATH_SWITCH = 'path switch'
     RESET = 'reset'
     REVERSAL = 'reversal'
     DRIVE_TORQUE = 'drive torque'
@@ -174,6 +175,7 @@ def _label_changes(ax: Axes, marks: RunMarks) -> None:
                 f'{len(names)} values' if names else 'same values')
         ax.annotate(text, (change.time, 1.0), xycoords=('data', 'axes fraction'),
                     xytext=(2, 3), textcoords='offset points', fontsize=8, rotation=15,
+                    annotation_clip=True,         # none outside a zoomed time axis
                     color=PARAMETER_STYLE['color'], ha='left', va='bottom')
 
 
@@ -181,14 +183,25 @@ def _legend(ax: Axes) -> None:
     ax.legend(loc='upper left', bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=9)
 
 
-def run_figure(run: RecordedRun) -> Figure:
-    """The recorded run, panel by panel on one simulation-time axis (see :class:`Panel`).
+def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Figure:
+    """The recorded run, panel by panel on one simulation-time axis (see :class:`Panel`);
+    ``zoom`` (t0, t1 in s): only that stretch, each panel scaled to what it shows there.
 
-    Raises :class:`BagError` when the bag holds no output sample, or when its events
-    do not replay as the node applied them (the drawn inputs would be guesses).
+    Raises :class:`BagError` when the bag holds no data to draw (fewer than two output
+    samples: empty axes would look like a run that did nothing), when ``zoom`` holds no
+    sample, or when its events do not replay as the node applied them (the drawn inputs
+    would be guesses).
     """
-    if not len(run.joint_states):
-        raise BagError('invalid', f'{run.path}: no joint_states sample to plot')
+    if len(run.joint_states) < 2:
+        raise BagError('no_data', f'{run.path}: no data to plot: {len(run.joint_states)} '
+                       'joint_states sample(s), a run needs two to be drawn over time'
+                       + (f' ({run.truncated})' if run.truncated else ''))
+    if zoom is not None:
+        t = run.joint_states.steps * run.dt
+        if not np.any((t >= zoom[0]) & (t <= zoom[1])):
+            raise BagError('no_data', f'{run.path}: no data to plot in --zoom '
+                           f'{zoom[0]:g}:{zoom[1]:g} s: the run has samples from '
+                           f'{t[0]:g} s to {t[-1]:g} s')
     ticks = replay_in_process(run).ticks
     marks = run_marks(run, ticks)
     params = run.parameters.params
@@ -232,9 +245,16 @@ def run_figure(run: RecordedRun) -> Figure:
     _legend(a)
 
     a = ax[Panel.TRANSMISSION_ERROR]
-    te = run.transmission_error
-    a.plot(te.steps * run.dt, te.values[:, 0] * 1e6, color=COLORS[0],
-           label='δ of the active path')
+    # δ of each mesh, not of the active path: a path switch at rest would otherwise
+    # look like a jump of the transmission error by the whole backlash and preload.
+    ms = run.mesh_state
+    a.plot(ms.steps * run.dt, ms.values[:, 0] * 1e6, color=COLORS[0], label='δ1 mesh 1')
+    if not conventional:
+        a.plot(ms.steps * run.dt, ms.values[:, 1] * 1e6, color=COLORS[1], label='δ3 mesh 3')
+    switches = run.active_path.steps[1:] * run.dt
+    for k, time in enumerate(switches):
+        a.axvline(time, color=COLORS[4], linestyle=':', linewidth=1.0, gid=Mark.PATH_SWITCH,
+                  label=f'path switch ({len(switches)})' if k == 0 else None)
     if params.backlash > 0.0:
         for sign in (1.0, -1.0):
             a.axhline(sign * params.backlash * 1e6, color='0.4', linestyle=':', linewidth=1.0,
@@ -250,16 +270,45 @@ def run_figure(run: RecordedRun) -> Figure:
     _label_changes(axes[0], marks)
     axes[-1].set_xlabel('simulation time [s]')
     axes[-1].set_xlim(float(t[0]), t_end)
+    if zoom is not None:
+        axes[-1].set_xlim(*zoom)
+        for a in axes:
+            if a.get_label() != Panel.PATH:
+                _fit_y(a, *zoom)
 
     handles = [Line2D([], [], label=f'parameter change ({len(marks.parameter_changes)})',
                       **PARAMETER_STYLE),
                Line2D([], [], label=f'reset ({len(marks.resets)})', **RESET_STYLE)]
     fig.legend(handles=handles, loc='outside upper right', ncols=2, fontsize=9, frameon=False)
     truncated = '; TRUNCATED: the readable part' if run.truncated else ''
+    if zoom is not None:
+        truncated += f'; zoomed to {zoom[0]:g}–{zoom[1]:g} s'
     fig.suptitle(f'{run.path.name}: {params.mode.value} mode, dt = {run.dt * 1e6:g} µs, '
                  f'{run.parameters.settings.publish_rate:g} Hz outputs, '
                  f'{t_end - float(t[0]):.2f} s{truncated}', fontsize=13, x=0.02, ha='left')
     return fig
+
+
+def _fit_y(a: Axes, t0: float, t1: float) -> None:
+    """Scale the y axis of ``a`` to its data lines between t0 and t1 (a step line's
+    value at t0 included)."""
+    low, high = np.inf, -np.inf
+    for line in a.get_lines():
+        if line.get_transform() != a.transData:        # axhline/axvline: not data
+            continue
+        x, y = np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)
+        if len(x) < 1:
+            continue
+        inside = (x >= t0) & (x <= t1)
+        before = np.flatnonzero(x < t0)
+        if len(before):
+            inside[before[-1]] = True
+        values = y[inside & np.isfinite(y)]
+        if len(values):
+            low, high = min(low, values.min()), max(high, values.max())
+    if np.isfinite(low):
+        pad = 0.05 * (high - low) or 0.05 * abs(high) or 1.0
+        a.set_ylim(low - pad, high + pad)
 
 
 def _draw_mesh(a: Axes, run: RecordedRun, ticks: list[Tick], conventional: bool) -> None:
@@ -312,16 +361,19 @@ def _draw_path(a: Axes, run: RecordedRun, marks: RunMarks, t_end: float) -> None
 def check_figure(run: RecordedRun, report: CheckReport) -> Figure:
     """|node − reference| of every checked signal against its tolerance, log scale:
     rows pinion 1, table, pinion 3 (position, velocity, effort), then the
-    transmission error; one time axis. Each axes is labelled with its signal's name."""
-    names = signal_names(run)
+    transmission error, then mesh 1 and mesh 3 (δ, δ̇, F); one time axis. Each axes is
+    labelled with its signal's name."""
+    names = signal_names(run) + MESH_SIGNALS
     joints = len(run.parameters.settings.joint_names)
     by_name = {s.name: s for s in report.signals}
-    fig = plt.figure(figsize=(14, 11), dpi=DPI, layout='constrained')
-    grid = fig.add_gridspec(joints + 1, 3)
+    fig = plt.figure(figsize=(14, 16), dpi=DPI, layout='constrained')
+    grid = fig.add_gridspec(joints + 3, 3)
     marks = run_marks(run)
     first: Axes | None = None
     for k, (name, unit) in enumerate(names):
-        cell = grid[joints, :] if k == 3 * joints else grid[k % joints, k // joints]
+        mesh = k - 3 * joints - 1          # δ1, δ3, δ̇1, δ̇3, F1, F3: a column per quantity
+        cell = (grid[joints, :] if k == 3 * joints else grid[k % joints, k // joints]
+                if k < 3 * joints else grid[joints + 1 + mesh % 2, mesh // 2])
         a = fig.add_subplot(cell, sharex=first)
         first = first or a
         a.set_label(name)
@@ -349,7 +401,7 @@ def check_figure(run: RecordedRun, report: CheckReport) -> Figure:
                     color='k' if signal.ok else COLORS[1], fontweight='normal'
                     if signal.ok else 'bold')
         a.set_ylabel(f'|error| [{unit}]')
-        if k % joints == joints - 1 or k == 3 * joints:
+        if mesh >= 0 and mesh % 2 == 1:     # the bottom row
             a.set_xlabel('simulation time [s]')
     handles = [Line2D([], [], color=COLORS[0], label='|node − reference| at each sample'),
                Line2D([], [], label=f'tolerance ({report.safety:g} × Richardson estimate of '
