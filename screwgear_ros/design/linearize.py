@@ -137,25 +137,50 @@ class LinearModel:
     outputs: tuple[str, ...] = OUTPUTS
 
     def modes(self) -> list[ModeInfo]:
-        """The modes by rising frequency: each oscillating pair once, each real eigenvalue."""
+        """The modes by rising frequency: the motions no spring holds (eigenvalue 0: the
+        rigid body, a pinion whose mesh is open), then each oscillating pair once and each
+        real eigenvalue."""
         lam, vec = np.linalg.eig(self.a)
         scale = float(np.max(np.abs(lam))) or 1.0
-        found = []
+        found = self._free_motions()
         for k in range(len(lam)):
             value = complex(lam[k])
-            if value.imag < -1e-9 * scale:
-                continue                              # the conjugate is shown
+            # zero eigenvalues come out of eig as ±√(eps·‖A‖) (defective): taken above
+            if abs(value) <= ZERO_EIGENVALUE * scale or value.imag < -1e-9 * scale:
+                continue                              # a conjugate is shown once
             if abs(value.imag) <= 1e-9 * scale:
                 value = complex(value.real, 0.0)
             v = vec[:3, k] if np.any(np.abs(vec[:3, k]) > 0) else vec[3:, k]
             v = v / v[np.argmax(np.abs(v))]
-            size = abs(value)
-            # a double zero (the free rigid body) comes out of eig as ±√(eps·‖A‖)
-            zero = size <= ZERO_EIGENVALUE * scale
-            damping = 0.0 if zero else -value.real / size
-            found.append(ModeInfo(value, 0.0 if zero else size, damping,
-                                  self._shape(v, zero), tuple(complex(x) for x in v)))
+            found.append(ModeInfo(value, abs(value), -value.real / abs(value),
+                                  self._shape(v, False), tuple(complex(x) for x in v)))
         return sorted(found, key=lambda m: (m.frequency, -m.damping))
+
+    def _free_motions(self) -> list[ModeInfo]:
+        """The zero modes: angle motions on which no spring acts (the null space of the
+        stiffness block of A), a pinion that touches nothing on its own, the rest rigid."""
+        stiffness = self.a[3:, :3]
+        tol = ZERO_EIGENVALUE * (float(np.abs(stiffness).max()) or 1.0)
+        _, sigma, vt = np.linalg.svd(stiffness)
+        null = vt[sigma <= tol]
+        if len(null) == 0:
+            return []
+        found = []
+        alone = [i for i in (0, 2) if not np.any(np.abs(stiffness[:, i]) > tol)
+                 and not np.any(np.abs(stiffness[i, :]) > tol)]
+        for i in alone:
+            v = np.zeros(3, dtype=complex)
+            v[i] = 1.0
+            found.append(ModeInfo(0j, 0.0, 0.0, self._shape(v, True), tuple(v)))
+        for _ in range(len(null) - len(alone)):
+            p = self.params
+            v = np.array([p.radius_table / p.radius_pinion_1, 1.0,
+                          p.radius_table / p.radius_pinion_3], dtype=complex)
+            for i in alone:
+                v[i] = 0.0
+            v = v / v[np.argmax(np.abs(v))]
+            found.append(ModeInfo(0j, 0.0, 0.0, 'rigid body', tuple(v)))
+        return found
 
     def _shape(self, v: np.ndarray, zero: bool) -> str:
         """A one-line description of an angle mode shape ``v`` (largest entry 1)."""
