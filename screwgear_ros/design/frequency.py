@@ -335,61 +335,49 @@ def _stepped_sine(runner: _Runner, plan: list[tuple[int, int, float]], amplitude
 
 def _chirp(runner: _Runner, frequencies: np.ndarray, amplitude: float, u0: float, h: float,
            settle: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """One exponential sweep from half the lowest to twice the highest frequency, long
-    enough for ten cycles at the lowest; Fourier sums at each frequency after detrending
-    (the sweep's response at a frequency is its passage there)."""
-    f0, f1 = 0.5 * frequencies[0], min(2.0 * frequencies[-1], 0.05 / h)
+    """One exponential sweep from a quarter of the lowest to twice the highest frequency,
+    long enough for ten cycles at the lowest; at each frequency the ratio of the Fourier
+    sums of the detrended output and of the input (a Hann window over the sweep). The
+    coherence is the sine method's, over the sweep's passage through the frequency (±10 %):
+    the fraction of the detrended output a sinusoid in the sweep's phase explains."""
+    f0, f1 = 0.25 * frequencies[0], min(2.0 * frequencies[-1], 0.05 / h)
     duration = max(10.0 / frequencies[0], 20.0 * settle)
     ticks = int(round(duration / h))
     start = math.ceil(settle / h)
     steps = np.arange(ticks + start)
-    t_mid = (steps - start + 0.5) * h
+    t_mid = (steps - start + 0.5) * h               # each value holds over its step
     rate = math.log(f1 / f0) / duration
     phase = 2.0 * math.pi * f0 * (np.exp(rate * np.clip(t_mid, 0.0, None)) - 1.0) / rate
     values = u0 + amplitude * np.where(t_mid >= 0.0, np.sin(phase), 0.0)
     y = runner.run(values)[start:]
     u = values[start:] - u0
-    t = (steps[start:] + 1) * h
-    tc = t - t.mean()
-    trend = np.column_stack([np.ones_like(t), tc])
+    t_u = t_mid[start:]
+    t = t_u + 0.5 * h                               # outputs at the steps' ends
+    trend = np.column_stack([np.ones_like(t), t - t.mean()])
     base, *_ = np.linalg.lstsq(trend, y, rcond=None)
     y = y - trend @ base
     window = np.hanning(len(t))
     n_out = y.shape[1]
     measured = np.empty((n_out, len(frequencies)), dtype=complex)
-    coherence = np.empty((n_out, len(frequencies)))
+    coherence = np.zeros((n_out, len(frequencies)))
     for k, hz in enumerate(frequencies):
-        kernel = window * np.exp(-2j * math.pi * hz * t)
-        zoh = math.sin(math.pi * hz * h) / (math.pi * hz * h)
-        measured[:, k] = (kernel @ y) / ((kernel @ u) * zoh)
-        # trust: how much of the output near this frequency the linear map of the input
-        # explains, over the sweep's passage (a local fit of y on u's in-phase and
-        # quadrature parts)
-        coherence[:, k] = _chirp_coherence(t, u, y, hz, rate, f0)
+        omega = 2.0 * math.pi * hz
+        zoh = math.sin(0.5 * omega * h) / (0.5 * omega * h)
+        measured[:, k] = ((window * np.exp(-1j * omega * t)) @ y) / (
+            (window * np.exp(-1j * omega * t_u)) @ u * zoh)
+        centre, half = math.log(hz / f0) / rate, math.log(1.1) / rate
+        mask = (t_u >= centre - half) & (t_u <= centre + half)
+        if mask.sum() >= 8:
+            ph = phase[start:][mask]
+            basis = np.column_stack([np.cos(ph), np.sin(ph), np.ones(mask.sum()),
+                                     t[mask] - t[mask].mean()])
+            coef, *_ = np.linalg.lstsq(basis, y[mask], rcond=None)
+            rest, *_ = np.linalg.lstsq(basis[:, 2:], y[mask], rcond=None)
+            total = np.sum((y[mask] - basis[:, 2:] @ rest) ** 2, axis=0)
+            left = np.sum((y[mask] - basis @ coef) ** 2, axis=0)
+            with np.errstate(invalid='ignore', divide='ignore'):
+                coherence[:, k] = np.clip(np.where(total > 0, 1.0 - left / total, 0.0), 0, 1)
     return measured, coherence, (ticks + start) * h
-
-
-def _chirp_coherence(t: np.ndarray, u: np.ndarray, y: np.ndarray, hz: float, rate: float,
-                     f0: float) -> np.ndarray:
-    """Fraction of y's variance, over the sweep's passage through ``hz`` (±10 %), that a
-    linear fit on the input and its quadrature (a quarter period later) explains."""
-    if hz <= f0:
-        return np.zeros(y.shape[1])
-    centre = math.log(hz / f0) / rate
-    half = math.log(1.1) / rate
-    mask = (t >= centre - half) & (t <= centre + half)
-    if mask.sum() < 8:
-        return np.zeros(y.shape[1])
-    shift = max(1, int(round(0.25 / (hz * (t[1] - t[0])))))
-    idx = np.nonzero(mask)[0]
-    idx = idx[idx >= shift]
-    basis = np.column_stack([u[idx], u[idx - shift], np.ones(len(idx))])
-    coef, *_ = np.linalg.lstsq(basis, y[idx], rcond=None)
-    residual = y[idx] - basis @ coef
-    total = np.sum((y[idx] - y[idx].mean(axis=0)) ** 2, axis=0)
-    with np.errstate(invalid='ignore', divide='ignore'):
-        return np.clip(np.where(total > 0, 1.0 - np.sum(residual ** 2, axis=0) / total, 0.0),
-                       0.0, 1.0)
 
 
 __all__ = ['Method', 'Input', 'INPUT_COLUMN', 'CSV_COLUMNS', 'Measurement', 'measure',
