@@ -67,6 +67,8 @@ INPUT_COLUMN = {Input.TORQUE: 0, Input.LOAD: 1}
 INPUT_UNIT = 'N·m'
 CSV_COLUMNS = ('frequency_hz', 'output', 'magnitude', 'phase_deg', 'magnitude_linear',
                'phase_deg_linear', 'coherence')
+#: Coherence below which a measured point is drawn hollow (not to be trusted).
+TRUST = 0.9
 #: Transient allowance: this many time constants of the slowest decaying mode.
 SETTLE_TIME_CONSTANTS = 8.0
 #: Bounds of the settling time, s.
@@ -110,35 +112,44 @@ class Measurement:
                 writer.writerow([f'{row[0]:.9g}', row[1], *(f'{v:.9g}' for v in row[2:])])
 
     def figure(self):
-        """A Bode plot: magnitude and phase of each output, measured (markers) and linear
-        (lines), the oscillating modes marked."""
+        """A Bode plot: magnitude and phase of each output, measured (markers; hollow where
+        the coherence is below ``TRUST``) and linear (lines), the oscillating modes marked."""
         import matplotlib
         matplotlib.use('Agg')
         import matplotlib.pyplot as plt
         n = len(self.outputs)
-        fig, axes = plt.subplots(2, n, figsize=(5.2 * n, 6.4), squeeze=False, sharex=True)
+        fig, axes = plt.subplots(2, n, figsize=(5.6 * n, 6.6), squeeze=False, sharex=True)
         fine = np.geomspace(self.frequency[0], self.frequency[-1], 600) \
             if len(self.frequency) > 1 else self.frequency
         column = INPUT_COLUMN[self.input]
         dense = self.model.response(fine)[:, column, :]
-        modes = [m for m in self.model.modes() if m.oscillating]
+        at_points = self.model.response(self.frequency)[:, column, :]
+        modes = [m for m in self.model.modes() if m.oscillating
+                 and self.frequency[0] <= m.hz <= self.frequency[-1]]
         for i, name in enumerate(self.outputs):
             row = OUTPUTS.index(name)
             mag, ph = axes[0, i], axes[1, i]
+            trusted = self.coherence[i] >= TRUST
+            line_phase = np.degrees(np.unwrap(np.angle(dense[row])))
+            # each measured phase drawn on the branch of the linear curve at its frequency
+            ref = np.interp(np.log(self.frequency), np.log(fine), line_phase)
+            measured_phase = ref + _deg_wrap(np.degrees(np.angle(self.measured[i]))
+                                             - np.degrees(np.angle(at_points[row])))
             mag.loglog(fine, np.abs(dense[row]), color='C0', label='linear model')
-            mag.loglog(self.frequency, np.abs(self.measured[i]), 'o', ms=3.5, color='C3',
-                       label=f'measured ({self.method.value}, amplitude {self.amplitude:g} '
-                       f'{INPUT_UNIT})')
-            ph.semilogx(fine, np.degrees(np.unwrap(np.angle(dense[row]))), color='C0')
-            ph.semilogx(self.frequency, np.degrees(np.angle(self.measured[i])), 'o', ms=3.5,
-                        color='C3')
-            for mode in modes:
-                if self.frequency[0] <= mode.hz <= self.frequency[-1]:
-                    for ax in (mag, ph):
-                        ax.axvline(mode.hz, color='0.6', lw=0.8, ls='--')
-                    mag.annotate(f'{mode.hz:.1f} Hz\n{mode.shape}', (mode.hz, 1.0),
-                                 xycoords=('data', 'axes fraction'), fontsize=6.5,
-                                 rotation=90, va='top', ha='right', color='0.35')
+            ph.semilogx(fine, line_phase, color='C0')
+            for mask, style in ((trusted, dict(color='C3')),
+                                (~trusted, dict(mfc='none', mec='C3'))):
+                if mask.any():
+                    label = (f'measured ({self.method.value}, {self.amplitude:g} {INPUT_UNIT})'
+                             if style.get('color') else f'measured, coherence < {TRUST:g}')
+                    mag.loglog(self.frequency[mask], np.abs(self.measured[i][mask]), 'o',
+                               ms=4, label=label, **style)
+                    ph.semilogx(self.frequency[mask], measured_phase[mask], 'o', ms=4, **style)
+            for c, mode in enumerate(modes):
+                for ax in (mag, ph):
+                    ax.axvline(mode.hz, color=f'C{c + 1}', lw=0.9, ls='--',
+                               label=(f'{mode.hz:.1f} Hz, ζ {mode.damping:.3f}: {mode.shape}'
+                                      if ax is mag else None))
             unit = OUTPUT_UNITS[row]
             mag.set_title(f'{self.input.value} → {name}', fontsize=10)
             mag.set_ylabel(f'|H|, {unit}/{INPUT_UNIT}')
@@ -157,6 +168,11 @@ class Measurement:
             fig.savefig(path, dpi=110)
         finally:
             plt.close(fig)
+
+
+def _deg_wrap(angle: np.ndarray) -> np.ndarray:
+    """Angles in degrees wrapped into (−180, 180]."""
+    return -((-np.asarray(angle) + 180.0) % 360.0 - 180.0)
 
 
 def _settle_time(model: LinearModel) -> float:
