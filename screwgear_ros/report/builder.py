@@ -10,12 +10,13 @@ from types import ModuleType
 from tqdm import tqdm
 
 from .. import __name__ as package_name
-from . import (antibacklash, damping, derived, energy, fluctuation, index, response,
+from . import (antibacklash, damping, derived, design, energy, fluctuation, index, response,
                stability, stiffness, thermal, validation)
 from .common import Section, verdict_table
 
 SECTIONS: tuple[ModuleType, ...] = (derived, response, damping, stiffness, index, stability,
-                                    fluctuation, thermal, antibacklash, validation, energy)
+                                    fluctuation, thermal, antibacklash, validation, energy,
+                                    design)
 PAPER = ('the paper on the double screw gear anti-backlash rotary table '
          '(lumped-parameter model, normalized equation, RK4)')
 
