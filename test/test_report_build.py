@@ -39,7 +39,7 @@ def test_every_link_is_a_relative_png_that_exists_and_every_figure_is_linked(
 def test_report_has_every_section_and_a_verdict_for_each_claim(quick_report: Path) -> None:
     text = (quick_report / 'report.md').read_text(encoding='utf-8')
     headings = re.findall(r'^## (\d+)\. ', text, flags=re.MULTILINE)
-    assert headings == [str(n) for n in range(1, 12)]
+    assert headings == [str(n) for n in range(1, 13)]
     summary = text.split('## Summary of verdicts')[1].split('\n## ')[0]
     rows = [r for r in summary.splitlines() if r.startswith('| §')]
     assert len(rows) >= 20
