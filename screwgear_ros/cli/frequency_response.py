@@ -11,6 +11,11 @@ Exit status: 0 written; 2 not written, with the reason on stderr and never a tra
 parameter file or value the node refuses, an operating point with no steady motion, a
 request the measurement cannot do, an output that cannot be written); 1 the model
 diverged during a measurement.
+
+``--controller demo|module:callable`` closes the loop (:mod:`screwgear_ros.design.
+closed_loop`): the sine is added to the controller's effort, and the rows are the loop
+gain, the sensitivity and each output's closed-loop response; it prints the gain and phase
+margins read off the measured loop gain (and off the loop with the linear plant).
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..design.closed_loop import make_controller, measure_loop
 from ..design.frequency import Input, Method, measure
 from ..design.linearize import OUTPUTS, OperatingPointError
 from ..params import ParameterError
@@ -59,6 +65,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--direction', type=int, default=1, choices=(1, -1))
     parser.add_argument('--method', choices=[m.value for m in Method], default='sine',
                         help='stepped sines (default) or one exponential chirp')
+    parser.add_argument('--controller', metavar='demo|module:callable',
+                        help='close the loop with this controller (the demo PID, or a factory '
+                        'called as scenarios call it) holding the table; measures the loop '
+                        'gain, the sensitivity and the closed-loop response, and the margins')
     parser.add_argument('-o', '--out', required=True, metavar='OUT',
                         help='output stem: OUT.csv and OUT.png')
     args = parser.parse_args(argv)
@@ -75,12 +85,25 @@ def main(argv: list[str] | None = None) -> int:
             raise OperatingPointError(f'{stem.parent} is not a directory')
         params, settings = resolve(file_values(args.params) if args.params else {})
         frequencies = np.geomspace(args.low, args.high, args.points)
-        result = measure(params, settings, input=args.input, outputs=args.output,
-                         frequencies=frequencies, amplitude=args.amplitude, torque=args.torque,
-                         load=args.load, direction=args.direction, method=args.method)
+        loop = None
+        if args.controller:
+            if args.input != 'torque' or args.method != 'sine':
+                raise OperatingPointError('--controller measures with stepped sines added to '
+                                          "the controller's torque (--input torque, --method "
+                                          'sine)')
+            controller = make_controller(args.controller, settings)
+            loop = measure_loop(params, settings, controller, outputs=args.output,
+                                frequencies=frequencies, amplitude=args.amplitude,
+                                torque=args.torque, load=args.load, direction=args.direction)
+            result = loop.response
+        else:
+            result = measure(params, settings, input=args.input, outputs=args.output,
+                             frequencies=frequencies, amplitude=args.amplitude,
+                             torque=args.torque, load=args.load, direction=args.direction,
+                             method=args.method)
         csv_path, png_path = stem.with_name(stem.name + '.csv'), stem.with_name(stem.name + '.png')
         result.write_csv(csv_path)
-        result.save_figure(png_path)
+        (loop or result).save_figure(png_path)
     except (ParameterFileError, ParameterError, OperatingPointError) as exc:
         print(f'frequency_response: {exc}', file=sys.stderr)
         return EXIT_ERROR
@@ -105,6 +128,9 @@ def main(argv: list[str] | None = None) -> int:
     print(f'{len(result.frequency)} frequencies × {len(result.outputs)} outputs, '
           f'{args.method}: {result.simulated:.3f} s simulated in {result.wall:.2f} s; lowest '
           f'coherence {worst:.4f}')
+    if loop is not None:
+        print(f'closed loop ({args.controller}), measured: {loop.margins.describe()}')
+        print(f'closed loop ({args.controller}), linear plant: {loop.margins_linear.describe()}')
     print(f'wrote {csv_path} and {png_path}')
     return EXIT_OK
 
