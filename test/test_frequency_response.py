@@ -1,7 +1,7 @@
 """frequency_response: the response measured by simulation against the linear model (where
 the plant is linear), against the rigid-body asymptote, with its resonance peaks located
 from the measurement alone; parting from the linear curve where the backlash opens; the
-executable's CSV, figure and refusals."""
+executable's CSV, figure and refusals; the closed loop's margins against closed forms."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from bag_runs import installed
+from screwgear_ros.design.closed_loop import LOOP, SENSITIVITY, margins, measure_loop
 from screwgear_ros.design.frequency import CSV_COLUMNS, measure
 from screwgear_ros.design.linearize import OperatingPointError, linearize
 from screwgear_ros.params import Mode, TableParams
@@ -151,3 +152,68 @@ def test_bad_requests_exit_2_with_the_reason(tmp_path, args, says):
 def test_an_unknown_output_is_refused():
     with pytest.raises(OperatingPointError, match='unknown output'):
         measure(LINEAR_TABLE, outputs=('table_angel',))
+
+
+# ---------------------------------------------------------------- closed loop
+
+def test_margins_of_an_integrator_with_a_delay_are_the_closed_forms():
+    """L = (ω_c/jω)·e^(−jωτ): gain crossover at ω_c with phase margin 90° − ω_c·τ, phase
+    crossover at π/(2τ) with gain margin π/(2τ·ω_c)."""
+    w_c, tau = 2.0 * math.pi * 5.0, 0.02
+    f = np.geomspace(0.5, 100.0, 400)
+    w = 2.0 * math.pi * f
+    m = margins(f, w_c / (1j * w) * np.exp(-1j * w * tau))
+    assert m.phase_at_hz == pytest.approx(5.0, rel=1e-3)
+    assert m.phase == pytest.approx(90.0 - math.degrees(w_c * tau), abs=0.05)
+    assert m.gain_at_hz == pytest.approx(1.0 / (4.0 * tau), rel=1e-3)
+    assert m.gain == pytest.approx(math.pi / (2.0 * tau * w_c), rel=1e-3)
+
+
+def test_the_measured_loop_of_a_pd_law_has_the_margins_of_its_closed_form():
+    """The demo law with no integral is c = −(Kp + Kd·s)·θ2, sampled at the tick and held
+    for the next: around the linear plant, L = (Kp + jω·Kd)·P(jω)·e^(−jωh/2)·sinc(ωh/2)."""
+    from scipy.optimize import brentq
+
+    from screwgear_ros.control import DemoController, DemoGains
+    from screwgear_ros.params import SimSettings
+    from screwgear_ros.scenario import Setpoint
+    settings = SimSettings()
+    gains = DemoGains(ki=0.0)
+    controller = DemoController(gains, dt=settings.dt,
+                                setpoint=Setpoint('steps', points=((0.0, 0.0),)))
+    f = np.geomspace(1.0, 40.0, 10)
+    lm = measure_loop(LINEAR_TABLE, settings, controller, frequencies=f, amplitude=5.0)
+    assert np.all(lm.response.coherence >= 0.99)
+    h = 1.0 / settings.publish_rate
+    model = lm.response.model
+
+    def loop(hz):
+        w = 2.0 * math.pi * hz
+        p = model.response([hz])[0, 0, 0]
+        return (gains.kp + 1j * w * gains.kd) * p * np.exp(-0.5j * w * h) \
+            * math.sin(0.5 * w * h) / (0.5 * w * h)
+
+    crossover = brentq(lambda x: abs(loop(math.exp(x))) - 1.0, 0.0, math.log(40.0))
+    hz = math.exp(crossover)
+    phase = math.degrees(np.angle(loop(hz)))
+    phase -= 360.0 * math.ceil(phase / 360.0)
+    assert lm.margins.phase_at_hz == pytest.approx(hz, rel=0.02)
+    assert lm.margins.phase == pytest.approx(180.0 + phase, abs=1.0)
+    # S = 1/(1 + L) from the same measurement
+    np.testing.assert_allclose(lm.response.measured[1], 1.0 / (1.0 + lm.response.measured[0]),
+                               rtol=0.02)
+
+
+def test_the_executable_closes_the_loop_with_the_demo(tmp_path):
+    proc = installed('frequency_response', '--controller', 'demo', '--from', '1', '--to', '30',
+                     '--points', '5', '-o', tmp_path / 'loop')
+    assert proc.returncode == 0, proc.stderr
+    assert 'phase margin' in proc.stdout
+    with open(tmp_path / 'loop.csv', newline='') as stream:
+        names = {row['output'] for row in csv.DictReader(stream)}
+    assert names == {LOOP, SENSITIVITY, 'table_angle'}
+    assert (tmp_path / 'loop.png').stat().st_size > 20_000
+    bad = installed('frequency_response', '--controller', 'no_such_module:law', '--to', '30',
+                    '--points', '2', '-o', tmp_path / 'bad')
+    assert bad.returncode == 2 and 'no_such_module' in bad.stderr
+    assert 'Traceback' not in bad.stderr + bad.stdout
