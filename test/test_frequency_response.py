@@ -217,3 +217,16 @@ def test_the_executable_closes_the_loop_with_the_demo(tmp_path):
                     '--points', '2', '-o', tmp_path / 'bad')
     assert bad.returncode == 2 and 'no_such_module' in bad.stderr
     assert 'Traceback' not in bad.stderr + bad.stdout
+
+
+def test_the_paper_table_at_rest_follows_the_frozen_model():
+    """The paper's full table (STE, k_a' = 0.1, backlash) standing still: where the motion
+    stays small against a tooth (above the lowest frequencies) the measurement follows the
+    model frozen at the rest angle, and the averaged model's resonance is not where it is."""
+    paper = TableParams()
+    m = measure(paper, outputs=('table_angle', 'transmission_error'),
+                frequencies=(20.0, 100.0, 180.0, 300.0), mesh='frozen')
+    assert np.all(np.abs(_db(m.measured, m.linear)) <= 0.5)
+    assert np.all(np.abs(_deg(m.measured, m.linear)) <= 3.0)
+    average = measure(paper, outputs=('table_angle',), frequencies=(180.0,))
+    assert np.abs(_db(average.measured, average.linear)).max() > 3.0

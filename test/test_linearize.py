@@ -223,3 +223,27 @@ def test_bad_values_in_the_core_raise_operating_point_error():
                    {'load': 1e9}):
         with pytest.raises(OperatingPointError):
             linearize(PAPER, **kwargs)
+
+
+def test_the_frozen_mesh_is_the_average_without_mesh_excitation():
+    params = PAPER.replace(mesh_stiffness_amplitude=0.0, ste_amplitudes=(0.0,))
+    for torque, load in ((0.0, 0.0), (50.0, 50.0 * params.radius_table / params.radius_pinion_1)):
+        average = linearize(params, torque, load)
+        frozen = linearize(params, torque, load, 1, 'frozen')
+        assert frozen.mesh.value == 'frozen'
+        np.testing.assert_allclose(frozen.a, average.a, rtol=1e-6, atol=1e-6 * np.abs(average.a).max())
+        np.testing.assert_allclose(frozen.b, average.b, rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(frozen.c, average.c, rtol=1e-12)
+
+
+def test_a_frozen_mesh_is_refused_where_the_phase_advances(tmp_path):
+    with pytest.raises(OperatingPointError, match='static operating point'):
+        linearize(PAPER, 100.0, 0.0, 1, 'frozen')
+    with pytest.raises(OperatingPointError, match='angle mesh phase'):
+        linearize(PAPER.replace(mesh_phase=MeshPhase.TIME), mesh='frozen')
+    proc = installed('linearize', '--mesh', 'frozen', '--torque', '100', '-o', tmp_path / 'm.npz')
+    assert proc.returncode == 2 and 'static operating point' in proc.stderr
+    proc = installed('linearize', '--mesh', 'frozen', '--torque', '20', '--load', 'hold',
+                     '-o', tmp_path / 'm.npz')
+    assert proc.returncode == 0 and 'frozen at the rest angle' in proc.stdout
+    assert str(np.load(tmp_path / 'm.npz')['mesh']) == 'frozen'

@@ -65,6 +65,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--direction', type=int, default=1, choices=(1, -1))
     parser.add_argument('--method', choices=[m.value for m in Method], default='sine',
                         help='stepped sines (default) or one exponential chirp')
+    parser.add_argument('--mesh', choices=('average', 'frozen'), default='average',
+                        help="the linear model's mesh (see linearize --mesh; default average)")
     parser.add_argument('--controller', metavar='demo|module:callable',
                         help='close the loop with this controller (the demo PID, or a factory '
                         'called as scenarios call it) holding the table; measures the loop '
@@ -100,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
             result = measure(params, settings, input=args.input, outputs=args.output,
                              frequencies=frequencies, amplitude=args.amplitude,
                              torque=args.torque, load=args.load, direction=args.direction,
-                             method=args.method)
+                             method=args.method, mesh=args.mesh)
         csv_path, png_path = stem.with_name(stem.name + '.csv'), stem.with_name(stem.name + '.png')
         result.write_csv(csv_path)
         (loop or result).save_figure(png_path)

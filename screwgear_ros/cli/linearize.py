@@ -5,7 +5,9 @@ Writes A, B, C, D with the names of the states, inputs and outputs: MODEL.npz (N
 default), a MATLAB .mat file when MODEL ends in .mat, or with ``--format control`` a pickled
 ``control.StateSpace`` (python-control). Prints the operating point, the contact state it
 assumed, each mode (natural frequency in rad/s and Hz, damping ratio, shape) and any
-warning that the point sits near a contact change.
+warning that the point sits near a contact change. ``--load hold``: the load that holds the
+drive torque (table at rest). ``--mesh frozen`` (static points, `angle` phase): the full
+model at its rest angle instead of the mesh's time average.
 
 Exit status: 0 written; 2 not written, with the reason on stderr and never a traceback (a
 parameter file or value the node refuses, an operating point with no steady motion, an
@@ -30,6 +32,18 @@ def load_params(path: str | None):
     return resolve(file_values(path) if path else {})[0]
 
 
+def holding_load(params, torque: float, load: str, direction: int) -> float:
+    """``load`` as a number, N·m, or for "hold" the load that holds ``torque``."""
+    if load == 'hold':
+        from ..design.frequency import default_bias
+        return default_bias(params, 'torque', 1.0, torque, None, direction)[1]
+    try:
+        return float(load)
+    except ValueError:
+        raise OperatingPointError(f'--load must be a number of N·m or "hold", not {load!r}') \
+            from None
+
+
 def format_modes(model: LinearModel) -> list[str]:
     lines = [f'{"mode":>4}  {"ω_n rad/s":>12}  {"f_n Hz":>10}  {"ζ":>8}  shape']
     for i, mode in enumerate(model.modes(), start=1):
@@ -47,10 +61,14 @@ def main(argv: list[str] | None = None) -> int:
                         "(default: the node's defaults, the paper's table)")
     parser.add_argument('--torque', type=float, default=0.0, metavar='T',
                         help='drive torque magnitude, N·m (default 0)')
-    parser.add_argument('--load', type=float, default=0.0, metavar='L',
-                        help='table load torque, N·m (default 0)')
+    parser.add_argument('--load', default='0', metavar='L',
+                        help='table load torque, N·m (default 0), or "hold": the load that '
+                        'holds the drive torque, table at rest')
     parser.add_argument('--direction', type=int, default=1, choices=(1, -1),
                         help='drive direction (default +1)')
+    parser.add_argument('--mesh', choices=('average', 'frozen'), default='average',
+                        help='average: the mesh over its period (k_eff, no STE; default); '
+                        'frozen: at a static point, the full model at its rest angle')
     parser.add_argument('-o', '--output', required=True, metavar='MODEL',
                         help='output file: .npz (default), .mat (MATLAB), or a pickle with '
                         '--format control')
@@ -62,7 +80,9 @@ def main(argv: list[str] | None = None) -> int:
     fmt = args.format or ('mat' if out.suffix == '.mat' else 'npz')
     try:
         params = load_params(args.params)
-        model = linearize(params, args.torque, args.load, args.direction)
+        model = linearize(params, args.torque, holding_load(params, args.torque, args.load,
+                                                            args.direction),
+                          args.direction, args.mesh)
         if fmt == 'control':
             try:
                 data = model.control_pickle()
@@ -87,6 +107,9 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_ERROR
     for line in model.point.describe():
         print(line)
+    print('mesh: ' + ('its time average (stiffness k_eff, lever r, no STE)'
+                      if model.mesh.value == 'average' else
+                      'frozen at the rest angle (stiffness and STE slope there)'))
     for line in format_modes(model):
         print(line)
     for warning in model.point.warnings:

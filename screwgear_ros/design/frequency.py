@@ -286,8 +286,9 @@ def measure(params: TableParams, settings: SimSettings | None = None, *,
             input: Input | str = Input.TORQUE, outputs: Sequence[str] = ('table_angle',),
             frequencies: Sequence[float] = (1.0, 10.0, 100.0), amplitude: float = 10.0,
             torque: float | None = None, load: float | None = None, direction: int = 1,
-            method: Method | str = Method.SINE) -> Measurement:
-    """Measure the response from ``input`` to ``outputs`` (module docstring)."""
+            method: Method | str = Method.SINE, mesh: str = 'average') -> Measurement:
+    """Measure the response from ``input`` to ``outputs`` (module docstring), beside the
+    linear model's with the ``mesh`` taken as :func:`linearize` takes it."""
     input, method = Input(input), Method(method)
     settings = settings or SimSettings()
     unknown = [name for name in outputs if name not in OUTPUTS]
@@ -296,7 +297,7 @@ def measure(params: TableParams, settings: SimSettings | None = None, *,
                                   f'outputs are {", ".join(OUTPUTS)}')
     frequencies = np.sort(np.asarray(frequencies, dtype=float))
     bias = default_bias(params, input, amplitude, torque, load, direction)
-    model = linearize(params, bias[0], bias[1], direction)
+    model = linearize(params, bias[0], bias[1], direction, mesh)
     check_request(model, input, amplitude, frequencies, settings.dt)
     settle = _settle_time(model)
     plan = None

@@ -28,14 +28,16 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass, replace
+from enum import StrEnum
 from pathlib import Path
 
 import numpy as np
 
 from ..commands import load_limit
-from ..model import (ContactBranch, DrivePiece, active_path, active_speed, drive_on,
-                     drive_piece, drive_torques, motion, pack)
-from ..params import Mode, TableParams, effective_stiffness, terminal_speed
+from ..model import (NEWTON_ITERATIONS, ContactBranch, DrivePiece, active_path, active_speed,
+                     drive_on, drive_piece, drive_torques, equilibrium_state, mesh_motion,
+                     motion, pack)
+from ..params import MeshPhase, Mode, TableParams, effective_stiffness, terminal_speed
 
 STATES = ('pinion_1_angle', 'table_angle', 'pinion_3_angle',
           'pinion_1_speed', 'table_speed', 'pinion_3_speed')
@@ -49,8 +51,10 @@ OUTPUT_UNITS = ('rad', 'rad/s', 'rad', 'rad/s', 'rad', 'rad/s', 'm')
 _OUTPUT_STATE = {'table_angle': 1, 'table_speed': 4, 'pinion_1_angle': 0,
                  'pinion_1_speed': 3, 'pinion_3_angle': 2, 'pinion_3_speed': 5}
 
-#: Eigenvalues below this fraction of the largest are zero (a rigid body).
-ZERO_EIGENVALUE = 1e-6
+#: Eigenvalues below this fraction of the largest are zero (a rigid body): a double zero
+#: comes out of eig as ±√(ε·‖A‖), ε the rounding of A's entries (larger for the frozen
+#: model's differences).
+ZERO_EIGENVALUE = 1e-5
 #: A mesh force the ripple of the mesh excitation brings within this fraction of the mean
 #: force of a contact is "near a contact change".
 NEAR_CONTACT_CHANGE = 0.5
@@ -62,6 +66,13 @@ _CONTACT_TEXT = {
     ContactBranch.GAP: 'in the gap, touching the edge of a flank (no force)',
     ContactBranch.DISENGAGED: 'disengaged (conventional mode)',
 }
+
+
+class MeshModel(StrEnum):
+    """How the linear model takes the mesh: over its period, or frozen where it stands."""
+
+    AVERAGE = 'average'
+    FROZEN = 'frozen'
 
 
 class OperatingPointError(ValueError):
@@ -132,9 +143,13 @@ class LinearModel:
     d: np.ndarray
     point: OperatingPoint
     params: TableParams
+    mesh: MeshModel = None            # type: ignore[assignment]  # set in __post_init__
     states: tuple[str, ...] = STATES
     inputs: tuple[str, ...] = INPUTS
     outputs: tuple[str, ...] = OUTPUTS
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, 'mesh', MeshModel(self.mesh or MeshModel.AVERAGE))
 
     def modes(self) -> list[ModeInfo]:
         """The modes by rising frequency: the motions no spring holds (eigenvalue 0: the
@@ -231,7 +246,7 @@ class LinearModel:
             'state_units': np.array(STATE_UNITS), 'input_units': np.array(INPUT_UNITS),
             'output_units': np.array(OUTPUT_UNITS),
             'x0': np.array(pt.state), 'u0': np.array([pt.torque, pt.load]),
-            'direction': np.array(pt.direction),
+            'direction': np.array(pt.direction), 'mesh': np.array(self.mesh.value),
             'contact': np.array([ContactBranch(b).name.lower() for b in pt.contact]),
             'mesh_force': np.array(pt.mesh_force),
             'mode_frequency_rad_s': np.array([m.frequency for m in modes]),
@@ -406,41 +421,96 @@ def _derivative(x: np.ndarray, u: np.ndarray, point: OperatingPoint, model) -> n
     return np.concatenate([x[3:], accelerations])
 
 
-def linearize(params: TableParams, torque: float = 0.0, load: float = 0.0,
-              direction: int = 1) -> LinearModel:
-    """The linear model at :func:`operating_point` (module docstring)."""
-    point = operating_point(params, torque, load, direction)
-    model = pack(mean_params(params))
-    x0, u0 = np.array(point.state), np.array([point.torque, point.load])
-    # affine in x and u on fixed branches: unit central differences are exact
+def _differences(point: OperatingPoint, model, x0: np.ndarray, dx: np.ndarray,
+                 du: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A and B by central differences of the equations of motion on the point's branches,
+    steps ``dx`` in the state and ``du`` in the inputs."""
+    u0 = np.array([point.torque, point.load])
     a = np.empty((6, 6))
     for j in range(6):
         e = np.zeros(6)
-        e[j] = 1.0
-        a[:, j] = 0.5 * (_derivative(x0 + e, u0, point, model)
-                         - _derivative(x0 - e, u0, point, model))
+        e[j] = dx[j]
+        a[:, j] = (_derivative(x0 + e, u0, point, model)
+                   - _derivative(x0 - e, u0, point, model)) / (2.0 * dx[j])
     b = np.empty((6, 2))
     for j in range(2):
         e = np.zeros(2)
-        e[j] = 1.0
-        b[:, j] = 0.5 * (_derivative(x0, u0 + e, point, model)
-                         - _derivative(x0, u0 - e, point, model))
+        e[j] = du[j]
+        b[:, j] = (_derivative(x0, u0 + e, point, model)
+                   - _derivative(x0, u0 - e, point, model)) / (2.0 * du[j])
+    return a, b
+
+
+#: Central-difference steps of the frozen model: angles, speeds (rad, rad/s), inputs (N·m).
+FROZEN_STEPS = (1e-9, 1e-6, 1e-3)
+
+
+def _frozen(params: TableParams, point: OperatingPoint) -> tuple[np.ndarray, np.ndarray,
+                                                                  np.ndarray]:
+    """The rest state of the full model under the point's inputs (from the preload
+    equilibrium, Newton's method on the angles with least-norm steps: the rigid body leaves
+    one angle free) and A, B there by central differences, on the point's branches."""
+    model = pack(params)
+    x = np.array(equilibrium_state(params), dtype=float)
+    u = np.array([point.torque, point.load])
+    angle, speed, inputs = FROZEN_STEPS
+    dx = np.array([angle] * 3 + [speed] * 3)
+    for _ in range(NEWTON_ITERATIONS):
+        a, _ = _differences(point, model, x, dx, np.full(2, inputs))
+        residual = _derivative(x, u, point, model)[3:]
+        step = np.linalg.lstsq(a[3:, :3], -residual, rcond=None)[0]
+        x[:3] += step
+        if np.max(np.abs(step)) <= 1e-15 * max(1.0, float(np.max(np.abs(x[:3])))):
+            break
+    else:
+        raise OperatingPointError('no rest state of the full model found under these inputs '
+                                  '(Newton did not converge)')
+    a, b = _differences(point, model, x, dx, np.full(2, inputs))
+    return a, b, x
+
+
+def linearize(params: TableParams, torque: float = 0.0, load: float = 0.0,
+              direction: int = 1, mesh: MeshModel | str = 'average') -> LinearModel:
+    """The linear model at :func:`operating_point` (module docstring). ``mesh``: `average`
+    (the mesh over its period, module docstring) or `frozen`: at a static point in `angle`
+    phase, the full model at its rest angle (the stiffness K(φ0), the STE's slope in the
+    pinion's lever), what the table does for small motions while it stands."""
+    mesh = MeshModel(mesh)
+    point = operating_point(params, torque, load, direction)
+    if mesh is MeshModel.FROZEN:
+        if point.rotating:
+            raise OperatingPointError('a frozen mesh needs a static operating point: in steady '
+                                      'rotation the mesh phase advances (use the average)')
+        if params.mesh_phase is not MeshPhase.ANGLE:
+            raise OperatingPointError('a frozen mesh needs the angle mesh phase: in time phase '
+                                      'the mesh phase advances at rest too (use the average)')
+        a, b, state = _frozen(params, point)
+        point = replace(point, state=tuple(float(v) for v in state))
+    else:
+        # affine in x and u on fixed branches: unit central differences are exact
+        a, b = _differences(point, pack(mean_params(params)), np.array(point.state),
+                            np.ones(6), np.ones(2))
     c = np.zeros((len(OUTPUTS), 6))
     for i, name in enumerate(OUTPUTS):
         if name == 'transmission_error':
-            if point.path == 1:
-                c[i, 0] = params.radius_pinion_1
-            else:
-                c[i, 2] = params.radius_pinion_3
+            pinion = 0 if point.path == 1 else 2
+            radius = params.radius_pinion_1 if pinion == 0 else params.radius_pinion_3
+            if mesh is MeshModel.FROZEN:      # δ = r·θ − ε(z·θ) − r2·θ2: the STE's slope
+                teeth = params.teeth_pinion_1 if pinion == 0 else params.teeth_pinion_3
+                packed = pack(params)
+                slope = mesh_motion(point.state[pinion], 0.0, radius, teeth, point.state[1],
+                                    0.0, 0.0, packed.p, packed.ste_amp, packed.ste_phase)[1]
+                radius -= teeth * slope
+            c[i, pinion] = radius
             c[i, 1] = -params.radius_table
         else:
             c[i, _OUTPUT_STATE[name]] = 1.0
     d = np.zeros((len(OUTPUTS), 2))
-    linear = LinearModel(a, b, c, d, point, params)
+    linear = LinearModel(a, b, c, d, point, params, mesh)
     ripple = _ripple_warnings(linear)
     if ripple:
         point = replace(point, warnings=point.warnings + tuple(ripple))
-        linear = LinearModel(a, b, c, d, point, params)
+        linear = LinearModel(a, b, c, d, point, params, mesh)
     return linear
 
 
@@ -487,6 +557,6 @@ def _ripple_warnings(linear: LinearModel) -> list[str]:
     return warnings
 
 
-__all__ = ['STATES', 'STATE_UNITS', 'INPUTS', 'INPUT_UNITS', 'OUTPUTS', 'OUTPUT_UNITS',
+__all__ = ['MeshModel', 'FROZEN_STEPS', 'STATES', 'STATE_UNITS', 'INPUTS', 'INPUT_UNITS', 'OUTPUTS', 'OUTPUT_UNITS',
            'NEAR_CONTACT_CHANGE', 'OperatingPointError', 'OperatingPoint', 'ModeInfo',
            'LinearModel', 'mean_params', 'operating_point', 'linearize']

@@ -18,7 +18,6 @@ import numpy as np
 
 from ..design.frequency import Measurement, default_bias, measure
 from ..design.linearize import ModeInfo, linearize
-from ..model import equilibrium_state, pack, rhs
 from ..params import TableParams, natural_frequency
 from .common import HOLDS, Section, Verdict, fmt, save_figure, table
 
@@ -48,29 +47,10 @@ class DesignStudy:
 
 
 def frozen_modes(params: TableParams, torque: float, load: float) -> np.ndarray:
-    """Natural frequencies, rad/s, of the full model frozen at its static point under
-    ``torque`` against ``load``: central differences of the right-hand side (mesh phase at
-    the rest angle, the STE's slope in the lever), the oscillating eigenvalues' |λ|."""
-    packed = pack(params)
-    state = equilibrium_state(params)
-    u = np.array([torque, load])
-
-    def f(y):
-        return np.array(rhs(0.0, *y, packed.p, packed.ste_amp, packed.ste_phase, u[0], 1.0,
-                            u[1]))
-
-    for _ in range(50):                     # Newton on the pinion angles: rest under u
-        a = np.column_stack([(f(state + e) - f(state - e)) / 2e-9
-                             for e in np.diag(np.full(6, 1e-9))])
-        residual = f(state)[3:]
-        if np.max(np.abs(residual)) < 1e-9:
-            break
-        step = np.linalg.lstsq(a[3:, :3], -residual, rcond=None)[0]
-        state[:3] += step
-    jac = np.column_stack([(f(state + e) - f(state - e)) / 2e-9
-                           for e in np.diag(np.full(6, 1e-9))])
-    lam = np.linalg.eigvals(jac)
-    return np.sort(np.abs(lam[lam.imag > 1e-6 * np.abs(lam).max()]))
+    """Natural frequencies, rad/s, of the oscillating modes of the full model frozen at its
+    rest angle under ``torque`` against ``load`` (``linearize(..., mesh='frozen')``)."""
+    return np.array([m.frequency for m in linearize(params, torque, load, 1, 'frozen').modes()
+                     if m.oscillating])
 
 
 def _peak(frequency: np.ndarray, magnitude: np.ndarray) -> float:
