@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..design.frequency import Measurement, default_bias, measure
-from ..design.linearize import ModeInfo, linearize
+from ..design.linearize import OUTPUTS, ModeInfo, linearize
 from ..params import TableParams, natural_frequency
 from .common import HOLDS, Section, Verdict, fmt, save_figure, table
 
@@ -105,8 +105,33 @@ def _cases(cases: list[Case], first: str) -> str:
                   for c in cases))
 
 
+def _draw_frozen(fig, bode: Measurement) -> None:
+    """The model frozen at the rest angle, dashed, on the Bode plot's axes (row-major:
+    the magnitudes, then the phases)."""
+    point = bode.model.point
+    frozen = linearize(bode.model.params, point.torque, point.load, point.direction, 'frozen')
+    f = np.geomspace(bode.frequency[0], bode.frequency[-1], 600)
+    response = frozen.response(f)[:, 0, :]
+    n = len(bode.outputs)
+    for i, name in enumerate(bode.outputs):
+        row = OUTPUTS.index(name)
+        mag, ph = fig.axes[i], fig.axes[n + i]
+        mag.loglog(f, np.abs(response[row]), color='C4', ls='--', lw=1.2,
+                   label='linear, mesh frozen at the rest angle')
+        phase = np.degrees(np.unwrap(np.angle(response[row])))
+        # on the branch of the averaged model's curve at the lowest frequency
+        ref = np.degrees(np.angle(bode.model.response(f[:1])[row, 0, 0]))
+        lines = [ln for ln in ph.get_lines() if ln.get_color() == 'C0']
+        if lines:
+            ref = float(lines[0].get_ydata()[0])
+        phase += 360.0 * np.round((ref - phase[0]) / 360.0)
+        ph.semilogx(f, phase, color='C4', ls='--', lw=1.2)
+    fig.axes[0].legend(fontsize=7, loc='lower left')
+
+
 def render(s: DesignStudy, outdir: Path) -> Section:
     fig = s.bode.figure()
+    _draw_frozen(fig, s.bode)
     name, link = save_figure(fig, outdir, 'fig12_bode.png',
                              "Bode plot of the paper's table, drive torque to table angle and "
                              'transmission error, measured and linear')
@@ -147,8 +172,7 @@ Below about 100 Hz the table angle follows the linear model (the rigid body, (r2
 The measured resonance lies below the linear mode: standing still, the mesh phase does not
 sweep, so the pinion works on the mesh through the stiffness and the lever at its rest angle,
 K(φ0) and r − z·dε/dφ(φ0), not through their averages. The model frozen at the rest angle
-(the Jacobian of the full right-hand side there) puts the mode where the measurement finds
-it. The transmission error at low frequencies is the STE itself, swept by the large table
+(`linearize --mesh frozen`, dashed) puts the mode where the measurement finds it. The transmission error at low frequencies is the STE itself, swept by the large table
 motion, not the mesh deflection (its points there are hollow where the fitted sinusoid
 explains little of it). For a position loop around this table at rest, the resonance to
 keep the crossover away from is the measured {paper.measured_hz:.0f} Hz (the frozen model's
