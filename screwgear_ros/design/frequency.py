@@ -191,7 +191,7 @@ def default_bias(params: TableParams, input: Input, amplitude: float,
     """The operating point's torque and load (module docstring): for the torque input a
     bias torque of twice the amplitude, against the load that holds the table still."""
     if torque is None:
-        torque = 2.0 * amplitude if input is Input.TORQUE else 0.0
+        torque = 2.0 * amplitude if Input(input) is Input.TORQUE else 0.0
     if load is None:
         radius = (params.radius_pinion_3 if direction < 0 and params.mode.value == 'anti_backlash'
                   else params.radius_pinion_1)

@@ -12,6 +12,11 @@ excitation of the mesh, not a function of the deviations), lever r. Each mesh is
 branch of the contact law its mean force puts it on, and the drive on the piece of its line
 that delivers the torque at that speed.
 
+Standing still (a static point in `angle` phase) the mesh phase does not sweep: ``mesh =
+'frozen'`` linearizes the full model at its rest angle instead (the stiffness K(φ0) and the
+STE's slope in the pinion's lever there), which is what the table does for small motions
+while it stands.
+
 A, B are the model's own equations of motion (:func:`~screwgear_ros.model.motion`) on
 those branches, evaluated with the averaged mesh: there they are affine in the state and
 the inputs, so central differences give them exactly.

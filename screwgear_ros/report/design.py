@@ -4,8 +4,8 @@ The linear model of :mod:`screwgear_ros.design.linearize` at the preload equilib
 modes beside the paper's 1-DOF ω0), the response measured by simulation around the
 default operating point of ``frequency_response`` (:mod:`screwgear_ros.design.frequency`),
 and how the preload torque, the preload stiffness and k_a' move the resonance: the linear
-model's mode, the mode of the model frozen at the rest angle (the Jacobian of the full
-right-hand side there), and the peak of the measured table acceleration.
+model's mode, the mode of the model frozen at the rest angle (``linearize(...,
+mesh='frozen')``), and the peak of the measured table acceleration.
 """
 
 from __future__ import annotations
