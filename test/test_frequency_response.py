@@ -230,3 +230,12 @@ def test_the_paper_table_at_rest_follows_the_frozen_model():
     assert np.all(np.abs(_deg(m.measured, m.linear)) <= 3.0)
     average = measure(paper, outputs=('table_angle',), frequencies=(180.0,))
     assert np.abs(_db(average.measured, average.linear)).max() > 3.0
+
+
+def test_the_default_bias_holds_twice_the_amplitude_for_either_spelling_of_the_input():
+    from screwgear_ros.design.frequency import Input, default_bias
+    p = TableParams()
+    expected = (20.0, 20.0 * p.radius_table / p.radius_pinion_1)
+    assert default_bias(p, 'torque', 10.0, None, None, 1) == pytest.approx(expected)
+    assert default_bias(p, Input.TORQUE, 10.0, None, None, 1) == pytest.approx(expected)
+    assert default_bias(p, 'load', 10.0, None, None, 1) == (0.0, 0.0)
