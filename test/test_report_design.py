@@ -56,3 +56,7 @@ def test_the_section_renders_with_its_figure(study, tmp_path):
     assert (tmp_path / section.figures[0]).stat().st_size > 20_000
     text = section.markdown()
     assert 'pinions against the table' in text and 'frozen at the rest angle' in text
+
+
+def test_the_conventional_gear_has_the_papers_omega0(study):
+    assert study.conventional == pytest.approx(natural_frequency(TableParams()), rel=1e-9)

@@ -219,7 +219,7 @@ class LinearModel:
             if free and all(abs(moves[i]) <= 1e-3 * size for i in in_contact + [1]):
                 return 'pinion {} alone (its mesh is open)'.format(' and '.join(
                     '1' if i == 0 else '3' for i in free))
-            return 'rigid body' if zero else 'rigid body (table bearing damping)'
+            return 'rigid body' if zero else 'rigid body (damped: table bearing, drive line)'
         if len(in_contact) == 2:
             if moves[0] * moves[2] < 0.0:
                 return 'pinions against each other (table nearly still)'

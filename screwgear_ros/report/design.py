@@ -44,6 +44,7 @@ class DesignStudy:
     preload: list[Case]
     preload_stiffness: list[Case]
     fluctuation: list[Case]
+    conventional: float                 # the one mesh mode in conventional mode, rad/s
 
 
 def frozen_modes(params: TableParams, torque: float, load: float) -> np.ndarray:
@@ -95,7 +96,11 @@ def compute(quick: bool = False) -> DesignStudy:
          for kp in stiffnesses],
         [_case(f"k_a' = {ka:g}",
                paper.replace(mesh_stiffness_amplitude=ka * paper.mesh_stiffness_mean), quick)
-         for ka in fluctuations])
+         for ka in fluctuations],
+        next(m.frequency for m in linearize(paper.replace(mode='conventional'), AMPLITUDE,
+                                            AMPLITUDE * paper.radius_table
+                                            / paper.radius_pinion_1).modes()
+             if m.oscillating))
 
 
 def _cases(cases: list[Case], first: str) -> str:
@@ -157,7 +162,9 @@ against each other while the table stands (ω² = k·r1²/I1, a pinion on one me
 still table) and {w[1]:.1f} rad/s with both pinions against the table (ω² = k·r1²/I1 +
 2·k·r2²/I2). ω0² = k·(r1²/I1 + r2²/I2) is exactly the mean of the two ω² (rms
 {rms:.1f} rad/s): the paper's number is right to {100 * max(abs(x / s.omega0 - 1) for x in w):.1f} %
-for either mode. In this symmetric model the table takes no part in the lower one, so a
+for either mode, and it is exactly the one mesh mode of the conventional gear (pinion 1
+alone on the table: {s.conventional:.1f} rad/s), the system the 1-DOF model describes. In
+this symmetric model the table takes no part in the lower one, so a
 drive torque reaches the table angle through the upper one and the rigid body (0, the
 double integrator a position loop closes around).
 
