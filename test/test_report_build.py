@@ -12,6 +12,8 @@ from pathlib import Path
 import matplotlib.image as mpimg
 import pytest
 
+from screwgear_ros.report.builder import SECTIONS
+
 
 @pytest.fixture(scope='module')
 def quick_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
@@ -40,7 +42,7 @@ def test_every_link_is_a_relative_png_that_exists_and_every_figure_is_linked(
 def test_report_has_every_section_and_a_verdict_for_each_claim(quick_report: Path) -> None:
     text = (quick_report / 'report.md').read_text(encoding='utf-8')
     headings = re.findall(r'^## (\d+)\. ', text, flags=re.MULTILINE)
-    assert headings == [str(n) for n in range(1, 12)]
+    assert headings == [str(n) for n in range(1, len(SECTIONS) + 1)]
     summary = text.split('## Summary of verdicts')[1].split('\n## ')[0]
     rows = [r for r in summary.splitlines() if r.startswith('| §')]
     assert len(rows) >= 20
@@ -96,7 +98,7 @@ def test_summary_gives_the_example_in_physical_units(quick_report: Path) -> None
     # One line per section, each with a verdict.
     lines = re.findall(r'^- §(\d+) .*\*\*(holds|does not hold|vague|cannot be checked)',
                        first, flags=re.MULTILINE)
-    assert [int(n) for n, _ in lines] == list(range(1, 12))
+    assert [int(n) for n, _ in lines] == list(range(1, len(SECTIONS) + 1))
 
 
 def test_no_number_is_formatted_into_nonsense(quick_report: Path) -> None:

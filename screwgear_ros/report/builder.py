@@ -10,12 +10,13 @@ from types import ModuleType
 from tqdm import tqdm
 
 from .. import __name__ as package_name
-from . import (antibacklash, damping, derived, energy, fluctuation, index, response,
+from . import (antibacklash, damping, derived, design, energy, fluctuation, index, response,
                stability, stiffness, summary, thermal, validation)
 from .common import Section, verdict_table
 
 SECTIONS: tuple[ModuleType, ...] = (derived, response, damping, stiffness, index, stability,
-                                    fluctuation, thermal, antibacklash, validation, energy)
+                                    fluctuation, thermal, antibacklash, validation, energy,
+                                    design)
 #: The paper, as its text (the project's seed) gives it: no title line, authors or venue,
 #: so the citation quotes its own statement of subject and mechanism.
 PAPER_SUBJECT = ('a novel double screw gear anti-backlash transmission mechanism',
