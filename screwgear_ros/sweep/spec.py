@@ -438,7 +438,12 @@ def _validate(reader: _Reader, scenario: Any, base: dict[str, Any],
         for axis, _ in chosen:
             if axis.name == name:
                 return _Line(axis.line)
-        return None
+        for axis, _ in chosen:            # a rule of several parameters (RK4's dt limit):
+            try:                          # the first swept value that breaks it alone
+                split_parameters({**base, axis.name: overrides[axis.name]})
+            except ParameterError:
+                return _Line(axis.line)
+        return _Line(chosen[0][0].line) if chosen else None
 
     swept = ', '.join(f'{a.column} = {v!r}' for a, v in chosen)
     try:
@@ -455,10 +460,16 @@ def _validate(reader: _Reader, scenario: Any, base: dict[str, Any],
             values = {**values, **action.value}
             split_parameters(values)
     except ParameterError as exc:
-        entry = where(exc.name)
-        what = f'{exc.name}: ' if entry is not None else ''
-        raise reader.error(entry, f'{what}run {index} ({swept}) is refused by table_sim: '
-                           f'{exc}') from None
+        hint = ''
+        if isinstance(exc.value, str):
+            try:
+                float(exc.value)
+                hint = (f' (YAML reads {exc.value} as text: an exponent needs its sign, '
+                        f'e.g. 1.0e+7)')
+            except ValueError:
+                pass
+        raise reader.error(where(exc.name), f'run {index} ({swept}) is refused by '
+                           f'table_sim: {exc}{hint}') from None
 
 
 def drawn_column_is_number(sweep: Sweep, column: str) -> bool:
