@@ -267,3 +267,57 @@ def test_one_worker_imports_no_dask_and_the_package_imports_without_it(tmp_path)
 def test_the_launcher_is_where_ros2_run_looks():
     launcher = Path(sys.prefix) / 'lib' / 'screwgear_ros' / 'sweep'
     assert launcher.is_file() and '/../../bin/sweep"' in launcher.read_text()
+
+
+PD = """\
+def make(setpoint, kp, kd):
+    def controller(observation):
+        angle, rate = observation.position[1], observation.velocity[1]
+        return max(-300.0, min(300.0, kp * (setpoint(observation.time) - angle) - kd * rate))
+    return controller
+"""
+
+
+def test_a_cluster_from_dask_scheduler_and_dask_worker_runs_the_sweep(tmp_path):
+    """--scheduler: a cluster started as the README says; the worker runs elsewhere (its
+    own directory) and gets the scenario and the controller module as contents."""
+    dask = Path(sys.executable).with_name('dask')
+    scheduler_file = tmp_path / 'scheduler.json'
+    scenario = ('parameters: {command_timeout: 0.0}\nduration: 0.3\ncontroller:\n'
+                '  use: pd_law:make\n  parameters: {kp: 3000.0, kd: 200.0}\n'
+                'setpoint: {profile: sine, amplitude: 0.01, frequency: 2.0}\n')
+    sweep = ('scenario: scenario.yaml\nmetrics: [rms_tracking_error_rad, max_abs_te_m]\n'
+             'grid:\n  backlash: [0.0, 5.0e-5]\n  preload_torque: [100.0, 300.0]\n')
+    path = _sweep_dir(tmp_path, sweep, scenario)
+    (path.parent / 'pd_law.py').write_text(PD)
+    elsewhere = tmp_path / 'worker_home'
+    elsewhere.mkdir()
+    processes = []
+    try:
+        processes.append(subprocess.Popen(
+            [str(dask), 'scheduler', '--host', '127.0.0.1', '--port', '0', '--no-dashboard',
+             '--scheduler-file', str(scheduler_file)], cwd=elsewhere,
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        deadline = time.monotonic() + 120.0
+        while not scheduler_file.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        address = json.loads(scheduler_file.read_text())['address']
+        processes.append(subprocess.Popen(
+            [str(dask), 'worker', address, '--nworkers', '1', '--nthreads', '1',
+             '--no-dashboard'], cwd=elsewhere,
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        remote = installed('sweep', path, '--out', tmp_path / 'remote', '--scheduler',
+                           address, '--no-plot')
+    finally:
+        for process in reversed(processes):
+            process.terminate()
+            process.wait(timeout=60)
+    assert remote.returncode == 0, remote.stderr
+    assert f'the Dask cluster at {address}' in remote.stdout
+    local = installed('sweep', path, '--out', tmp_path / 'local', '--workers', '1',
+                      '--no-plot')
+    assert local.returncode == 0, local.stderr
+    metrics = ['rms_tracking_error_rad', 'max_abs_te_m']
+    assert set(_table(tmp_path / 'remote')['status']) == {'ok'}
+    assert _metric_bytes(tmp_path / 'remote', metrics) == \
+        _metric_bytes(tmp_path / 'local', metrics)
