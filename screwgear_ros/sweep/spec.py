@@ -464,8 +464,8 @@ def _validate(reader: _Reader, scenario: Any, base: dict[str, Any],
         if isinstance(exc.value, str):
             try:
                 float(exc.value)
-                hint = (f' (YAML reads {exc.value} as text: an exponent needs its sign, '
-                        f'e.g. 1.0e+7)')
+                hint = (f' (YAML reads {exc.value} as text: a number with an exponent '
+                        f'needs a dot and a signed exponent, e.g. 1.0e+7, 2.0e-5)')
             except ValueError:
                 pass
         raise reader.error(where(exc.name), f'run {index} ({swept}) is refused by '
