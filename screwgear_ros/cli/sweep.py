@@ -114,7 +114,8 @@ def _run(sweep: Any, store: Any, done: dict[int, Any], todo: list[Any], workers:
     try:
         for outcome in stream:
             done[outcome.index] = store.add(outcome)
-            ran.append(outcome.wall_time)
+            if outcome.wall_time == outcome.wall_time:      # NaN: a worker lost under it
+                ran.append(outcome.wall_time)
             failed += outcome.status.value != 'ok'
             bar.set_postfix(failures=failed, refresh=False)
             bar.update(1)

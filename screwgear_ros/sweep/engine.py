@@ -8,11 +8,12 @@ package installed but no shared filesystem.
 from __future__ import annotations
 
 import logging
+import math
 import os
 from typing import Iterator, Sequence
 
 from .spec import Bundle, RunSpec
-from .worker import Outcome, execute, warm_up
+from .worker import Outcome, Status, execute, warm_up
 
 
 def cores() -> int:
@@ -49,8 +50,15 @@ def on_dask(bundle: Bundle, specs: Sequence[RunSpec], workers: int,
         shared = client.scatter(bundle, broadcast=True)
         futures = [client.submit(execute, shared, spec, pure=False, retries=1)
                    for spec in specs]
+        of = dict(zip(futures, specs))
         for future in as_completed(futures):
-            yield future.result()
+            try:
+                yield future.result()
+            except Exception as exc:  # noqa: BLE001 - a worker died under it (twice): a row
+                spec = of[future]
+                yield Outcome(spec.index, spec.key, Status.ERROR, f'the worker running it '
+                              f'was lost: {type(exc).__name__}: {exc}', tuple(
+                                  math.nan for _ in bundle.metrics), math.nan)
     finally:
         if futures:
             client.cancel(futures)
