@@ -155,6 +155,8 @@ BAD = {
                       'mesh_stiffness_mean', 'RK4 is unstable'),
     'node_only_setting': ('grid:\n  record: [a, b]\n', 'record', 'no meaning for an '
                           'in-process run'),
+    'number_read_as_text': ('grid:\n  backlash: [0.0, 1e-5]\n', 'backlash',
+                            'YAML reads 1e-5 as text'),
     'unknown_metric': ('grid:\n  backlash: [0.0]\n', 'max_wobble', 'unknown metric'),
     'bad_distribution': ('monte_carlo:\n  count: 3\n  parameters:\n'
                          '    backlash: {gaussian: [1.0, 2.0]}\n', 'gaussian', 'uniform'),
