@@ -323,3 +323,21 @@ def test_a_cluster_from_dask_scheduler_and_dask_worker_runs_the_sweep(tmp_path):
     assert set(_table(tmp_path / 'remote')['status']) == {'ok'}
     assert _metric_bytes(tmp_path / 'remote', metrics) == \
         _metric_bytes(tmp_path / 'local', metrics)
+
+
+def test_without_dask_or_pyarrow_the_sweep_says_what_to_install(tmp_path):
+    path = _sweep_dir(tmp_path, SWEEP.replace('count: 5', 'count: 1'))
+    code = ('import sys\nsys.modules["dask"] = sys.modules["distributed"] = '
+            'sys.modules["pyarrow"] = None\nfrom screwgear_ros.cli.sweep import main\n'
+            'print("rc", main(sys.argv[1:]))\n')
+    common = [sys.executable, '-P', '-c', code, str(path), '--no-plot']
+    many = subprocess.run([*common, '--out', str(tmp_path / 'many'), '--workers', '2'],
+                          capture_output=True, text=True, timeout=300)
+    assert many.stdout.splitlines()[-1] == 'rc 2' and 'Traceback' not in many.stderr
+    assert "pip install 'screwgear_ros[sweep]'" in many.stderr and '--workers 1' in many.stderr
+    one = subprocess.run([*common, '--out', str(tmp_path / 'one'), '--workers', '1'],
+                         capture_output=True, text=True, timeout=300)
+    assert one.stdout.splitlines()[-1] == 'rc 0', one.stderr
+    assert 'results.parquet needs pyarrow' in one.stderr
+    assert (tmp_path / 'one' / 'results.csv').is_file()
+    assert not (tmp_path / 'one' / 'results.parquet').exists()

@@ -137,6 +137,9 @@ def _results(sweep: Any, store: Any, done: dict[int, Any], args: argparse.Namesp
     if not done:
         return
     written = store.write_results(done)
+    if not any(p.suffix == '.parquet' for p in written):
+        print("sweep: results.parquet needs pyarrow (pip install 'screwgear_ros[sweep]'); "
+              'results.csv holds the same table', file=sys.stderr)
     if quiet:
         return
     table = store.table(done)

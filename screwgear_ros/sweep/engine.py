@@ -35,7 +35,11 @@ def on_dask(bundle: Bundle, specs: Sequence[RunSpec], workers: int,
             scheduler: str | None = None) -> Iterator[Outcome]:
     """The runs on Dask: a LocalCluster of ``workers`` processes, or the cluster of
     ``scheduler``. Closing the iterator (Ctrl-C included) cancels what is left."""
-    from dask.distributed import Client, LocalCluster, as_completed
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError as exc:
+        raise RuntimeError(f'more than one worker needs Dask ({exc}): pip install '
+                           "'screwgear_ros[sweep]', or run with --workers 1") from None
 
     cluster = None
     if scheduler:
