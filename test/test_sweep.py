@@ -341,3 +341,37 @@ def test_without_dask_or_pyarrow_the_sweep_says_what_to_install(tmp_path):
     assert 'results.parquet needs pyarrow' in one.stderr
     assert (tmp_path / 'one' / 'results.csv').is_file()
     assert not (tmp_path / 'one' / 'results.parquet').exists()
+
+
+BLOCKING = """\
+import time
+
+
+def make(setpoint):
+    def controller(observation):
+        if observation.effort[0] > 100.0:      # the preloaded runs: blocked for good
+            time.sleep(3600.0)
+        return None
+    return controller
+"""
+
+
+def test_a_blocked_run_on_a_cluster_ends_its_worker_and_the_sweep_goes_on(tmp_path):
+    """A controller that never returns (no deadline check can run): past the hard limit
+    the worker process ends, the run is a row, the restarted worker takes the rest."""
+    from screwgear_ros.sweep.worker import hard_limit
+
+    scenario = 'parameters: {command_timeout: 0.0}\nduration: 0.3\ncontroller:\n' \
+               '  use: blocking:make\n'
+    sweep = ('scenario: scenario.yaml\nmetrics: [max_abs_te_m]\ntime_limit: 1.0\n'
+             'grid:\n  preload_torque: [0.0, 350.0, 0.0, 0.0, 0.0]\n')
+    path = _sweep_dir(tmp_path, sweep, scenario)
+    (path.parent / 'blocking.py').write_text(BLOCKING)
+    started = time.monotonic()
+    proc = installed('sweep', path, '--out', tmp_path / 'out', '--workers', '2', '--no-plot',
+                     timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    table = _table(tmp_path / 'out')
+    assert table['status'] == ['ok', 'error', 'ok', 'ok', 'ok'], table
+    assert f'hard limit of {hard_limit(1.0):g} s' in table['reason'][1]
+    assert time.monotonic() - started < 300.0

@@ -13,7 +13,7 @@ import os
 from typing import Iterator, Sequence
 
 from .spec import Bundle, RunSpec
-from .worker import Outcome, Status, execute, warm_up
+from .worker import Outcome, Status, execute, hard_limit, warm_up
 
 
 def cores() -> int:
@@ -41,18 +41,23 @@ def on_dask(bundle: Bundle, specs: Sequence[RunSpec], workers: int,
         raise RuntimeError(f'more than one worker needs Dask ({exc}): pip install '
                            "'screwgear_ros[sweep]', or run with --workers 1") from None
 
+    import dask
+
     cluster = None
     if scheduler:
         client = Client(scheduler, timeout='30s')
     else:
-        cluster = LocalCluster(n_workers=workers, processes=True, threads_per_worker=1,
-                               dashboard_address=None, silence_logs=logging.ERROR)
+        # a run whose worker process ends (a crash, or the hard time limit) is a row at
+        # once: no retry of the run on another worker
+        with dask.config.set({'distributed.scheduler.allowed-failures': 0}):
+            cluster = LocalCluster(n_workers=workers, processes=True, threads_per_worker=1,
+                                   dashboard_address=None, silence_logs=logging.CRITICAL)
         client = Client(cluster)
     futures = []
     try:
         client.run(warm_up)
         shared = client.scatter(bundle, broadcast=True)
-        futures = [client.submit(execute, shared, spec, pure=False, retries=1)
+        futures = [client.submit(execute, shared, spec, pure=False)
                    for spec in specs]
         of = dict(zip(futures, specs))
         for future in as_completed(futures):
@@ -60,8 +65,10 @@ def on_dask(bundle: Bundle, specs: Sequence[RunSpec], workers: int,
                 yield future.result()
             except Exception as exc:  # noqa: BLE001 - a worker died under it (twice): a row
                 spec = of[future]
-                yield Outcome(spec.index, spec.key, Status.ERROR, f'the worker running it '
-                              f'was lost: {type(exc).__name__}: {exc}', tuple(
+                yield Outcome(spec.index, spec.key, Status.ERROR, f'its worker process '
+                              f'ended (a crash, or blocked past the hard limit of '
+                              f'{hard_limit(bundle.time_limit):g} s): {type(exc).__name__}',
+                              tuple(
                                   math.nan for _ in bundle.metrics), math.nan)
     finally:
         if futures:

@@ -9,7 +9,10 @@ with its status and reason; nothing escapes.
 from __future__ import annotations
 
 import math
+import os
+import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass
 from enum import StrEnum
@@ -82,8 +85,44 @@ def _scenario(bundle: Bundle) -> Any:
     return _SCENARIOS[digest]
 
 
+def _in_dask_worker() -> bool:
+    if 'distributed' not in sys.modules:
+        return False
+    try:
+        sys.modules['distributed'].get_worker()
+    except (ValueError, AttributeError):
+        return False
+    return True
+
+
+def hard_limit(time_limit: float) -> float:
+    """s of wall time after which a run that never came back to its deadline check (a
+    controller or a compiled call that blocks) ends its worker process."""
+    return 2.0 * time_limit + 10.0
+
+
+def _end_process() -> None:
+    os._exit(70)
+
+
 def execute(bundle: Bundle, spec: RunSpec) -> Outcome:
-    """Run ``spec`` (never raises: a failure is an outcome with its reason)."""
+    """Run ``spec`` (never raises: a failure is an outcome with its reason). In a Dask
+    worker, a run blocked past :func:`hard_limit` ends the worker process, which its
+    nanny restarts (the run becomes a lost-worker row on the client): no worker stays
+    stuck. In the calling process the deadline check between ticks is all there is."""
+    watchdog = None
+    if _in_dask_worker():
+        watchdog = threading.Timer(hard_limit(bundle.time_limit), _end_process)
+        watchdog.daemon = True
+        watchdog.start()
+    try:
+        return _execute(bundle, spec)
+    finally:
+        if watchdog is not None:
+            watchdog.cancel()
+
+
+def _execute(bundle: Bundle, spec: RunSpec) -> Outcome:
     from ..commands import InputRejected
     from ..metrics import run_metrics
     from ..simulation import Simulation
