@@ -9,10 +9,10 @@ over a grid of backlash values, measured in one run on this machine:
 * the sweep engine on a Dask LocalCluster of N single-threaded worker processes.
 For each: throughput in steady state (runs/s between the first and the last result, so
 cluster start and warm-up stand apart) and the per-run overhead against the anchor
-(wall time × workers / runs − run time, as % of the run time), also against the
-runs' own time on the workers (which a busy machine stretches as much as the wall time). The scaling figure is
-the N-worker throughput over the 1-worker throughput. Timings are noisy on a shared
-machine: compare ratios, run twice.
+(wall time × workers / runs − run time, as % of the run time), also against the runs'
+own time on the workers (which a busy machine stretches as much as the wall time). The
+scaling figure is the N-worker throughput over the 1-worker throughput. Timings are
+noisy on a shared machine: compare ratios, run twice.
 """
 
 from __future__ import annotations
