@@ -375,3 +375,21 @@ def test_a_blocked_run_on_a_cluster_ends_its_worker_and_the_sweep_goes_on(tmp_pa
     assert table['status'] == ['ok', 'error', 'ok', 'ok', 'ok'], table
     assert f'hard limit of {hard_limit(1.0):g} s' in table['reason'][1]
     assert time.monotonic() - started < 300.0
+
+
+def test_the_worked_example_covers_its_tolerance_band_and_runs(tmp_path):
+    from screwgear_ros.sweep import load_sweep
+
+    path = Path(__file__).resolve().parents[1] / 'docs' / 'examples' / 'tolerance_sweep.yaml'
+    sweep = load_sweep(path)
+    assert len(sweep.runs) >= 200
+    drawn = {column: [dict(r.swept)[column] for r in sweep.runs] for column in sweep.columns}
+    for column, low, high in (('backlash', 0.0, 100e-6), ('preload_torque', 0.0, 400.0),
+                              ('ste_amplitudes_scale', 0.5, 1.5),
+                              ('temperature_rise', 0.0, 40.0)):
+        values = drawn[column]
+        assert low <= min(values) < low + 0.1 * (high - low)
+        assert high - 0.1 * (high - low) < max(values) <= high
+    proc = installed('sweep', path, '--out', tmp_path / 'out', '--workers', '1',
+                     '--max-runs', '2', '--no-plot')
+    assert proc.returncode == 1 and set(_table(tmp_path / 'out')['status']) == {'ok'}
