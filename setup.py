@@ -6,7 +6,7 @@ from setuptools import find_packages, setup
 
 PACKAGE = 'screwgear_ros'
 EXECUTABLES = ['table_sim', 'demo_controller', 'check_run', 'replay_run', 'paper_report', 'plot_run',
-               'run_scenario', 'linearize', 'frequency_response']
+               'run_scenario', 'linearize', 'frequency_response', 'sweep']
 
 setup(
     name=PACKAGE,
@@ -25,7 +25,10 @@ setup(
     install_requires=['setuptools', 'numpy', 'scipy', 'numba', 'PyYAML', 'mcap',
                       'mcap-ros2-support', 'rosbags', 'tqdm', 'matplotlib'],
     # pip install screwgear_ros[gym]: the Gymnasium environment (screwgear_ros.gym).
-    extras_require={'gym': ['gymnasium>=1.0']},
+    # pip install screwgear_ros[sweep]: sweep on Dask (LocalCluster or a cluster), parquet.
+    # pip install screwgear_ros[design]: linearize --format control (python-control).
+    extras_require={'gym': ['gymnasium>=1.0'], 'design': ['control>=0.10'],
+                    'sweep': ['dask[distributed]>=2024.1', 'pyarrow>=14']},
     zip_safe=True,
     maintainer='screwgear_ros developers',
     maintainer_email='screwgear-ros@example.org',

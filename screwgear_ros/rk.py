@@ -124,14 +124,21 @@ class Tableau:
     def amplification(self, z: complex) -> complex:
         """R(z), the factor one step multiplies y' = λy by, at z = λ·h."""
         result: complex = 0.0
-        for gamma in reversed(self.stability_coefficients()):
-            result = result * z + float(gamma)
+        for gamma in reversed(_float_stability(self)):
+            result = result * z + gamma
         return result
 
     def weights(self) -> tuple[tuple[int, ...], int]:
         """(w, D): integer weights and their common denominator, b = w/D."""
         denominator = math.lcm(*(x.denominator for x in self.b))
         return tuple(int(x * denominator) for x in self.b), denominator
+
+
+@lru_cache(maxsize=None)
+def _float_stability(tableau: Tableau) -> tuple[float, ...]:
+    """The stability polynomial's coefficients as floats, once per tableau: the exact
+    fractions are slow to recompute for every R(z) of a bisection on dt."""
+    return tuple(float(gamma) for gamma in tableau.stability_coefficients())
 
 
 #: The classical fourth-order Runge–Kutta method.

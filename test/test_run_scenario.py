@@ -19,7 +19,8 @@ from screwgear_ros.scenario import ScenarioError, Setpoint, load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = sorted((ROOT / 'test' / 'data' / 'scenarios').glob('*.yaml'))
-EXAMPLES = sorted((ROOT / 'docs' / 'examples').glob('*.yaml'))
+EXAMPLES = sorted(p for p in (ROOT / 'docs' / 'examples').glob('*.yaml')
+                  if not p.stem.endswith('_sweep'))        # sweep files: test_sweep.py
 
 
 def test_there_are_scenarios_to_run():

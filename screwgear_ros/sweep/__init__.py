@@ -1,0 +1,13 @@
+"""Sweeps: many in-process runs of one scenario over a grid and/or a Monte Carlo draw of
+the node's parameters, on this process, a Dask LocalCluster or a Dask cluster
+(``sweep`` executable, README "Sweeps").
+
+:mod:`.spec` reads and validates sweep files, :mod:`.worker` runs one run anywhere,
+:mod:`.engine` places the runs, :mod:`.store` keeps the results directory,
+:mod:`.summary` draws it. Only :mod:`.engine` imports Dask, and only for more than one
+worker; only :mod:`.store` imports pyarrow.
+"""
+
+from .spec import Sweep, SweepError, load_sweep
+
+__all__ = ['Sweep', 'SweepError', 'load_sweep']

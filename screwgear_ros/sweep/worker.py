@@ -1,0 +1,164 @@
+"""One run of a sweep, wherever it runs (this process, a LocalCluster worker, a remote
+worker): :func:`execute` takes the shared :class:`~screwgear_ros.sweep.spec.Bundle` (file
+contents, not paths) and a :class:`~screwgear_ros.sweep.spec.RunSpec` and returns the
+run's row. A run depends on nothing else (no worker state, no order), so its row is the
+same bits wherever it runs. A run that faults, fails or overruns its time limit is a row
+with its status and reason; nothing escapes.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass
+from enum import StrEnum
+from pathlib import Path
+from typing import Any
+
+from .spec import Bundle, RunSpec
+
+
+class Status(StrEnum):
+    OK = 'ok'                  # ran to its end
+    FAULT = 'fault'            # the model diverged: the plant stood still (reason: why)
+    ERROR = 'error'            # the run could not go on (controller failed or was refused)
+    TIMEOUT = 'timeout'        # over the sweep's time limit (wall time), stopped
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """A finished run: its row (index, seed, key, status, reason, metrics in the sweep's
+    order) and the wall time it took (measured, so not part of the row)."""
+
+    index: int
+    key: str
+    status: Status
+    reason: str
+    metrics: tuple[float, ...]
+    wall_time: float
+
+    def row(self) -> dict[str, Any]:
+        return {'index': self.index, 'key': self.key, 'status': self.status.value,
+                'reason': self.reason, 'metrics': list(self.metrics)}
+
+
+class RunTimeout(Exception):
+    """The run went past its deadline (raised between ticks)."""
+
+
+class _Deadline:
+    """The run's controller, checking the wall clock before every answer: a run over its
+    time limit stops at the next tick (the loop over ticks is Python; one tick of the
+    compiled model is short)."""
+
+    def __init__(self, controller: Any, deadline: float) -> None:
+        self.controller, self.deadline = controller, deadline
+        self.time = 0.0
+
+    def __call__(self, observation: Any) -> Any:
+        if time.perf_counter() > self.deadline:
+            self.time = observation.time
+            raise RunTimeout
+        return None if self.controller is None else self.controller(observation)
+
+
+#: Scenarios materialized in this process, by bundle digest.
+_SCENARIOS: dict[str, Any] = {}
+
+
+def _scenario(bundle: Bundle) -> Any:
+    """The bundle's scenario, read from its text written to a private directory with its
+    controller modules (workers need no shared filesystem)."""
+    digest = bundle.digest
+    if digest not in _SCENARIOS:
+        from ..scenario import load_scenario
+        directory = Path(tempfile.mkdtemp(prefix=f'sweep_{digest}_'))
+        for name, text in bundle.sources:
+            (directory / name).write_text(text, encoding='utf-8')
+        path = directory / bundle.scenario_name
+        path.write_text(bundle.scenario_text, encoding='utf-8')
+        _SCENARIOS[digest] = load_scenario(path)
+    return _SCENARIOS[digest]
+
+
+def _in_dask_worker() -> bool:
+    if 'distributed' not in sys.modules:
+        return False
+    try:
+        sys.modules['distributed'].get_worker()
+    except (ValueError, AttributeError):
+        return False
+    return True
+
+
+def hard_limit(time_limit: float) -> float:
+    """s of wall time after which a run that never came back to its deadline check (a
+    controller or a compiled call that blocks) ends its worker process."""
+    return 2.0 * time_limit + 10.0
+
+
+def _end_process() -> None:
+    os._exit(70)
+
+
+def execute(bundle: Bundle, spec: RunSpec) -> Outcome:
+    """Run ``spec`` (never raises: a failure is an outcome with its reason). In a Dask
+    worker, a run blocked past :func:`hard_limit` ends the worker process, which its
+    nanny restarts (the run becomes a lost-worker row on the client): no worker stays
+    stuck. In the calling process the deadline check between ticks is all there is."""
+    watchdog = None
+    if _in_dask_worker():
+        watchdog = threading.Timer(hard_limit(bundle.time_limit), _end_process)
+        watchdog.daemon = True
+        watchdog.start()
+    try:
+        return _execute(bundle, spec)
+    finally:
+        if watchdog is not None:
+            watchdog.cancel()
+
+
+def _execute(bundle: Bundle, spec: RunSpec) -> Outcome:
+    from ..commands import InputRejected
+    from ..metrics import run_metrics
+    from ..simulation import Simulation
+
+    started = time.perf_counter()
+    nothing = tuple(math.nan for _ in bundle.metrics)
+    guard = None
+    try:
+        scenario = _scenario(bundle)
+        simulation = Simulation.from_values(dict(bundle.base), **dict(spec.overrides))
+        controller = (None if scenario.controller is None
+                      else scenario.controller.make(simulation, scenario.setpoint))
+        guard = _Deadline(controller, started + bundle.time_limit)
+        run = simulation.run(guard, scenario.duration, events=scenario.events(simulation))
+        setpoint = scenario.setpoint
+        metrics = run_metrics(run, setpoint, setpoint.joint if setpoint else 'table').as_dict()
+        values = tuple(float(metrics[name]) for name in bundle.metrics)
+        status, reason = (Status.FAULT, run.fault) if run.fault else (Status.OK, '')
+    except RunTimeout:
+        values, status = nothing, Status.TIMEOUT
+        reason = (f'over the time limit of {bundle.time_limit:g} s of wall time; stopped at '
+                  f'{guard.time:.4f} s of simulation')
+    except InputRejected as exc:
+        values, status = nothing, Status.ERROR
+        reason = f'the controller answered with a command the node refuses: {exc}'
+    except Exception as exc:  # noqa: BLE001 - any failure of one run is that run's row
+        values, status = nothing, Status.ERROR
+        reason = f'{type(exc).__name__}: {exc}'
+    return Outcome(spec.index, spec.key, status, reason, values,
+                   time.perf_counter() - started)
+
+
+def warm_up() -> None:
+    """Load the compiled model in this process (so the first run's time is its own)."""
+    from ..simulation import Simulation
+    Simulation().reset()
+
+
+__all__ = ['Status', 'Outcome', 'RunTimeout', 'execute', 'warm_up']
