@@ -61,21 +61,26 @@ def test_scipy_dop853_coefficients():
 
 def test_numba_nrt_option():
     """``_nrt=False`` still compiles a kernel without numba's reference counting: the
-    same function keeps the counts without it (the control that the check can fail)."""
+    same kernels keep the counts without it (the control that the check can fail). A
+    call from one kernel to another counts its array argument up and down."""
     from numba import njit
 
-    def total(x):
-        s = 0.0
-        for v in (x, x):       # a tuple of arrays: numba counts references to each
-            s += v[0]
-        return s
-
-    x = np.ones(3)
+    x = np.array([1.0, 0.0, 2.0])
 
     def llvm(**options) -> str:
-        fresh = njit(cache=False, **options)(total)
-        assert fresh(x) == 2.0
-        return next(iter(fresh.inspect_llvm().values()))
+        @njit(cache=False, **options)
+        def signed(x, i):
+            return x[i] if x[i] > 0.5 else -x[i]
+
+        @njit(cache=False, **options)
+        def total(x, n):
+            s = 0.0
+            for i in range(n):
+                s += signed(x, i % 3)
+            return s
+
+        assert total(x, 3) == 3.0
+        return next(iter(total.inspect_llvm().values()))
 
     try:
         without = llvm(_nrt=False)
