@@ -7,28 +7,43 @@
 # Each step runs only when its inputs changed since it last succeeded in this venv
 # (scripts/venv_stamp.py: the requirement files and Python version; the package's
 # installed files; the CPU numba compiles for), so a second run with nothing changed
-# returns at once. SCREWGEAR_REINSTALL=1 redoes every step. Runs on one venv are
-# serialised by a lock file in it: a run that finds a step to redo waits for the one
-# under way, and a run with nothing to redo never reinstalls under another's feet.
+# returns at once. SCREWGEAR_REINSTALL=1 redoes every step.
+#
+# The venv's lock file ($venv/.screwgear_ros/lock) keeps concurrent runs apart: this
+# script looks at the stamps under a shared lock, and installs only under an exclusive
+# one, which waits for every other holder: another set-up, and the runs of run_tests.sh
+# and run_demo.sh, which hold it shared while they use the venv. So a demo started
+# while the tests run starts at once when nothing changed, and otherwise waits for
+# them to end instead of reinstalling the package under them.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 venv="${SCREWGEAR_VENV:-$root/.venv}"
 pip_q=(--quiet --disable-pip-version-check)
 state="$venv/.screwgear_ros"
 mkdir -p "$state"
-exec 9>"$state/lock"
-if ! flock -n 9; then
-    echo "setup_venv: waiting for another setup of $venv to finish" >&2
-    flock 9
-fi
-[ -x "$venv/bin/python" ] || python3 -m venv "$venv"
-py="$venv/bin/python"
+exec 9>>"$state/lock"
+flock -s 9
 
 declare -A stamp
-while read -r step value; do stamp[$step]=$value; done < <("$py" -P "$root/scripts/venv_stamp.py" "$root")
 # current STEP: whether STEP last succeeded with the current inputs; mark STEP: record that.
 current() { [ "${SCREWGEAR_REINSTALL:-0}" != 1 ] && [ "$(cat "$state/$1" 2>/dev/null)" = "${stamp[$1]}" ]; }
 mark() { echo "${stamp[$1]}" > "$state/$1.tmp" && mv "$state/$1.tmp" "$state/$1"; }
+stamps() {
+    [ -x "$venv/bin/python" ] || return 0
+    while read -r step value; do stamp[$step]=$value; done \
+        < <("$venv/bin/python" -P "$root/scripts/venv_stamp.py" "$root")
+}
+stamps
+if [ -x "$venv/bin/python" ] && current deps && current package && current kernels; then
+    exit 0
+fi
+if ! flock -n -x 9; then
+    echo "setup_venv: $venv needs an update; waiting for the runs using it to end" >&2
+    flock -x 9
+fi
+[ -x "$venv/bin/python" ] || python3 -m venv "$venv"
+py="$venv/bin/python"
+stamps                  # again: the venv may be new, or updated while this waited
 
 if ! current deps; then
     "$py" -m pip install "${pip_q[@]}" -c "$root/constraints.txt" \
