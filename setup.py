@@ -22,8 +22,10 @@ setup(
         # A colcon install puts the console scripts themselves there (setup.cfg).
         (f'lib/{PACKAGE}', [f'launchers/{exe}' for exe in EXECUTABLES]),
     ],
-    install_requires=['setuptools', 'numpy', 'scipy', 'numba', 'PyYAML', 'mcap',
-                      'mcap-ros2-support', 'rosbags', 'tqdm', 'matplotlib'],
+    # The ranges of requirements.txt's runtime part; constraints.txt pins the tested set.
+    install_requires=['setuptools', 'numpy>=1.26,<3', 'scipy>=1.11', 'numba>=0.59',
+                      'PyYAML>=6', 'mcap>=1.2', 'zstandard>=0.21', 'mcap-ros2-support>=0.5',
+                      'rosbags>=0.10', 'tqdm>=4', 'matplotlib>=3.8'],
     # pip install screwgear_ros[gym]: the Gymnasium environment (screwgear_ros.gym).
     # pip install screwgear_ros[sweep]: sweep on Dask (LocalCluster or a cluster), parquet.
     # pip install screwgear_ros[design]: linearize --format control (python-control).

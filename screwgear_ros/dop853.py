@@ -29,10 +29,26 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate._ivp import dop853_coefficients as _tableau
+import scipy
 
 from .jit import allocating_kernel, kernel
 from .model import rhs
+
+#: SciPy's private module of the tableau, and the names taken from it.
+TABLEAU_MODULE = 'scipy.integrate._ivp.dop853_coefficients'
+TABLEAU_NAMES = ('N_STAGES', 'A', 'B', 'C', 'E3', 'E5')
+try:
+    from scipy.integrate._ivp import dop853_coefficients as _tableau
+    _missing = [name for name in TABLEAU_NAMES if not hasattr(_tableau, name)]
+except ImportError as _error:
+    _missing = [f'the module ({_error})']
+if _missing:
+    # Private to SciPy: an upgrade may move it; say so instead of an AttributeError.
+    raise ImportError(
+        f"screwgear_ros's DOP853 takes its tableau from SciPy's private {TABLEAU_MODULE}, "
+        f'and SciPy {scipy.__version__} lacks {", ".join(_missing)}. Install the versions '
+        'in constraints.txt (pip install -c constraints.txt ...), or adapt '
+        'screwgear_ros/dop853.py.')
 
 #: Stages of the 8th-order step (the 13th evaluation is f at the new point, reused).
 N_STAGES = _tableau.N_STAGES

@@ -17,11 +17,37 @@ paper's table at rest, dt 50 µs: 0.26 µs a step against 1.0 µs, in one proces
 kernel that allocates (:data:`allocating_kernel`) keeps
 the runtime: numba refuses to compile an allocation without it, so a kernel that
 starts to allocate cannot keep the wrong decorator unnoticed.
+
+``_nrt`` is private to numba: :func:`require_nrt_option` checks at import that the
+installed numba still knows it, so an upgrade that drops it stops the import with a
+message saying so (instead of a ``KeyError`` at the first compile deep inside numba).
 """
 
 from __future__ import annotations
 
+import numba
 from numba import njit
+
+def require_nrt_option() -> None:
+    """Raise ImportError, naming the API, unless numba still maps the ``_nrt`` option
+    to its ``nrt`` compile flag (what :data:`NO_ALLOCATION` relies on)."""
+    try:
+        from numba.core.compiler import Flags
+        from numba.core.cpu import CPUTargetOptions
+        flags = CPUTargetOptions.parse_as_flags(Flags(), {'_nrt': False})
+        known = flags.nrt is False
+        reason = 'it no longer switches the nrt flag off'
+    except Exception as error:     # whatever the change is, it is this API that broke
+        known, reason = False, f'{type(error).__name__}: {error}'
+    if not known:
+        raise ImportError(
+            f"screwgear_ros needs numba's private compile option '_nrt' (njit(_nrt=False), "
+            f'screwgear_ros/jit.py), which numba {numba.__version__} does not support as '
+            f'expected ({reason}). Install the versions in constraints.txt '
+            '(pip install -c constraints.txt ...), or adapt screwgear_ros/jit.py.')
+
+
+require_nrt_option()
 
 #: Options of every kernel.
 OPTIONS = {'cache': True, 'error_model': 'numpy'}
@@ -34,4 +60,5 @@ kernel = njit(**NO_ALLOCATION)
 inline_kernel = njit(inline='always', **NO_ALLOCATION)
 allocating_kernel = njit(**OPTIONS)
 
-__all__ = ['OPTIONS', 'NO_ALLOCATION', 'kernel', 'inline_kernel', 'allocating_kernel']
+__all__ = ['OPTIONS', 'NO_ALLOCATION', 'kernel', 'inline_kernel', 'allocating_kernel',
+           'require_nrt_option']

@@ -25,6 +25,10 @@ while [ $# -gt 0 ]; do
 done
 bash "$root/scripts/setup_venv.sh"
 . "$root/scripts/env.sh"
+# Hold the venv's lock shared while the demo runs (a set-up with something to reinstall
+# waits for it); the demo's processes do not inherit it.
+exec 8>>"$VIRTUAL_ENV/.screwgear_ros/lock"
+flock -s 8
 
 bag="$root/out/demo_$(date +%Y%m%d_%H%M%S)"
 mkdir -p "$root/out"
@@ -34,15 +38,15 @@ stop() {
     for pid in "${pids[@]}"; do kill -INT "$pid" 2>/dev/null || true; done
     for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null || true; done
     if [ -f "$bag/metadata.yaml" ]; then
-        plot_run "$bag" -o "$bag/plot.png" || echo "run_demo: no plot of $bag (see above)" >&2
+        plot_run "$bag" -o "$bag/plot.png" 8>&- || echo "run_demo: no plot of $bag (see above)" >&2
     fi
 }
 trap stop INT TERM EXIT
 
 table_sim --ros-args --params-file "$root/config/paper.yaml" -p "record:=$bag" \
-    ${sim_args[@]+"${sim_args[@]}"} &
+    ${sim_args[@]+"${sim_args[@]}"} 8>&- &
 pids+=($!)
-demo_controller &
+demo_controller 8>&- &
 pids+=($!)
 if [ -n "$duration" ]; then
     sleep "$duration"

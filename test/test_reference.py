@@ -19,7 +19,7 @@ from bag_runs import reversal_run
 from screwgear_ros.events import Command
 from screwgear_ros.params import SimSettings, TableParams, equivalent_mass
 from screwgear_ros.plant import DriveInput, Plant
-from screwgear_ros.reference import ReferenceFailure, Segment, solve
+from screwgear_ros.reference import ATOL, RTOL, ReferenceFailure, Segment, solve
 
 PAPER_TABLE_DAMPING = 8867.0   # N·m·s/rad: 400 N·m drives the table at 0.337 rad/s
 
@@ -79,20 +79,49 @@ def test_reference_segments_switch_input_at_their_step():
     dict(mesh_phase='time', table_damping=30.0, drive_no_load_speed=0.0),
 ], ids=['paper', 'energy_consistent', 'conventional', 'time_phase_ideal_drive'])
 def test_compiled_dop853_agrees_with_scipy_on_the_same_segments(case):
-    """Two implementations of DOP853 at rtol 1e-11 on the same segments (a reversal and
-    a load step, samples on the boundaries): within 1e-9 of each signal's magnitude."""
+    """Two implementations of DOP853 on the same segments (a reversal and a load step,
+    samples on the boundaries) agree within what the method guarantees each of them.
+
+    Each solve is within its global error of the exact solution, so the two are within
+    the sum of their global errors. Neither error is a fixed multiple of the tolerance:
+    DOP853 controls the local error of each step, and where the contact law has a corner
+    (a backlash impact, a contact lost) its error estimate no longer describes the step,
+    so the global error depends on where the accepted steps happen to fall. Two solvers
+    whose rounding differs in the last bit (another CPU, another NumPy kernel) accept
+    different steps after such a corner and end up differing by about one such error
+    (the conventional case: 7e-9 of the pinion's speed at rtol 1e-11, 60 times what
+    the same solvers differ by on the smooth cases). Each solver therefore estimates
+    its own global error by solving again at a hundredth of the tolerances. Through the
+    corners the error does not shrink in proportion to the tolerance (at a tenth it
+    sometimes shrank by less than half), but a hundred times tighter it is at least
+    halved, so the error at the tolerance is at most twice the difference to that
+    solve (e ≤ |y − y_fine| + e_fine, e_fine ≤ e/2). Hence per sample and state:
+    |ours − SciPy| ≤ 2 (|ours − ours_fine| + |SciPy − SciPy_fine|), plus the finer
+    solves' own relative tolerance of each signal's magnitude (below it nothing is
+    resolved, e.g. at the first samples). This fails when the compiled solver is not
+    DOP853 (a change of 1e-8 in one damping of its model fails it 600 to 4000 times over):
+    it then disagrees with SciPy by more than either moves with the tolerance, whatever
+    the CPU and whatever NumPy's and OpenBLAS's kernels for it.
+    """
     p = TableParams(**case)
     dt = 50e-6
     y0 = Plant(p, dt).state.copy()
     segs = [Segment(0, DriveInput(400.0, 1, 0.0), p), Segment(2000, DriveInput(400.0, -1, 0.0), p),
             Segment(3000, DriveInput(400.0, -1, -150.0), p)]
     samples = np.arange(0, 4001, 20)
+    fine = dict(rtol=RTOL / 100, atol=ATOL / 100)
     ours = solve(y0, segs, dt, samples)
     scipy = solve(y0, segs, dt, samples, method='scipy')
+    error = (np.abs(ours - solve(y0, segs, dt, samples, **fine))
+             + np.abs(scipy - solve(y0, segs, dt, samples, method='scipy', **fine)))
     scale = np.maximum(np.max(np.abs(scipy), axis=0), 1e-3)  # pinion 3 idles in conventional
-    rel = np.max(np.abs(ours - scipy), axis=0) / scale
-    print(case, 'max |compiled − SciPy| / max|y| per state:', rel)
-    assert np.all(rel < 1e-9), rel
+    bound = 2.0 * error + fine['rtol'] * scale
+    worst = np.max(np.abs(ours - scipy) / bound, axis=0)
+    print(case, 'max |compiled − SciPy| / bound per state:', worst,
+          'estimated global error / max|y|:', np.max(error, axis=0) / scale)
+    assert np.all(worst <= 1.0), worst
+    # Both converged: the tolerance-sensitivity used as the bound is itself small.
+    assert np.all(np.max(error, axis=0) < 1e-7 * scale), np.max(error, axis=0) / scale
     assert np.ptp(scipy[:, 4]) > 0.1                  # the table did move both ways
 
 

@@ -5,10 +5,14 @@ a pacing thread or timer may still publish ("publisher's context is invalid"). T
 shells instead call ``rclpy.init(..., signal_handler_options=SignalHandlerOptions.NO)``
 and let SIGINT/SIGTERM only set an event (:func:`stop_on_signals`); after the loop
 ends they stop their own threads, then destroy nodes, then shut rclpy down.
+
+A stop signal is answered by exit status 0 however late it comes, also during the
+interpreter's teardown (:func:`stop_on_signals`).
 """
 
 from __future__ import annotations
 
+import atexit
 import os
 import signal
 import threading
@@ -32,6 +36,17 @@ def stop_on_signals() -> threading.Event:
     handler writes the signal's number to a pipe (:func:`signal.set_wakeup_fd`, no lock,
     async-signal-safe) and a daemon thread sets the event when it reads SIGINT or
     SIGTERM there; the Python handlers do nothing.
+
+    A burst of stop signals may outlast the process's own stop: the last ones can come
+    while the interpreter tears itself down. That teardown resets every Python-level
+    handler to the default action once the ``atexit`` callbacks have run (and leaves
+    ignored signals ignored), so a stop signal arriving then would kill the stopping
+    process (status -2, a shell's 130). The last ``atexit`` callback therefore ignores
+    the stop signals: until then the handler above takes them, from then on the kernel
+    drops them, and nothing is skipped on the way out (``os._exit`` would skip the
+    other ``atexit`` callbacks and the flushing of buffered output). Registered before
+    the callbacks a shell adds later, it runs after them (``atexit`` runs last in,
+    first out), so stop signals stay harmless through those too.
     """
     stop = threading.Event()
     read, write = os.pipe()
@@ -39,6 +54,8 @@ def stop_on_signals() -> threading.Event:
     signal.set_wakeup_fd(write, warn_on_full_buffer=False)
     for signum in STOP_SIGNALS:
         signal.signal(signum, _noted)
+    atexit.unregister(_ignore_stop_signals)
+    atexit.register(_ignore_stop_signals)
 
     def watch() -> None:
         while True:
@@ -51,6 +68,12 @@ def stop_on_signals() -> threading.Event:
 
 def _noted(signum: int, frame: object) -> None:
     """Python's side of a stop signal: nothing (the wakeup pipe carries it)."""
+
+
+def _ignore_stop_signals() -> None:
+    """Ignore the stop signals from here to the end of the process (see above)."""
+    for signum in STOP_SIGNALS:
+        signal.signal(signum, signal.SIG_IGN)
 
 
 def spin_until(node: Node, stop: threading.Event, period: float = 0.1) -> None:
