@@ -34,8 +34,17 @@ mkdir -p "$root/out"
 pids=()
 stop() {
     trap - INT TERM EXIT
-    for pid in "${pids[@]}"; do kill -INT "$pid" 2>/dev/null || true; done
-    for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null || true; done
+    # TERM, not INT: a script's background jobs start with SIGINT ignored, so an INT
+    # sent before a node installed its own handler would be lost and the wait endless
+    for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
+    for pid in "${pids[@]}"; do
+        for _ in $(seq 1 60); do kill -0 "$pid" 2>/dev/null || break; sleep 0.5; done
+        if kill -0 "$pid" 2>/dev/null; then
+            echo "run_demo: process $pid did not stop within 30 s of SIGTERM: killed" >&2
+            kill -KILL "$pid" 2>/dev/null || true
+        fi
+        wait "$pid" 2>/dev/null || true
+    done
     if [ ! -e "$bag" ]; then
         echo "run_demo: stopped before table_sim recorded anything: no plot" >&2
     elif why="$(plot_run "$bag" -o "$bag/plot.png" 2>&1 >/dev/null)"; then
