@@ -8,12 +8,24 @@ each new joint state, and that :class:`DemoController` runs on each
 The target steps through ``targets`` (rad), holding each for ``dwell`` s of simulation
 time from the first joint state answered. Proportional and derivative gains place the
 closed-loop poles of the paper's table (pure inertia about 49.7 kg·m² at the table, gear
-ratio r2/r1 = 7.46) near ω_n = 20 rad/s with ζ ≈ 0.8 (Kp = I·ω_n²/7.46, Kd =
-2ζω_n·I/7.46); the integral acts only within ``integral_zone`` of the target
-(conditional integration: no windup over a step). A direction change needs the wanted
-torque to exceed ``hysteresis`` the other way, so the path does not chatter at rest;
-meanwhile the torque is 0 and the effort a zero signed like the direction in force (a
-zero effort keeps table_sim's direction).
+ratio r2/r1 = 7.46) near ω_n = 20 rad/s, critically damped (Kp = I·ω_n²/7.46, Kd =
+2ζω_n·I/7.46 with ζ = 1).
+
+Each drive path pushes one way only (table_sim's effort: the sign picks the path, the
+magnitude is its torque ≥ 0), and the table is a free inertia once the torque is 0. So a
+step accelerates on one path and brakes on the other, and the braking path then brings
+the table onto the target from the near side: whenever the wanted torque turns the
+other way, the torque is 0 and the table creeps on, braked again as soon as it is too
+fast (the PD law's line Kp·error = Kd·speed). Critical damping makes that approach free
+of overshoot, so the braking path stays in force through the hold and is the one the
+next step back starts on: one path switch per target reversal. A direction change needs
+the wanted torque to exceed ``hysteresis`` the other way, and none happens while the
+table holds its target (``|error| <= hold_error`` and ``|speed| <= hold_speed``): the
+torque is then 0 and the effort a zero signed like the direction in force (a zero effort
+keeps table_sim's direction). The integral acts only within ``integral_zone`` of the
+target, on an error the path in force pushes against (a load it holds), never deeper into
+its torque limit; a path switch clears it (it was the other path's torque). Integrating
+an error the path in force cannot act on would only wind up and overshoot the target.
 
 Time is taken from integer nanosecond stamps, as the node's joint_states carry them, so
 the law gives the same bits over DDS and in-process.
@@ -40,16 +52,19 @@ class DemoGains:
     dwell: float = 1.5                    # s of simulation time per target
     kp: float = 2665.0                    # N·m/rad
     ki: float = 8000.0                    # N·m/(rad·s)
-    kd: float = 213.0                     # N·m·s/rad
+    kd: float = 266.5                     # N·m·s/rad
     max_torque: float = 300.0             # N·m
     hysteresis: float = 1.0               # N·m
     integral_zone: float = 0.002          # rad
+    hold_error: float = 0.0005            # rad: |target − angle| of a table holding its target
+    hold_speed: float = 0.01              # rad/s: |speed| of a table holding its target
 
     def __post_init__(self) -> None:
         object.__setattr__(self, 'targets', tuple(float(v) for v in self.targets))
         if not self.targets:
             raise ValueError('demo controller: targets must hold at least one angle')
-        for name in ('dwell', 'kp', 'ki', 'kd', 'max_torque', 'hysteresis', 'integral_zone'):
+        for name in ('dwell', 'kp', 'ki', 'kd', 'max_torque', 'hysteresis', 'integral_zone',
+                     'hold_error', 'hold_speed'):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) \
                     or not math.isfinite(value) or value < 0.0:
@@ -92,17 +107,24 @@ class DemoLaw:
         the signed effort, N·m (a signed zero while the torque is 0)."""
         g = self.gains
         error = self.target(t) - angle
-        if abs(error) < g.integral_zone and 0.0 < gap <= MAX_GAP:
-            self.integral += error * gap
-        if g.ki > 0.0:
-            limit = 0.5 * g.max_torque / g.ki
-            self.integral = min(limit, max(-limit, self.integral))
+        holding = abs(error) <= g.hold_error and abs(speed) <= g.hold_speed
         wanted = g.kp * error + g.ki * self.integral - g.kd * speed
-        if self.direction == 0 and wanted != 0.0:
-            self.direction = 1 if wanted > 0.0 else -1
-        elif wanted * self.direction < 0.0 and abs(wanted) > g.hysteresis:
+        if self.direction == 0:
+            if wanted != 0.0:
+                self.direction = 1 if wanted > 0.0 else -1
+        elif wanted * self.direction < -g.hysteresis and not holding:
             self.direction = -self.direction
-        torque = min(g.max_torque, max(0.0, wanted * self.direction))
+            self.integral = 0.0              # it was torque of the other path
+        drive = wanted * self.direction      # > 0: the path in force can give it
+        # conditional integration: near the target, only an error the path in force
+        # pushes against (a load it holds), and never deeper into its torque limit
+        if abs(error) < g.integral_zone and 0.0 < gap <= MAX_GAP \
+                and error * self.direction > 0.0 and drive < g.max_torque:
+            self.integral += error * gap
+            if g.ki > 0.0:
+                limit = 0.5 * g.max_torque / g.ki
+                self.integral = min(limit, max(-limit, self.integral))
+        torque = min(g.max_torque, max(0.0, drive))
         return math.copysign(torque, self.direction or 1)
 
     def answer(self, stamp: int, angle: float, speed: float) -> tuple[float, float]:

@@ -4,23 +4,26 @@
 # lines show the table following a back-and-forth profile with reversals. Ctrl-C stops both.
 # The run is recorded to out/demo_<date>_<time>/; at the end its plot (plot_run) is written
 # into that directory and its path printed.
-#   bash scripts/run_demo.sh [--lockstep] [--duration SECONDS]
-#   --lockstep          table_sim (lockstep:=true, still at real-time factor 1) integrates
-#                       each tick only once the controller answered the last joint_states:
-#                       the run is bit-identical however busy the machine is, only slower
-#                       when the machine cannot keep up
+#   bash scripts/run_demo.sh [--free-running] [--duration SECONDS]
+#   (default)           lockstep: table_sim (lockstep:=true, paced at real-time factor 1)
+#                       integrates each tick only once the controller answered the last
+#                       joint_states, so the run is the same however busy the machine is,
+#                       only slower when the machine cannot keep up
+#   --free-running      table_sim runs at real time whether the controller keeps up or
+#                       not (on a busy machine a late answer can upset the loop)
 #   --duration SECONDS  stop both after SECONDS of wall time (default: until Ctrl-C)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 duration=""
-sim_args=()
+sim_args=(-p lockstep:=true -p real_time_factor:=1.0)
 while [ $# -gt 0 ]; do
     case "$1" in
-        --lockstep) sim_args+=(-p lockstep:=true -p real_time_factor:=1.0); shift ;;
+        --lockstep) shift ;;   # the default
+        --free-running) sim_args=(-p lockstep:=false -p real_time_factor:=1.0); shift ;;
         --duration) duration="${2:?--duration needs SECONDS}"; shift 2 ;;
         --duration=*) duration="${1#*=}"; shift ;;
-        -h|--help) sed -n '2,12p' "$0"; exit 0 ;;
-        *) echo "unknown argument: $1 (use --lockstep, --duration SECONDS)" >&2; exit 2 ;;
+        -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
+        *) echo "unknown argument: $1 (use --free-running, --duration SECONDS)" >&2; exit 2 ;;
     esac
 done
 bash "$root/scripts/setup_venv.sh"
@@ -35,10 +38,25 @@ mkdir -p "$root/out"
 pids=()
 stop() {
     trap - INT TERM EXIT
-    for pid in "${pids[@]}"; do kill -INT "$pid" 2>/dev/null || true; done
-    for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null || true; done
-    if [ -f "$bag/metadata.yaml" ]; then
-        plot_run "$bag" -o "$bag/plot.png" 8>&- || echo "run_demo: no plot of $bag (see above)" >&2
+    # TERM, not INT: a script's background jobs start with SIGINT ignored, so an INT
+    # sent before a node installed its own handler would be lost and the wait endless
+    for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
+    for pid in "${pids[@]}"; do
+        for _ in $(seq 1 60); do kill -0 "$pid" 2>/dev/null || break; sleep 0.5; done
+        if kill -0 "$pid" 2>/dev/null; then
+            echo "run_demo: process $pid did not stop within 30 s of SIGTERM: killed" >&2
+            kill -KILL "$pid" 2>/dev/null || true
+        fi
+        wait "$pid" 2>/dev/null || true
+    done
+    if [ ! -e "$bag" ]; then
+        echo "run_demo: stopped before table_sim recorded anything: no plot" >&2
+    elif why="$(plot_run "$bag" -o "$bag/plot.png" 2>&1 >/dev/null 8>&-)"; then
+        echo "run_demo: plot of the run: $bag/plot.png"
+    else
+        # plot_run's one-line reason (e.g. no data: the run stopped before it started)
+        echo "run_demo: no plot: ${why#plot_run: }" >&2
+        echo "run_demo: the recording is kept in $bag" >&2
     fi
 }
 trap stop INT TERM EXIT
