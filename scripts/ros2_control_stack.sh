@@ -55,8 +55,18 @@ site="$("$python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])'
 pylibdir="$("$python" -c 'import sysconfig; print(sysconfig.get_config_var("LIBDIR"))')"
 libpython="$pylibdir/$("$python" -c 'import sysconfig; print(sysconfig.get_config_var("LDLIBRARY"))')"
 # The wheels' bundled libraries (site-packages/ros_*.libs) are not on their users' RPATHs:
-# executables built here find them through this directory of links on LD_LIBRARY_PATH.
-wheel_libs="$prefix/wheel_libs"
+# executables built here find them through this directory of links on LD_LIBRARY_PATH. It
+# belongs to the venv, so that a prefix built with another venv runs with this one's.
+wheel_libs="$venv/lib/ros_wheel_libs"
+
+link_wheel_libs() {
+    mkdir -p "$wheel_libs"
+    find "$wheel_libs" -maxdepth 1 -type l -delete
+    local lib
+    for lib in "$site"/ros_*.libs/*; do
+        [ -e "$wheel_libs/$(basename "$lib")" ] || ln -s "$lib" "$wheel_libs/$(basename "$lib")"
+    done
+}
 
 runtime_env() {
     echo "export LD_LIBRARY_PATH=\"$wheel_libs:$pylibdir:$prefix/lib:$venv/lib\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}\""
@@ -68,6 +78,7 @@ runtime_env() {
 if [ "$print_env" = 1 ]; then
     [ -x "$prefix/lib/controller_manager/ros2_control_node" ] \
         || die "no built stack in $prefix: run scripts/ros2_control_stack.sh first"
+    link_wheel_libs
     runtime_env
     exit 0
 fi
@@ -201,11 +212,7 @@ for f in "$venv/share/tracetools/cmake/ament_cmake_export_libraries-extras.cmake
     [ -f "$f" ] && sed -i -E 's/"lttng-ust;/"/' "$f"
 done
 
-mkdir -p "$wheel_libs"
-find "$wheel_libs" -maxdepth 1 -type l -delete
-for lib in "$site"/ros_*.libs/*; do
-    [ -e "$wheel_libs/$(basename "$lib")" ] || ln -s "$lib" "$wheel_libs/$(basename "$lib")"
-done
+link_wheel_libs
 
 # ---- build ---------------------------------------------------------------------------
 targets=(controller_manager joint_state_broadcaster effort_controllers
@@ -242,7 +249,7 @@ read -r -a unneeded <<< "$(sed -n 2p <<< "$selection")"
 export AMENT_PREFIX_PATH="$venv" CMAKE_PREFIX_PATH="$venv"
 export LD_LIBRARY_PATH="$wheel_libs:$pylibdir${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export PATH="$venv/bin:$PATH"
-export MAKEFLAGS="-j$jobs"
+export MAKEFLAGS="${MAKEFLAGS:--j$jobs}"   # a MAKEFLAGS of the caller wins
 log_base="$work/log"
 echo "building ${#needed[@]} packages (${targets[*]} and what they need) from $src into $prefix"
 started=$(date +%s)
@@ -254,19 +261,22 @@ set +e
     --event-handlers console_direct- console_stderr- console_start_end+ summary+ status- \
     --cmake-args -DBUILD_TESTING=OFF -DCMAKE_BUILD_TYPE=Release \
         "-DPython3_EXECUTABLE=$python" "-DPYTHON_EXECUTABLE=$python" \
-        "-DCMAKE_EXE_LINKER_FLAGS=-Wl,--no-as-needed,$libpython,--as-needed")
-status=$?
+        "-DCMAKE_EXE_LINKER_FLAGS=-Wl,--no-as-needed,$libpython,--as-needed") 2>&1 \
+    | tee "$work/colcon.out"
+status=${PIPESTATUS[0]}
 set -e
-if [ $status -ne 0 ]; then
-    # colcon names failed packages in its summary; show each one's first real error.
-    for pkg_log in "$log_base"/latest_build/*/stdout_stderr.log; do
-        [ -f "$pkg_log" ] || continue
-        pkg="$(basename "$(dirname "$pkg_log")")"
-        line="$(grep -m1 -E '(error|Error|ERROR)[: ]|CMake Error|fatal error|undefined reference' \
-                "$pkg_log" || true)"
-        [ -n "$line" ] && echo "ros2_control_stack: $pkg failed: $line" >&2
+if [ "$status" -ne 0 ]; then
+    # The first real error of each package that failed, from its own log, else colcon's.
+    failed=($(sed -n 's/^Failed *<<< \([^ ]*\).*/\1/p' "$work/colcon.out"))
+    for pkg in "${failed[@]}"; do
+        line="$(grep -s -m1 -E 'error:|Error:|CMake Error|fatal error|undefined reference' \
+                "$log_base/latest_build/$pkg/stdout_stderr.log" \
+                || grep -m1 -E 'ERROR' "$work/colcon.out" || echo 'no error line: see its log')"
+        echo "ros2_control_stack: $pkg failed: $line" >&2
     done
-    echo "ros2_control_stack: build failed after $(( $(date +%s) - started )) s; logs in $log_base/latest_build" >&2
+    [ ${#failed[@]} -gt 0 ] || echo "ros2_control_stack: colcon failed before any package" >&2
+    echo "ros2_control_stack: build failed after $(( $(date +%s) - started )) s;" \
+         "logs in $log_base/latest_build" >&2
     exit 1
 fi
 echo "$stamp" > "$stamp_file"
