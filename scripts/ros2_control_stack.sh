@@ -227,7 +227,11 @@ selection="$("$python" - "$src" "$venv/share/ament_index/resource_index/packages
 import os, sys
 from catkin_pkg.packages import find_packages
 src, provided, targets = sys.argv[1], set(os.listdir(sys.argv[2])), sys.argv[3:]
-packages = {p.name: p for p in find_packages(src).values()}
+from catkin_pkg.package import InvalidPackage
+try:
+    packages = {p.name: p for p in find_packages(src).values()}
+except InvalidPackage as e:
+    sys.exit(f'ros2_control_stack: an invalid package in {src}: {e}')
 for p in packages.values():
     p.evaluate_conditions(os.environ)
 todo, needed = list(targets), set()
@@ -241,11 +245,13 @@ while todo:
                               *p.buildtool_export_depends, *p.exec_depends)
              if d.evaluated_condition is not False]
 print(' '.join(sorted(needed)))
-print(' '.join(sorted(set(packages) - needed)) or '-')
+print(' '.join(sorted(set(packages) - needed)))
 PY
-)"
+)" || exit 2
 read -r -a needed <<< "$(sed -n 1p <<< "$selection")"
 read -r -a unneeded <<< "$(sed -n 2p <<< "$selection")"
+ignore=()
+[ ${#unneeded[@]} -eq 0 ] || ignore=(--packages-ignore "${unneeded[@]}")
 export AMENT_PREFIX_PATH="$venv" CMAKE_PREFIX_PATH="$venv"
 export LD_LIBRARY_PATH="$wheel_libs:$pylibdir${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export PATH="$venv/bin:$PATH"
@@ -256,7 +262,7 @@ started=$(date +%s)
 set +e
 (cd "$work" && "$venv/bin/colcon" --log-base "$log_base" build \
     --base-paths "$src" --build-base "$work/build" --install-base "$prefix" --merge-install \
-    --packages-ignore "${unneeded[@]}" \
+    "${ignore[@]}" \
     --parallel-workers "$jobs" \
     --event-handlers console_direct- console_stderr- console_start_end+ summary+ status- \
     --cmake-args -DBUILD_TESTING=OFF -DCMAKE_BUILD_TYPE=Release \
