@@ -12,7 +12,8 @@
 #            (default ~/.cache/screwgear_ros/ros2_control/src)
 # --prefix   install prefix (default ~/.cache/screwgear_ros/ros2_control/install); build/
 #            and log/ go beside it
-# --jobs     packages and compile jobs at once (default: the number of cores)
+# --jobs     packages and compile jobs at once (default: the number of cores; a MAKEFLAGS
+#            of the caller sets the compile jobs instead)
 # --checkout-from  fill --src from bare git mirrors instead of `vcs import`: a directory
 #            holding OWNER+NAME/repo (upstream, tag VERSION) or ros2-gbp+NAME-release/repo
 #            (bloom release repository, tag upstream/VERSION) for each repository
@@ -39,7 +40,8 @@ while [ $# -gt 0 ]; do
         --jobs) jobs="${2:?--jobs needs a number}"; shift 2 ;;
         --checkout-from) mirrors="${2:?--checkout-from needs a directory}"; shift 2 ;;
         --print-env) print_env=1; shift ;;
-        -h|--help) sed -n '2,24p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        -h|--help) awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' \
+                       "${BASH_SOURCE[0]}"; exit 0 ;;
         *) die "unknown option $1 (see --help)" ;;
     esac
 done
