@@ -2,7 +2,8 @@
 machine RViz and Foxglove can show, with no ros2_control, RViz or Foxglove installed.
 
 A test peer plays ``joint_state_topic_hardware_interface/JointStateTopicSystem`` as it
-runs for the shipped URDF: every controller-manager cycle it publishes a
+runs for the shipped URDF: every controller-manager cycle (the ``update_rate`` of
+config/ros2_control.yaml, as ros2_control_node runs it) it publishes a
 sensor_msgs/JointState naming every joint of the ``<ros2_control>`` block, with empty
 ``position`` and ``velocity`` (no such command interfaces) and one ``effort`` value
 (pinion_1/effort), NaN until a controller wrote it; QoS as the plugin's (keep last 1,
@@ -57,6 +58,9 @@ PLUGIN_QOS = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST,      # rclcpp:
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 ACKED = Duration(seconds=10)
+#: Hz of the controller manager, whose write() publishes the plugin's message
+UPDATE_RATE = yaml.safe_load((Path(__file__).parents[1] / 'config/ros2_control.yaml')
+                             .read_text())['controller_manager']['ros__parameters']['update_rate']
 
 
 def plugin_message(effort: float, peer: Peer | None = None) -> JointState:
@@ -217,7 +221,7 @@ class TopicSystem:
     every cycle (NaN until :meth:`command` is first called), as the controller manager's
     write() does, from its own thread."""
 
-    def __init__(self, peer: Peer, topic: str, period: float = 0.005) -> None:
+    def __init__(self, peer: Peer, topic: str, period: float = 1.0 / UPDATE_RATE) -> None:
         self.peer = peer
         self.pub = peer.publisher(topic, JointState, PLUGIN_QOS)
         self.effort = math.nan
@@ -352,7 +356,8 @@ def test_the_plugins_efforts_drive_the_table_both_ways_like_cmd_effort(table):
     m = table.next_js(lambda m: m.effort[2] == -T_P - 20.0, 'the drive on path 3')
     assert m.effort[0] == T_P
     table.next_js(lambda m: m.velocity[1] < 0.0, 'the table turning back')
-    table.plugin.command(0.0)                          # zero: no torque, direction kept
+    table.plugin.command(0.0)      # zero (also what the effort controller writes when it
+    #                                is deactivated): no torque, direction kept
     table.next_js(lambda m: m.effort[0] == T_P and m.effort[2] == -T_P, 'no drive')
     assert table.path.latest().data == 3
     table.plugin.command(15.0)
