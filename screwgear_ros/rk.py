@@ -14,8 +14,8 @@ The step supports the tableaus whose stage s takes the slope of stage s − 1 al
 the midpoint rule, Heun's method, ...), so it keeps no stage array. The weights are
 applied as RK4 is written by hand, y + (h/D)·(w_0·k_0 + w_1·(k_1 + k_2) + w_3·k_3) with
 integer w = D·b: consecutive stages of equal weight are summed first (fewer
-multiplications, and the arithmetic of the integrators this module replaced, so their
-results are unchanged bit for bit).
+multiplications, and the arithmetic of RK4 as written by hand, so that its results stay
+bit for bit those of the formula).
 
 States are anything with the vector operations of :func:`axpy`, :func:`add` and
 :func:`scale`: floats and NumPy arrays in Python, tuples of floats in Python and in

@@ -24,8 +24,10 @@ import yaml
 from .commands import INPUT_TOPICS, InputRejected, apply_command
 from .control import DemoController, DemoGains
 from .events import Command, Event, ParameterChange, Reset
-from .params import ParameterError, default_values, split_parameters
+from .parameter_sets import default_values, split_parameters
+from .params import ParameterError
 from .plant import DriveInput
+from .schedule import Schedule
 from .simulation import Controller, Run, Simulation
 
 #: The top-level keys of a scenario.
@@ -338,8 +340,7 @@ class Scenario:
 
     def schedule(self) -> Any:
         """What ``replay_run --script`` plays into a node: the start values and the
-        actions at their steps (:class:`~screwgear_ros.runs.replay.Schedule`)."""
-        from .runs.replay import Schedule
+        actions at their steps (:class:`~screwgear_ros.schedule.Schedule`)."""
         simulation = self.simulation()
         return Schedule(simulation.params, simulation.settings, self.events(simulation),
                         end_step=int(round(self.duration / simulation.settings.dt)))

@@ -5,7 +5,7 @@ then used on runs driven through a Session: with the `energy_consistent` mesh th
 balance closes to RK4's accuracy, shrinking at RK4's order as dt halves, in both modes
 with backlash, STE and stiffness fluctuation on; with the `paper` mesh it misses by an
 amount that does not depend on dt and is exactly the work of the paper's mesh terms.
-The drive line is checked against the closed-form terminal speed of params.terminal_speed.
+The drive line is checked against the closed-form terminal speed of quantities.terminal_speed.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ import pytest
 from screwgear_ros import energy
 from screwgear_ros.events import Command, ParameterChange
 from screwgear_ros.model import equilibrium_state
-from screwgear_ros.params import (PAPER_PINION_SPEED, SimSettings, TableParams,
-                                  natural_frequency, terminal_speed)
+from screwgear_ros.params import PAPER_PINION_SPEED, SimSettings, TableParams
+from screwgear_ros.quantities import natural_frequency, terminal_speed
 from screwgear_ros.run_parameters import RunParameters, dump, load
 from screwgear_ros.session import Session
 

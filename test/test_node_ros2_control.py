@@ -44,7 +44,8 @@ from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.ros.markers import DISCS, MARKS, MESHES
 from screwgear_ros.ros.urdf import PLANT_NAMESPACE, shipped_description
 from screwgear_ros.runs.bagread import read_run
-from screwgear_ros.runs.replay import Schedule, replay_in_process
+from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.schedule import Schedule
 
 NS = PLANT_NAMESPACE                   # where the shipped URDF's ros2_control block looks
 NODE = f'{NS}/table_sim'

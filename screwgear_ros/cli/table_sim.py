@@ -56,13 +56,14 @@ from ..commands import carries_no_command, command_value
 from ..events import Command, ParameterChange, Reset
 from ..model import pack
 from ..pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns, wall_period
-from ..params import (ANSWER_TOPICS, ANSWERS, TICK_TOPIC, ParameterError, SimSettings,
-                      TableParams, split_parameters)
+from ..interface import ANSWER_TOPICS, ANSWERS, LATCHED_OUTPUTS, TICK_TOPIC
+from ..parameter_sets import split_parameters
+from ..params import ParameterError, SimSettings, TableParams
 from ..ratelimit import RateLimiter
 from ..warmup import compiled_now, without_blas_probe
 from ..session import Session, Tick
 from ..ros import inputs, messages, param_dump, parameters
-from ..ros.messages import INPUT_TYPES, LATCHED_OUTPUTS, OUTPUT_TYPES
+from ..ros.messages import INPUT_TYPES, OUTPUT_TYPES
 from ..ros.run_io import RunIO
 from ..ros.shutdown import spin_until, stop_on_signals
 from ..status import (MAX_PHASE_PER_STEP, Health, diagnostic_values, mesh_phase_per_step,
@@ -76,8 +77,8 @@ LOCKSTEP_NOTICE = 3.0       # s of wall time without an answer before the node s
 #: The interpreter's switch interval in the node's process, s (Python's default: 5 ms).
 #: Flat out the pacing thread holds the interpreter lock; a thread that wants it back
 #: after a C call released it (the recorder's writer after each chunk it compresses and
-#: writes, the executor with an arrived command) waited up to a whole interval for it.
-#: At 0.5 ms recording flat out cost about 6 % instead of 10 % (3 × 8 s, one run each).
+#: writes, the executor with an arrived command) would wait up to a whole interval for
+#: it; a shorter interval makes recording flat out cheaper (bench_recording measures it).
 SWITCH_INTERVAL = 0.0005
 #: Exit status of a node whose recording failed (a full disk): it ran, and stopped as
 #: asked, but the bag ends at the fault (the log's ERROR line says where).

@@ -21,7 +21,8 @@ from tqdm import tqdm
 
 from ..events import Command, ParameterChange
 from ..params import (PAPER_DRIVE_TORQUE, PAPER_PINION_SPEED, Mode, SimSettings, TableParams,
-                      effective_stiffness, stiffness_fluctuation)
+                      effective_stiffness)
+from ..quantities import stiffness_fluctuation
 from ..session import Session
 from .common import COLORS, HOLDS, VAGUE, Section, Verdict, plt, save_figure, table
 

@@ -11,7 +11,7 @@ ROS 2 Jazzy CDR codec of ``rosbags``, except the ~4 per tick of fixed layout
 (joint_states, transmission_error, mesh_state, clock): a chunk's message records are
 located in one pass and those messages are
 decoded in bulk with NumPy, on the layout the node writes them in
-(:class:`screwgear_ros.ros.cdr.Template`: a message is decoded that way only if every
+(:class:`screwgear_ros.cdr.Template`: a message is decoded that way only if every
 byte outside its stamps and values equals the template's, which fixes where they are;
 any other message of these topics goes through ``rosbags`` as before). Topics the
 check does not read are skipped undecoded. Topics are matched on their relative name,
@@ -36,24 +36,18 @@ from mcap.data_stream import ReadDataStream
 from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Schema
 from mcap.stream_reader import StreamReader
 
+from ..cdr import Template, float64_template, joint_state_template
 from ..commands import INPUT_TOPICS, command_value
 from ..events import Command, Event, ParameterChange, Reset
+from ..interface import BY_KEY, CONTRACT, Direction
 from ..run_parameters import RunParameters, RunParametersError, load
-from ..ros.cdr import Template, float64_template, joint_state_template
 from .bagformat import MCAP_MAGIC, MCAP_MESSAGE, MCAP_MESSAGE_FIELDS, MCAP_RECORD, typestore
 
-OUTPUT_TOPICS = {
-    'joint_states': 'sensor_msgs/msg/JointState',
-    'transmission_error': 'std_msgs/msg/Float64',
-    'mesh_state': 'sensor_msgs/msg/JointState',
-    'active_path': 'std_msgs/msg/Int8',
-    'clock': 'rosgraph_msgs/msg/Clock',
-}
+#: The outputs the readers decode: relative name → the only type it may have.
+OUTPUT_TOPICS = {key: name for key, name in CONTRACT.items()
+                 if BY_KEY[key].direction is Direction.OUT}
 RUN_PARAMETERS = 'run_parameters'
 RESET = 'reset'
-#: Every topic of the recording contract (relative name → the only type it may have).
-CONTRACT = {**OUTPUT_TOPICS, **INPUT_TOPICS, RUN_PARAMETERS: 'std_msgs/msg/String',
-            RESET: 'std_msgs/msg/Empty'}
 
 
 class BagError(Exception):

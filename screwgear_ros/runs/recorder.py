@@ -6,10 +6,10 @@ bytes yet), so a slow disk never stalls the integrator: when the queue is full a
 is dropped and counted, never waited for. Except by a producer that has no deadline and
 says so (``write_group(..., wait=True)``: the node flat out, in-process runs): once the
 queue is half full it waits, up to ``ROOM_TIMEOUT`` at a time, while the writer,
-hurried, empties it, so a run as fast as possible records everything. Without waiting,
-the node flat out with nobody subscribed produced 78 000 ticks a second, more than the
-writer could take while it met the pacing thread for the interpreter lock at every
-chunk it compressed and wrote: 70 % of the messages were dropped.
+hurried, empties it, so a run as fast as possible records everything: without waiting,
+the node flat out produces ticks faster than the writer can take them while it meets
+the pacing thread for the interpreter lock at every chunk it compresses and writes, and
+most messages would be dropped.
 
 What recording costs the node is mostly how often the two threads meet, not the MCAP
 writing: a queue put that wakes the writer, and the writer taking the interpreter
