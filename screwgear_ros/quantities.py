@@ -30,11 +30,6 @@ def damping_ratio(p: TableParams) -> float:
     return p.mesh_damping / (2.0 * equivalent_mass(p) * natural_frequency(p))
 
 
-def damping_for_ratio(p: TableParams, zeta: float) -> float:
-    """Mesh damping c, N·s/m, that gives damping ratio ζ."""
-    return 2.0 * zeta * equivalent_mass(p) * natural_frequency(p)
-
-
 def stiffness_fluctuation(p: TableParams) -> float:
     """k_a' = k_a / k_m (the paper's definition, mean stiffness k_m)."""
     return p.mesh_stiffness_amplitude / p.mesh_stiffness_mean
@@ -50,34 +45,10 @@ def mesh_frequency_at(p: TableParams, pinion_speed: float = PAPER_PINION_SPEED) 
     return p.teeth_pinion_1 * pinion_speed
 
 
-def terminal_speed(p: TableParams, torque: float, load: float = 0.0) -> float:
-    """Steady speed, rad/s, of the driving pinion under a constant command ``torque`` > 0
-    (N·m) against the table damping c_t and a constant table load (N·m): the speed at
-    which the delivered torque min(T, T_s·(1 − ω/ω_nl)) balances c_t·(r1/r2)²·ω +
-    T_load·r1/r2 (rigid kinematics, ω2 = ω·r1/r2; the preloads cancel). ``inf`` when
-    nothing holds the drive back (ideal source and c_t = 0).
-
-    It is the exact mean speed of a periodic steady state in the `paper` formulation
-    while the speed ripple stays on one piece of the line (docs/model_notes.md §10).
-    """
-    ratio = p.radius_pinion_1 / p.radius_table
-    damping = p.table_damping * ratio ** 2             # N·m·s/rad at the pinion
-    resisting = load * ratio                           # N·m at the pinion
-    flat = (torque - resisting) / damping if damping > 0.0 else math.inf
-    if p.drive_no_load_speed <= 0.0:
-        return flat
-    corner = p.drive_no_load_speed * (1.0 - torque / p.drive_stall_torque)
-    if flat <= corner:
-        return flat
-    return (p.drive_stall_torque - resisting) / (damping + p.drive_stall_torque
-                                                 / p.drive_no_load_speed)
-
-
 def performance_index(zeta: float, ka_rel: float, k_m: float) -> float:
     """The paper's P = (ζ / k_a')·√k_m (k_m in N/m); infinite for k_a' = 0."""
     return math.inf if ka_rel == 0.0 else zeta / ka_rel * math.sqrt(k_m)
 
 
-__all__ = ['equivalent_mass', 'natural_frequency', 'damping_ratio', 'damping_for_ratio',
-           'stiffness_fluctuation', 'mean_mesh_force', 'mesh_frequency_at', 'terminal_speed',
-           'performance_index']
+__all__ = ['equivalent_mass', 'natural_frequency', 'damping_ratio', 'stiffness_fluctuation',
+           'mean_mesh_force', 'mesh_frequency_at', 'performance_index']

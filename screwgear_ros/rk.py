@@ -267,12 +267,6 @@ def step(fun: Callable, t: float, y: Any, h: float, args: Any) -> Any:
     return _python_step(fun, RK4)(t, y, h, fun(t, y, args), args)
 
 
-def tableau_step(tableau: Tableau, fun: Callable, t: float, y: Any, h: float,
-                 args: Any) -> Any:
-    """One step of any supported ``tableau`` (Python only; for comparing methods)."""
-    return _python_step(fun, tableau)(t, y, h, fun(t, y, args), args)
-
-
 _COMPILE = njit(inline='always')
 
 
@@ -324,5 +318,5 @@ def _hermite_compiled(y0: Any, f0: Any, y1: Any, f1: Any, h: float, theta: float
     return hermite if isinstance(y0, (types.BaseTuple, types.Number)) else None
 
 
-__all__ = ['Tableau', 'RK4', 'axpy', 'add', 'scale', 'step', 'step_from', 'tableau_step',
+__all__ = ['Tableau', 'RK4', 'axpy', 'add', 'scale', 'step', 'step_from',
            'hermite']

@@ -7,6 +7,9 @@ setpoint profile it tracks. :func:`load_scenario` reads and validates one: every
 a :class:`ScenarioError` naming the file and the line. :meth:`Scenario.run` runs it
 in-process (:class:`~screwgear_ros.simulation.Simulation`); :meth:`Scenario.schedule`
 is what ``replay_run --script`` plays into a live node over DDS (actions only).
+
+Why one module of this length: it is the one reader of the scenario format, and each of
+its checks must name the file's line, so the format's rules stay together.
 """
 
 from __future__ import annotations

@@ -18,8 +18,9 @@ from mcap.reader import make_reader
 from rosbags.typesys import Stores, get_typestore
 
 from bag_runs import copy_bag, damaged_copy
+from mcap_stream import iter_messages
 from screwgear_ros.cdr import float64_template, joint_state_template
-from screwgear_ros.runs.bagread import (OUTPUT_TOPICS, BagError, _bulk, iter_messages, read_run,
+from screwgear_ros.runs.bagread import (OUTPUT_TOPICS, BagError, _bulk, read_run,
                                         scan)
 
 DATA = Path(__file__).parent / 'data'

@@ -4,24 +4,18 @@ and the bag contract the readers enforce, all name the types it declares."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from rosbags.typesys import Stores, get_typestore
 
+from readme_blocks import generated_block
 from screwgear_ros import interface
 from screwgear_ros.cdr import type_name
 from screwgear_ros.commands import INPUT_TOPICS
 from screwgear_ros.ros.messages import INPUT_TYPES, OUTPUT_TYPES, PRIVATE_TYPES
 from screwgear_ros.runs.bagread import OUTPUT_TOPICS
 
-ROOT = Path(__file__).resolve().parent.parent
-
 
 def test_the_readme_table_is_generated_from_the_declaration():
-    readme = (ROOT / 'README.md').read_text(encoding='utf-8')
-    start = readme.index('<!-- topics: generated')
-    block = readme[readme.index('\n', start) + 1:readme.index('<!-- end of topics -->')]
-    assert block == interface.topic_table(), \
+    assert generated_block('topics') == interface.topic_table(), \
         'README topic table is stale: python -m screwgear_ros.interface'
 
 

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import yaml
 
+from readme_blocks import generated_block
 from screwgear_ros import model, parameter_docs, parameter_sets, params
 from screwgear_ros.declare import Kind, declared, yaml_value
 from screwgear_ros.params import SimSettings, TableParams
@@ -87,10 +88,7 @@ def test_the_parameter_file_is_generated_from_the_declarations():
 
 
 def test_the_readme_table_is_generated_from_the_declarations():
-    readme = (ROOT / 'README.md').read_text(encoding='utf-8')
-    start = readme.index('<!-- parameters: generated')
-    block = readme[readme.index('\n', start) + 1:readme.index('<!-- end of parameters -->')]
-    assert block == parameter_docs.parameter_table(), \
+    assert generated_block('parameters') == parameter_docs.parameter_table(), \
         'README parameter table is stale: python -m screwgear_ros.parameter_docs'
 
 

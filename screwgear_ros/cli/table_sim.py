@@ -29,6 +29,10 @@ texts are handed over under RunIO's own lock). ``_gate`` is thread-safe, and so 
 (a threading.Event that the signal thread of
 :func:`~screwgear_ros.ros.shutdown.stop_on_signals`, a failed pacing thread and
 ``close()`` set; never a signal handler). Nothing is ever set to None.
+
+Why one module of this length: the node's subscriptions, pacing thread, lockstep gate
+and shutdown share its state and the order its threads take it in, which is the whole
+correctness argument; the ROS-free parts live in the core and in ``ros/``.
 """
 
 from __future__ import annotations

@@ -230,7 +230,7 @@ class RunIO:
 
     def outputs(self, out: Outputs, dt: float, lossless: bool = True) -> None:
         """/clock, joint_states, mesh_state and transmission_error of ``out``;
-        ``lossless`` as for :meth:`tick` (:meth:`RunRecorder.write_group`'s wait)."""
+        ``lossless`` as for :meth:`tick` (:meth:`RunRecorder.write_group`'s)."""
         t_ns = sim_time_ns(out.step, dt)
         tick = self._bundle.encode(t_ns, out.position, out.velocity, out.effort, out.delta,
                                    out.delta_rate, out.mesh_force, (out.transmission_error,))
