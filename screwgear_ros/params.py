@@ -6,6 +6,11 @@ defaults are the paper's worked example (model.md section 6). Simulation setting
 that are not physics (step, publish rate, pacing, recording) live in
 :class:`SimSettings`. Both refuse an invalid value with a :class:`ParameterError`
 that names the parameter, its value and the rule it breaks.
+
+Beside this module: the paper's derived quantities (:mod:`~screwgear_ros.quantities`),
+RK4's stability limit (:mod:`~screwgear_ros.stability`), a whole validated set from a
+mapping or a parameter file (:mod:`~screwgear_ros.parameter_sets`), and the documents
+generated from these declarations (:mod:`~screwgear_ros.parameter_docs`).
 """
 
 from __future__ import annotations

@@ -60,7 +60,8 @@ from ..commands import carries_no_command, command_value
 from ..events import Command, ParameterChange, Reset
 from ..model import pack
 from ..pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns, wall_period
-from ..interface import ANSWER_TOPICS, ANSWERS, LATCHED_OUTPUTS, TICK_TOPIC
+from ..interface import (ANSWER_TOPICS, ANSWERS, BY_KEY, LATCHED_OUTPUTS, RECORDED_TOPICS,
+                         TICK_TOPIC)
 from ..parameter_sets import split_parameters
 from ..params import ParameterError, SimSettings, TableParams
 from ..ratelimit import RateLimiter
@@ -129,7 +130,8 @@ class TableSim(Node):
                                                 partial(self._on_command, topic), 10, raw=True)
                 for topic in ordered}
         self._tick_sub = self.create_subscription(Empty, f'~/{TICK_TOPIC}', self._on_tick, 10)
-        self.create_service(Trigger, '~/reset', self._on_reset, qos_profile=SERVICE_QOS)
+        self.create_service(Trigger, BY_KEY['reset_service'].name, self._on_reset,
+                            qos_profile=SERVICE_QOS)
         self._name_checks = 0
         self._name_timer = self.create_timer(NAME_CHECK_PERIOD, self._check_name)
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -144,8 +146,7 @@ class TableSim(Node):
         self._fqn = self.get_fully_qualified_name()
         topics = {key: pub.topic_name for key, pub in publishers.items()}
         topics.update({topic: sub.topic_name for topic, sub in subs.items()})
-        topics.update({'run_parameters': self._fqn + '/run_parameters',
-                       'reset': self._fqn + '/reset'})
+        topics.update({key: f'{self._fqn}/{key}' for key in RECORDED_TOPICS})
         self.io = RunIO(topics, settings.joint_names, publishers)
         self._derive(params, settings, keep=False)   # ParameterError: refuse to start
         if completed:
