@@ -41,7 +41,7 @@ import yaml  # noqa: E402
 from screwgear_ros.events import Command  # noqa: E402
 from screwgear_ros.runs.bagformat import typestore  # noqa: E402
 from screwgear_ros.params import SimSettings, TableParams  # noqa: E402
-from screwgear_ros.runs.replay import Schedule  # noqa: E402
+from screwgear_ros.schedule import Schedule  # noqa: E402
 
 SECONDS = 60.0
 DT = 50e-6
@@ -104,7 +104,10 @@ print(repr(t))
 #: The run_parameters keys a venv's package reads; run by that venv's python.
 KNOWN_KEYS = r"""
 import json
-from screwgear_ros.params import default_values
+try:
+    from screwgear_ros.parameter_sets import default_values
+except ImportError:                     # an older package: the set lived in params
+    from screwgear_ros.params import default_values
 from screwgear_ros.run_parameters import EXTRA_KEYS
 print(json.dumps([*default_values(), *EXTRA_KEYS]))
 """

@@ -11,7 +11,7 @@ Runs (paper parameters, dt = 50 µs, 20-step ticks as at 1 kHz, c_t = 8867 N·m�
 * conventional, the same reversals: every reversal crosses the gap (about a dozen
   located changes each).
 The two settings alternate in short rounds and each keeps its fastest round, so a busy
-machine slows both alike; the ratio is the figure. Issue 13's goal: at most +20 % cost
+machine slows both alike; the ratio is the figure. The goal: at most +20 % cost
 (ratio ≥ 0.83) on runs without impacts.
 """
 

@@ -216,7 +216,7 @@ def main() -> None:
                       f'{factor if factor else "max":>6} {f.factor:9.2f} {f.overruns:9d} '
                       f'{f.cpu * 100:5.0f}% {jit:>24s} {drift:>9s} '
                       f'{f.exit_seconds:5.2f}s/{f.exit_code}', flush=True)
-    print('\nGoals (issue 3): factor >= 1 at dt = 20 µs using at most half a core; '
+    print('\nGoals: factor >= 1 at dt = 20 µs using at most half a core; '
           'joint_states p99 jitter <= 1 ms at 1 kHz.')
 
 

@@ -13,11 +13,11 @@ Timings are noisy on a shared 2-core machine: compare the ratios, run twice.
 
     python benchmarks/bench_recording.py --speed [--repeat N] [--window S]
 
-measures only issue 12's two recording figures the way ``bench_speed.py`` does (its
-helpers: the installed table_sim over real DDS, observed from this process), each
-beside its anchor from the same run, the scenarios repeated and interleaved: flat out
-(dt 50 µs, 1 kHz) recording against not recording (cost in % of the real-time factor),
-and at factor 1, dt 20 µs the CPU share recording adds (% of a core).
+measures only the two recording figures of ``bench_speed.py``, its way (its helpers:
+the installed table_sim over real DDS, observed from this process), each beside its
+anchor from the same run, the scenarios repeated and interleaved: flat out (dt 50 µs,
+1 kHz) recording against not recording (cost in % of the real-time factor), and at
+factor 1, dt 20 µs the CPU share recording adds (% of a core).
 """
 
 from __future__ import annotations
@@ -109,7 +109,7 @@ def kill_9_loss(workdir: Path) -> tuple[float, float]:
 
 
 def speed(repeat: int, window: float) -> None:
-    """Issue 12's recording figures only (module docstring), bench_speed's way."""
+    """The recording figures only (module docstring), bench_speed's way."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import bench_speed as bs
     recording = ('table_flat', 'table_flat_rec', 'table_f1', 'table_f1_rec')
@@ -124,7 +124,7 @@ def speed(repeat: int, window: float) -> None:
 def main() -> None:
     if '--speed' in sys.argv:
         import argparse
-        parser = argparse.ArgumentParser(description='issue 12\'s recording figures')
+        parser = argparse.ArgumentParser(description='the recording figures of bench_speed')
         parser.add_argument('--speed', action='store_true')
         parser.add_argument('--repeat', type=int, default=3)
         parser.add_argument('--window', type=float, default=10.0)

@@ -1,4 +1,4 @@
-"""Issue 12's figures, each beside its anchor measured in the same run: one table, one JSON.
+"""The node's speed figures, each beside its anchor measured in the same run: one table, one JSON.
 
     . scripts/env.sh && ROS_DOMAIN_ID=<free id> python benchmarks/bench_speed.py [--quick]
         [--json out/bench_speed.json] [--repeat N] [--window S] [--no-floquet]

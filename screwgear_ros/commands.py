@@ -24,17 +24,12 @@ import math
 from dataclasses import dataclass, replace
 from typing import Any, Sequence
 
+from .interface import COMMAND_TOPICS
 from .params import SimSettings, TableParams
 from .plant import DriveInput
 
 #: Input topics (relative names) and the ROS message type of each.
-INPUT_TOPICS = {
-    'cmd_torque': 'std_msgs/msg/Float64',
-    'cmd_direction': 'std_msgs/msg/Int8',
-    'cmd_effort': 'std_msgs/msg/Float64MultiArray',
-    'load_torque': 'std_msgs/msg/Float64',
-    'joint_commands': 'sensor_msgs/msg/JointState',
-}
+INPUT_TOPICS = COMMAND_TOPICS
 
 #: Index in ``joint_names`` of the joint whose effort command is the drive torque on
 #: ``joint_commands`` (pinion 1: the URDF's only command interface).

@@ -51,7 +51,7 @@ import numpy as np
 
 from .events import Command, Event
 from .jit import kernel
-from .model import (B, C, CONVENTIONAL, CT, I1, I2, I3, MODE, PHASE, PHASE_TIME, R1, R3, TP,
+from .model import (B, C, MODE_CONVENTIONAL, CT, I1, I2, I3, MODE, PHASE, PHASE_TIME, R1, R3, TP,
                     Z1, Z3, applied_torques, branch_force, branch_penetration, contact_branch,
                     mesh_motion, mesh_phase, mesh_stiffness_slope, pack)
 from .params import SimSettings, TableParams
@@ -220,7 +220,7 @@ def audit(trace: Trace) -> EnergyAudit:
             'table_damping': cumulative(power[:, 2], h),
             'phase_work': cumulative(power[:, 3], h),
             # constant torques: their work is exact
-            'preload': (stretch.params.preload_torque if model.p[MODE] != CONVENTIONAL
+            'preload': (stretch.params.preload_torque if model.p[MODE] != MODE_CONVENTIONAL
                         else 0.0) * ((y[a:b + 1, 0] - y[a, 0]) - (y[a:b + 1, 2] - y[a, 2])),
             'load': -stretch.drive.load * (y[a:b + 1, 1] - y[a, 1]),
         }
@@ -241,14 +241,14 @@ def _powers(t: np.ndarray, y: np.ndarray, p: np.ndarray, ste_amp: np.ndarray,
     for k in range(t.shape[0]):
         th1, th2, th3, w1, w2, w3 = y[k, 0], y[k, 1], y[k, 2], y[k, 3], y[k, 4], y[k, 5]
         t1, t3 = applied_torques(t[k], w1, w3, torque, direction, p)
-        preload = 0.0 if p[MODE] == CONVENTIONAL else p[TP] * (w1 - w3)
+        preload = 0.0 if p[MODE] == MODE_CONVENTIONAL else p[TP] * (w1 - w3)
         power[k, 0] = t1 * w1 + t3 * w3 - preload
         power[k, 2] = p[CT] * w2 * w2
         stored[k, 0] = 0.5 * (p[I1] * w1 * w1 + p[I2] * w2 * w2 + p[I3] * w3 * w3)
         damping = 0.0
         phase_power = 0.0
         potential = 0.0
-        meshes = 1 if p[MODE] == CONVENTIONAL else 2
+        meshes = 1 if p[MODE] == MODE_CONVENTIONAL else 2
         for i in range(meshes):
             theta, omega = (th1, w1) if i == 0 else (th3, w3)
             radius, teeth = (p[R1], p[Z1]) if i == 0 else (p[R3], p[Z3])

@@ -9,6 +9,10 @@ active pinion, direction d = ±1, external table load T_load in N·m.
 The functions are scalar and compiled with numba (``NUMBA_DISABLE_JIT=1`` runs the
 same source as plain Python). Parameters travel as one packed float array built by
 :func:`pack` so the compiled code sees no Python objects.
+
+Why one module of this length: the mesh law, the drive line and the equations of motion
+are one set of equations over one packed parameter layout and one set of contact
+branches; the integrators and the reference all take their right-hand side from here.
 """
 
 from __future__ import annotations
@@ -40,8 +44,8 @@ WNL, TS = _AT['drive_no_load_speed'], _AT['drive_stall_torque']
 K_EFF, MODE, PHASE, FORMULATION = range(len(KERNEL), len(KERNEL) + 4)   # derived: k_eff, enums
 N_PACKED = len(KERNEL) + 4
 
-ANTI_BACKLASH = 0.0
-CONVENTIONAL = 1.0
+MODE_ANTI_BACKLASH = 0.0
+MODE_CONVENTIONAL = 1.0
 PHASE_ANGLE = 0.0
 PHASE_TIME = 1.0
 FORM_PAPER = 0.0
@@ -65,8 +69,8 @@ class ContactBranch(IntEnum):
 
 
 class DrivePiece(IntEnum):
-    """Which piece of the drive's torque–speed characteristic (:func:`drive_line`)
-    delivers the torque: the delivered torque is smooth on each and kinks where the
+    """Which piece of the drive's torque–speed line (the smaller of the command and
+    T_s·(1 − ω/ω_nl), :func:`drive_piece`) delivers the torque: the delivered torque is smooth on each and kinks where the
     command meets the line, so the integrator locates that too."""
 
     COMMAND = 0           # the command itself (below the line, no command, ideal source)
@@ -88,7 +92,7 @@ def pack(params: TableParams) -> PackedModel:
     p = np.zeros(N_PACKED)
     p[:len(KERNEL)] = [getattr(params, name) for name in KERNEL]
     p[K_EFF] = effective_stiffness(params)
-    p[MODE] = CONVENTIONAL if params.mode is Mode.CONVENTIONAL else ANTI_BACKLASH
+    p[MODE] = MODE_CONVENTIONAL if params.mode is Mode.CONVENTIONAL else MODE_ANTI_BACKLASH
     p[PHASE] = PHASE_TIME if params.mesh_phase is MeshPhase.TIME else PHASE_ANGLE
     p[FORMULATION] = (FORM_ENERGY if params.mesh_formulation is MeshFormulation.ENERGY_CONSISTENT
                       else FORM_PAPER)
@@ -173,20 +177,6 @@ def mesh_force(delta: float, delta_dot: float, stiffness: float, damping: float,
 
 
 @kernel
-def mesh_state(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,
-               theta2: float, omega2: float, t: float, p: np.ndarray, ste_amp: np.ndarray,
-               ste_phase: np.ndarray) -> tuple[float, float, float]:
-    """Total transmission error δ (m), its rate δ̇ (m/s) and mesh force F (N) of one mesh.
-
-    δ = r_i·θ_i − r2·θ2 − ε_i, δ̇ = r_i·ω_i − r2·ω2 − ε̇_i (chain rule through φ_i).
-    """
-    _, _, delta, delta_dot, stiffness = mesh_motion(theta_pinion, omega_pinion, radius_pinion,
-                                                    teeth, theta2, omega2, t, p, ste_amp,
-                                                    ste_phase)
-    return delta, delta_dot, mesh_force(delta, delta_dot, stiffness, p[C], p[B])
-
-
-@kernel
 def mesh_motion(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,
                 theta2: float, omega2: float, t: float, p: np.ndarray, ste_amp: np.ndarray,
                 ste_phase: np.ndarray) -> tuple[float, float, float, float, float]:
@@ -219,18 +209,6 @@ def mesh_stiffness_slope(phi: float, p: np.ndarray) -> float:
 
 
 @kernel
-def mesh_load(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,
-              theta2: float, omega2: float, t: float, p: np.ndarray, ste_amp: np.ndarray,
-              ste_phase: np.ndarray) -> tuple[float, float]:
-    """Mesh force F (N, on the table: r2·F) and the torque Q (N·m) the mesh exerts
-    against its pinion (I·θ̈ = T − Q), per ``mesh_formulation`` (:func:`mesh_load_on`
-    the branch of the contact law the state is on)."""
-    force, load, _ = mesh_load_on(theta_pinion, omega_pinion, radius_pinion, teeth, theta2,
-                                  omega2, t, p, ste_amp, ste_phase, ContactBranch.FROM_STATE)
-    return force, load
-
-
-@kernel
 def mesh_load_on(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,
                  theta2: float, omega2: float, t: float, p: np.ndarray, ste_amp: np.ndarray,
                  ste_phase: np.ndarray,
@@ -258,18 +236,12 @@ def mesh_load_on(theta_pinion: float, omega_pinion: float, radius_pinion: float,
 
 
 @kernel
-def drive_line(torque: float, speed: float, p: np.ndarray) -> float:
-    """Drive torque delivered, N·m, for command ``torque`` at the active pinion's speed
-    ``speed`` (rad/s, positive in the sense it drives): the smaller of the command and
-    the torque–speed line T_s·(1 − ω/ω_nl), which falls to zero at the no-load speed
-    ω_nl and brakes beyond it. A zero command is a drive switched off (no torque at any
-    speed); ω_nl = 0: the command itself (ideal torque source)."""
-    return drive_on(drive_piece(torque, speed, p), torque, speed, p)
-
-
-@kernel
 def drive_piece(torque: float, speed: float, p: np.ndarray) -> DrivePiece:
-    """The piece of :func:`drive_line` that delivers command ``torque`` at ``speed``."""
+    """The piece of the drive's torque–speed line that delivers command ``torque`` at
+    the active pinion's ``speed`` (rad/s, positive in the sense it drives): the smaller of
+    the command and T_s·(1 − ω/ω_nl), which falls to zero at the no-load speed ω_nl and
+    brakes beyond it. A zero command is a drive switched off; ω_nl = 0: the command itself
+    (ideal torque source)."""
     if p[WNL] <= 0.0 or torque <= 0.0:
         return DrivePiece.COMMAND
     return DrivePiece.COMMAND if torque <= p[TS] * (1.0 - speed / p[WNL]) else DrivePiece.LINE
@@ -277,7 +249,7 @@ def drive_piece(torque: float, speed: float, p: np.ndarray) -> DrivePiece:
 
 @kernel
 def drive_on(piece: DrivePiece, torque: float, speed: float, p: np.ndarray) -> float:
-    """Drive torque delivered, N·m, on a given piece of :func:`drive_line`."""
+    """Drive torque delivered, N·m, on a given piece of the drive's line (:func:`drive_piece`)."""
     if piece == DrivePiece.LINE:
         return p[TS] * (1.0 - speed / p[WNL])
     return torque
@@ -287,7 +259,7 @@ def drive_on(piece: DrivePiece, torque: float, speed: float, p: np.ndarray) -> f
 def active_speed(w1: float, w3: float, direction: float, p: np.ndarray) -> float:
     """Speed of the driving pinion in the sense it drives, rad/s: d·ω1 (`conventional`),
     ω1 (path 1) or −ω3 (path 3, `anti_backlash`)."""
-    if p[MODE] == CONVENTIONAL:
+    if p[MODE] == MODE_CONVENTIONAL:
         return direction * w1
     return w1 if direction > 0.0 else -w3
 
@@ -296,7 +268,7 @@ def active_speed(w1: float, w3: float, direction: float, p: np.ndarray) -> float
 def applied_torques(t: float, w1: float, w3: float, torque: float, direction: float,
                     p: np.ndarray) -> tuple[float, float]:
     """Torques (T1, T3) on pinions 1 and 3, N·m, with the drive's torque–speed line:
-    :func:`drive_torques` of the torque :func:`drive_line` delivers."""
+    :func:`drive_torques` of the torque the drive's line delivers (:func:`drive_piece`)."""
     return applied_torques_on(DrivePiece.FROM_STATE, t, w1, w3, torque, direction, p)[:2]
 
 
@@ -322,7 +294,7 @@ def drive_torques(t: float, torque: float, direction: float,
     T1 = d·drive, T3 = 0.
     """
     drive = torque if p[TV] == 0.0 else torque + p[TV] * math.sin(p[WV] * t)
-    if p[MODE] == CONVENTIONAL:
+    if p[MODE] == MODE_CONVENTIONAL:
         return direction * drive, 0.0
     if direction > 0.0:
         return p[TP] + drive, -p[TP]
@@ -340,7 +312,7 @@ def motion(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w
     the contact law and the drive line pick at this state).
 
     I1·θ̈1 = T1 − Q1;  I3·θ̈3 = T3 − Q3;  I2·θ̈2 = r2·(F1 + F3) − T_load − c_t·θ̇2,
-    Q = r·F (`paper`) or the energy-consistent pinion load (:func:`mesh_load`); T1, T3
+    Q = r·F (`paper`) or the energy-consistent pinion load (:func:`mesh_load_on`); T1, T3
     through the drive's torque–speed line (:func:`applied_torques`). In `conventional`
     mode pinion 3 is disengaged (F3 = Q3 = 0).
 
@@ -350,7 +322,7 @@ def motion(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w
     t1, t3, drive = applied_torques_on(drive, t, w1, w3, torque, direction, p)
     f1, q1, branch_1 = mesh_load_on(th1, w1, p[R1], p[Z1], th2, w2, t, p, ste_amp, ste_phase,
                                     branch_1)
-    if p[MODE] == CONVENTIONAL:
+    if p[MODE] == MODE_CONVENTIONAL:
         f3, q3, branch_3 = 0.0, 0.0, ContactBranch.DISENGAGED
     else:
         f3, q3, branch_3 = mesh_load_on(th3, w3, p[R3], p[Z3], th2, w2, t, p, ste_amp,
@@ -377,7 +349,7 @@ def contact_branches(t: float, th1: float, th2: float, th3: float, w1: float, w2
                      ) -> tuple[ContactBranch, ContactBranch]:
     """The branches of the contact law mesh 1 and mesh 3 are on at this state."""
     _, _, d1, dd1, k1 = mesh_motion(th1, w1, p[R1], p[Z1], th2, w2, t, p, ste_amp, ste_phase)
-    if p[MODE] == CONVENTIONAL:
+    if p[MODE] == MODE_CONVENTIONAL:
         return contact_branch(d1, dd1, k1, p[C], p[B]), ContactBranch.DISENGAGED
     _, _, d3, dd3, k3 = mesh_motion(th3, w3, p[R3], p[Z3], th2, w2, t, p, ste_amp, ste_phase)
     return contact_branch(d1, dd1, k1, p[C], p[B]), contact_branch(d3, dd3, k3, p[C], p[B])
@@ -415,7 +387,7 @@ def stiffest_linearization(params: TableParams) -> np.ndarray:
     longest pinion lever r + z·Σ n·|ε_n| (`angle` phase, see
     :func:`~screwgear_ros.params.ste_slope`), mesh and table damping included, and the
     drive's torque–speed line on every pinion it can drive (its slope −T_s/ω_nl acts as
-    a damper on the driven pinion; :func:`drive_line`).
+    a damper on the driven pinion; :func:`drive_piece`).
     Generalized mesh directions: δ1 = r1·θ1 − r2·θ2, δ3 = r3·θ3 − r2·θ2 (mesh 3 only
     in `anti_backlash`). Its eigenvalues bound the step an explicit method can take."""
     k = effective_stiffness(params) + params.mesh_stiffness_amplitude
@@ -468,7 +440,7 @@ def _pinion_angle_for(delta_target_sign: float, radius: float, teeth: float,
     solution's scale; otherwise :class:`EquilibriumNotFound`.
     """
     p = model.p
-    tp = p[TP] if p[MODE] == ANTI_BACKLASH else 0.0
+    tp = p[TP] if p[MODE] == MODE_ANTI_BACKLASH else 0.0
     theta = delta_target_sign * p[B] / radius
     # |θ| the answer is made of: backlash, preload deflection and STE, over the radius
     scale = (p[B] + tp / (radius * (p[K_EFF] - p[K_A])) + float(np.sum(np.abs(model.ste_amp)))
@@ -602,14 +574,12 @@ def equilibrium_state(params: TableParams) -> np.ndarray:
 
 __all__ = [
     'PackedModel', 'pack', 'mesh_phase', 'static_transmission_error', 'mesh_stiffness',
-    'mesh_force', 'mesh_state', 'mesh_stiffness_slope', 'mesh_load',
-    'mesh_load_on',
-    'drive_line', 'active_speed', 'applied_torques', 'drive_torques', 'rhs', 'rhs_vector',
+    'mesh_force', 'mesh_stiffness_slope', 'mesh_load_on', 'active_speed', 'applied_torques', 'drive_torques', 'rhs', 'rhs_vector',
     'DrivePiece', 'drive_piece', 'drive_on', 'applied_torques_on',
     'active_path', 'ContactBranch', 'contact_branch', 'branch_force', 'mesh_motion',
     'branch_penetration', 'motion', 'contact_branches', 'outputs',
     'stiffest_linearization', 'EquilibriumNotFound', 'NEWTON_ITERATIONS',
-    'equilibrium_state', 'ANTI_BACKLASH', 'CONVENTIONAL', 'PHASE_ANGLE', 'PHASE_TIME',
+    'equilibrium_state', 'MODE_ANTI_BACKLASH', 'MODE_CONVENTIONAL', 'PHASE_ANGLE', 'PHASE_TIME',
     'N_PACKED', 'I1', 'I2', 'I3', 'R1', 'R2', 'R3', 'Z1', 'Z3', 'K_EFF', 'K_A', 'PHI_K', 'C', 'B',
     'TP', 'TV', 'WV', 'CT', 'WE', 'WNL', 'TS', 'MODE', 'PHASE', 'FORMULATION', 'FORM_PAPER',
     'FORM_ENERGY',

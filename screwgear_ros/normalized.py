@@ -21,8 +21,8 @@ import yaml
 from . import rk
 from .declare import ParameterError, kernel_fields, parameter, validate, yaml_lines
 from .jit import inline_kernel, kernel
-from .params import (TableParams, effective_stiffness, equivalent_mass, mean_mesh_force,
-                     natural_frequency)
+from .params import effective_stiffness, TableParams
+from .quantities import equivalent_mass, mean_mesh_force, natural_frequency
 
 @dataclass(frozen=True)
 class NormalizedParams:

@@ -6,23 +6,22 @@ defaults are the paper's worked example (model.md section 6). Simulation setting
 that are not physics (step, publish rate, pacing, recording) live in
 :class:`SimSettings`. Both refuse an invalid value with a :class:`ParameterError`
 that names the parameter, its value and the rule it breaks.
+
+Beside this module: the paper's derived quantities (:mod:`~screwgear_ros.quantities`),
+RK4's stability limit (:mod:`~screwgear_ros.stability`), a whole validated set from a
+mapping or a parameter file (:mod:`~screwgear_ros.parameter_sets`), and the documents
+generated from these declarations (:mod:`~screwgear_ros.parameter_docs`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from enum import StrEnum
-from functools import lru_cache
-from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
-import numpy as np
-import yaml
-
-from .declare import (ParameterError, declared, markdown_rows, parameter, plain, validate,
-                      yaml_lines)
-from .rk import RK4
+from .declare import ParameterError, declared, parameter, plain, validate
+from .interface import ANSWERS
 
 
 class Mode(StrEnum):
@@ -227,15 +226,6 @@ class TableParams:
         return {p.name: plain(getattr(self, p.name)) for p in declared(TableParams)}
 
 
-#: Lockstep: the inputs whose message also answers a tick (the controller's per-tick output:
-#: an effort controller's, or ros2_control's topic hardware interface's), and the node's
-#: private topic (``~/tick``, std_msgs/Empty) a tool answers with when it commands nothing.
-ANSWER_TOPICS = ('cmd_effort', 'joint_commands')
-TICK_TOPIC = 'tick'
-#: How the node's texts name the answers.
-ANSWERS = f"{', '.join(ANSWER_TOPICS)} or ~/{TICK_TOPIC}"
-
-
 @dataclass(frozen=True)
 class SimSettings:
     """How the node runs the model: step, pacing, outputs, recording."""
@@ -293,7 +283,7 @@ class SimSettings:
         return {p.name: plain(getattr(self, p.name)) for p in declared(SimSettings)}
 
 
-# ---------------------------------------------------------------- derived quantities
+# ------------------------------------------------ quantities the validation needs
 
 def effective_stiffness(p: TableParams) -> float:
     """k_eff = k_m·(1 − α·ΔT) + k_p, N/m (thermal derating plus preload stiffness)."""
@@ -313,201 +303,7 @@ def ste_slope(p: TableParams, pinion: str) -> float:
     return teeth * sum((n + 1) * abs(a) for n, a in enumerate(p.ste_amplitudes))
 
 
-def equivalent_mass(p: TableParams) -> float:
-    """m_e = I1·I2 / (I1·r2² + I2·r1²), kg (pinion 1 – table pair)."""
-    i1, i2 = p.inertia_pinion_1, p.inertia_table
-    r1, r2 = p.radius_pinion_1, p.radius_table
-    return i1 * i2 / (i1 * r2 ** 2 + i2 * r1 ** 2)
-
-
-def natural_frequency(p: TableParams) -> float:
-    """ω0 = √(k_m / m_e), rad/s (the paper's normalizing frequency, mean stiffness k_m)."""
-    return math.sqrt(p.mesh_stiffness_mean / equivalent_mass(p))
-
-
-def damping_ratio(p: TableParams) -> float:
-    """ζ = c / (2·m_e·ω0)."""
-    return p.mesh_damping / (2.0 * equivalent_mass(p) * natural_frequency(p))
-
-
-def damping_for_ratio(p: TableParams, zeta: float) -> float:
-    """Mesh damping c, N·s/m, that gives damping ratio ζ."""
-    return 2.0 * zeta * equivalent_mass(p) * natural_frequency(p)
-
-
-def stiffness_fluctuation(p: TableParams) -> float:
-    """k_a' = k_a / k_m (the paper's definition, mean stiffness k_m)."""
-    return p.mesh_stiffness_amplitude / p.mesh_stiffness_mean
-
-
-def mean_mesh_force(p: TableParams, drive_torque: float = PAPER_DRIVE_TORQUE) -> float:
-    """F_m = T1 / r1, N."""
-    return drive_torque / p.radius_pinion_1
-
-
-def mesh_frequency_at(p: TableParams, pinion_speed: float = PAPER_PINION_SPEED) -> float:
-    """ω_e = z1·ω1, rad/s, for pinion speed ω1 in rad/s."""
-    return p.teeth_pinion_1 * pinion_speed
-
-
-def terminal_speed(p: TableParams, torque: float, load: float = 0.0) -> float:
-    """Steady speed, rad/s, of the driving pinion under a constant command ``torque`` > 0
-    (N·m) against the table damping c_t and a constant table load (N·m): the speed at
-    which the delivered torque min(T, T_s·(1 − ω/ω_nl)) balances c_t·(r1/r2)²·ω +
-    T_load·r1/r2 (rigid kinematics, ω2 = ω·r1/r2; the preloads cancel). ``inf`` when
-    nothing holds the drive back (ideal source and c_t = 0).
-
-    It is the exact mean speed of a periodic steady state in the `paper` formulation
-    while the speed ripple stays on one piece of the line (docs/model_notes.md §10).
-    """
-    ratio = p.radius_pinion_1 / p.radius_table
-    damping = p.table_damping * ratio ** 2             # N·m·s/rad at the pinion
-    resisting = load * ratio                           # N·m at the pinion
-    flat = (torque - resisting) / damping if damping > 0.0 else math.inf
-    if p.drive_no_load_speed <= 0.0:
-        return flat
-    corner = p.drive_no_load_speed * (1.0 - torque / p.drive_stall_torque)
-    if flat <= corner:
-        return flat
-    return (p.drive_stall_torque - resisting) / (damping + p.drive_stall_torque
-                                                 / p.drive_no_load_speed)
-
-
-def performance_index(zeta: float, ka_rel: float, k_m: float) -> float:
-    """The paper's P = (ζ / k_a')·√k_m (k_m in N/m); infinite for k_a' = 0."""
-    return math.inf if ka_rel == 0.0 else zeta / ka_rel * math.sqrt(k_m)
-
-
-# ---------------------------------------------------------------- RK4 stability
-
-def rk4_amplification(z: complex) -> complex:
-    """RK4's amplification factor R(z) = 1 + z + z²/2 + z³/6 + z⁴/24 for z = λ·dt
-    (the stability polynomial of :data:`screwgear_ros.rk.RK4`'s tableau)."""
-    return RK4.amplification(z)
-
-
-@lru_cache(maxsize=16)
-def max_stable_dt(p: TableParams) -> float:
-    """Largest dt, s, for which RK4 is stable on the linearized 3-DOF model.
-
-    Takes every eigenvalue λ of the model linearized at its stiffest
-    (:func:`screwgear_ros.model.stiffest_linearization`) and bisects dt on
-    max |R(λ·dt)| ≤ 1. Remembered per parameter set (about 17 ms each): the node
-    validates a change on its executor thread, and the plant that takes the change on
-    the pacing thread finds the answer ready.
-    """
-    from .model import stiffest_linearization   # model imports this module
-    lam = np.linalg.eigvals(stiffest_linearization(p))
-    lam = lam[np.abs(lam) > 1e-6 * np.max(np.abs(lam))]  # drop the rigid-body mode
-
-    def stable(dt: float) -> bool:
-        return bool(np.all(np.abs(rk4_amplification(lam * dt)) <= 1.0 + 1e-12))
-
-    lo, hi = 0.0, 10.0 / float(np.max(np.abs(lam)))
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if stable(mid) else (lo, mid)
-    return lo
-
-
-def check_step(p: TableParams, dt: float) -> None:
-    """Refuse a step dt, s, that RK4 cannot integrate stably at this stiffness."""
-    limit = max_stable_dt(p)
-    if dt > limit:
-        raise ParameterError(
-            'dt', dt, f'RK4 is unstable above dt = {limit:.4g} s at this stiffness '
-            f'(k_eff + k_a = {effective_stiffness(p) + p.mesh_stiffness_amplitude:g} N/m); '
-            'use a smaller step')
-
-
-# ---------------------------------------------------------------- YAML
-
-_TABLE_FIELDS = {f.name for f in fields(TableParams)}
-_SIM_FIELDS = {f.name for f in fields(SimSettings)}
-
-
-def split_parameters(values: Mapping[str, Any]) -> tuple[TableParams, SimSettings]:
-    """Build validated (TableParams, SimSettings) from a flat name → value mapping.
-
-    Unknown names are refused (a typo in a parameter file must not pass silently).
-    """
-    unknown = set(values) - _TABLE_FIELDS - _SIM_FIELDS
-    if unknown:
-        name = sorted(unknown)[0]
-        raise ParameterError(name, values[name], 'is not a parameter of table_sim')
-    params = TableParams(**{k: v for k, v in values.items() if k in _TABLE_FIELDS})
-    settings = SimSettings(**{k: v for k, v in values.items() if k in _SIM_FIELDS})
-    try:
-        check_step(params, settings.dt)
-    except (ArithmeticError, np.linalg.LinAlgError) as error:
-        raise ParameterError('dt', settings.dt, 'the stability limit of RK4 cannot be '
-                             f'computed for these parameters ({type(error).__name__}: '
-                             f'{error})') from None
-    return params, settings
-
-
-def ros_parameters(document: Mapping[str, Any]) -> dict[str, Any]:
-    """The flat ``ros__parameters`` mapping of a ROS 2 parameter file.
-
-    Accepts ``node_name: {ros__parameters: ...}``, ``/**: {ros__parameters: ...}``
-    or a bare mapping of parameter names.
-    """
-    merged: dict[str, Any] = {}
-    found = False
-    for value in document.values():
-        if isinstance(value, Mapping) and 'ros__parameters' in value:
-            merged.update(value['ros__parameters'] or {})
-            found = True
-    return merged if found else dict(document)
-
-
-def load_yaml(path: str | Path) -> tuple[TableParams, SimSettings]:
-    """Load a ``config/*.yaml`` parameter file (ROS 2 params-file format)."""
-    with open(path, encoding='utf-8') as stream:
-        document = yaml.safe_load(stream) or {}
-    return split_parameters(ros_parameters(document))
-
-
-#: The heading lines of config/paper.yaml.
-PAPER_YAML_HEADER = (
-    "# The paper's worked example (shared/spec/model.md §6) as a ROS 2 parameter file.",
-    '# Generated from the parameter declarations in screwgear_ros/params.py:',
-    '#   python -m screwgear_ros.params yaml > config/paper.yaml',
-    '# ros2 run screwgear_ros table_sim --ros-args --params-file config/paper.yaml',
-)
-
-
-def paper_yaml() -> str:
-    """config/paper.yaml: every parameter with its default, symbol, unit and note,
-    under the ``/**`` key (any node name, any namespace)."""
-    return '\n'.join([*PAPER_YAML_HEADER, '/**:', '  ros__parameters:',
-                      *yaml_lines(TableParams, SimSettings)]) + '\n'
-
-
-def parameter_table() -> str:
-    """The README's parameter table (Markdown)."""
-    return '\n'.join(['| parameter | symbol | default | unit | valid | meaning |',
-                      '|---|---|---|---|---|---|',
-                      *markdown_rows(TableParams), *markdown_rows(SimSettings)]) + '\n'
-
-
-def default_values() -> dict[str, Any]:
-    """Every node parameter with its default (physics and settings), ROS-friendly."""
-    return {**TableParams().as_dict(), **SimSettings().as_dict()}
-
-
 __all__ = [
     'Mode', 'MeshPhase', 'MeshFormulation', 'PAPER_PINION_SPEED', 'PAPER_DRIVE_TORQUE',
-    'ParameterError',
-    'TableParams', 'SimSettings', 'effective_stiffness', 'equivalent_mass',
-    'ste_slope', 'natural_frequency', 'damping_ratio', 'damping_for_ratio', 'stiffness_fluctuation',
-    'mean_mesh_force', 'mesh_frequency_at', 'terminal_speed', 'performance_index',
-    'rk4_amplification',
-    'max_stable_dt', 'check_step', 'split_parameters', 'ros_parameters', 'load_yaml',
-    'default_values', 'paper_yaml', 'parameter_table',
+    'ParameterError', 'TableParams', 'SimSettings', 'effective_stiffness', 'ste_slope',
 ]
-
-
-if __name__ == '__main__':
-    import sys
-    print(paper_yaml() if sys.argv[1:] == ['yaml'] else parameter_table(), end='')

@@ -18,7 +18,8 @@ import numpy as np
 
 from .integrator import OBSERVED, advance_observed, advance_ticks, observe
 from .model import PackedModel, active_path, equilibrium_state, pack
-from .params import TableParams, check_step
+from .params import TableParams
+from .stability import check_step
 
 
 @dataclass(frozen=True)

@@ -14,8 +14,8 @@ The step supports the tableaus whose stage s takes the slope of stage s − 1 al
 the midpoint rule, Heun's method, ...), so it keeps no stage array. The weights are
 applied as RK4 is written by hand, y + (h/D)·(w_0·k_0 + w_1·(k_1 + k_2) + w_3·k_3) with
 integer w = D·b: consecutive stages of equal weight are summed first (fewer
-multiplications, and the arithmetic of the integrators this module replaced, so their
-results are unchanged bit for bit).
+multiplications, and the arithmetic of RK4 as written by hand, so that its results stay
+bit for bit those of the formula).
 
 States are anything with the vector operations of :func:`axpy`, :func:`add` and
 :func:`scale`: floats and NumPy arrays in Python, tuples of floats in Python and in
@@ -274,12 +274,6 @@ def step(fun: Callable, t: float, y: Any, h: float, args: Any) -> Any:
     return _python_step(fun, RK4)(t, y, h, fun(t, y, args), args)
 
 
-def tableau_step(tableau: Tableau, fun: Callable, t: float, y: Any, h: float,
-                 args: Any) -> Any:
-    """One step of any supported ``tableau`` (Python only; for comparing methods)."""
-    return _python_step(fun, tableau)(t, y, h, fun(t, y, args), args)
-
-
 _COMPILE = njit(inline='always')
 
 
@@ -331,5 +325,5 @@ def _hermite_compiled(y0: Any, f0: Any, y1: Any, f1: Any, h: float, theta: float
     return hermite if isinstance(y0, (types.BaseTuple, types.Number)) else None
 
 
-__all__ = ['Tableau', 'RK4', 'axpy', 'add', 'scale', 'step', 'step_from', 'tableau_step',
+__all__ = ['Tableau', 'RK4', 'axpy', 'add', 'scale', 'step', 'step_from',
            'hermite']

@@ -15,7 +15,8 @@ from typing import Any
 
 import yaml
 
-from .params import ParameterError, SimSettings, TableParams, split_parameters
+from .parameter_sets import split_parameters
+from .params import ParameterError, SimSettings, TableParams
 
 EXTRA_KEYS = ('package_version', 'initial_state', 'start_step')
 #: Parameters and settings added after the first release, with the value that recordings

@@ -7,6 +7,9 @@ setpoint profile it tracks. :func:`load_scenario` reads and validates one: every
 a :class:`ScenarioError` naming the file and the line. :meth:`Scenario.run` runs it
 in-process (:class:`~screwgear_ros.simulation.Simulation`); :meth:`Scenario.schedule`
 is what ``replay_run --script`` plays into a live node over DDS (actions only).
+
+Why one module of this length: it is the one reader of the scenario format, and each of
+its checks must name the file's line, so the format's rules stay together.
 """
 
 from __future__ import annotations
@@ -24,8 +27,10 @@ import yaml
 from .commands import INPUT_TOPICS, InputRejected, apply_command
 from .control import DemoController, DemoGains
 from .events import Command, Event, ParameterChange, Reset
-from .params import ParameterError, default_values, split_parameters
+from .parameter_sets import default_values, split_parameters
+from .params import ParameterError
 from .plant import DriveInput
+from .schedule import Schedule
 from .simulation import Controller, Run, Simulation
 
 #: The top-level keys of a scenario.
@@ -338,8 +343,7 @@ class Scenario:
 
     def schedule(self) -> Any:
         """What ``replay_run --script`` plays into a node: the start values and the
-        actions at their steps (:class:`~screwgear_ros.runs.replay.Schedule`)."""
-        from .runs.replay import Schedule
+        actions at their steps (:class:`~screwgear_ros.schedule.Schedule`)."""
         simulation = self.simulation()
         return Schedule(simulation.params, simulation.settings, self.events(simulation),
                         end_step=int(round(self.duration / simulation.settings.dt)))

@@ -3,7 +3,7 @@ own :class:`~screwgear_ros.session.Session`.
 
 A simulation is built from what the node takes (its parameter file, parameters by name,
 its defaults otherwise), every value checked by the node's own validation
-(:func:`screwgear_ros.params.split_parameters`, the same messages). It then runs the
+(:func:`screwgear_ros.parameter_sets.split_parameters`, the same messages). It then runs the
 node's tick: :meth:`Simulation.step` submits the commands a controller would publish on
 the node's input topics (validated by :mod:`screwgear_ros.commands`, as the node
 validates them) and integrates one tick (1/``publish_rate`` s); the commands take effect
@@ -31,7 +31,8 @@ import yaml
 
 from .commands import InputRejected, apply_command
 from .events import Command, Event, ParameterChange
-from .params import ParameterError, SimSettings, TableParams, default_values, split_parameters
+from .parameter_sets import default_values, split_parameters
+from .params import ParameterError, SimSettings, TableParams
 from .pacing import sim_time_ns
 from .integrator import OBSERVED
 from .plant import OBSERVED_DELTA, OBSERVED_JOINTS
@@ -324,7 +325,7 @@ class Simulation:
         session = self.session
         recording = None
         if record is not None:
-            from .runs.session_record import SessionRecording
+            from .ros.session_record import SessionRecording   # rclpy messages: only to record
             recording = SessionRecording(record, session)
         observed = np.empty((ticks + 1, OBSERVED))
         command = np.full(ticks + 1, np.nan)

@@ -14,7 +14,9 @@ from functools import lru_cache
 
 from .pacing import PacerStats
 from .model import Z1, Z3, ContactBranch, PackedModel, contact_branches, mesh_phase, pack
-from .params import ANSWERS, TableParams, natural_frequency
+from .interface import ANSWERS
+from .params import TableParams
+from .quantities import natural_frequency
 from .plant import Outputs
 
 #: Diagnostic levels (diagnostic_msgs/DiagnosticStatus).

@@ -1,7 +1,7 @@
 """read_run's bulk reading, against two other readers of the same bytes.
 
 read_run walks the MCAP records itself and decodes joint_states, transmission_error and
-mesh_state with NumPy on the node's fixed layout (:class:`screwgear_ros.ros.cdr.Template`).
+mesh_state with NumPy on the node's fixed layout (:class:`screwgear_ros.cdr.Template`).
 Here that is held against ``rosbags``' CDR decoder on every message of the checked-in bags,
 against ``mcap``'s own stream reader (``iter_messages``) on what a cut or damaged file still
 holds, and messages that are not in the node's layout (another frame_id, other joint
@@ -18,8 +18,9 @@ from mcap.reader import make_reader
 from rosbags.typesys import Stores, get_typestore
 
 from bag_runs import copy_bag, damaged_copy
-from screwgear_ros.ros.cdr import float64_template, joint_state_template
-from screwgear_ros.runs.bagread import (OUTPUT_TOPICS, BagError, _bulk, iter_messages, read_run,
+from mcap_stream import iter_messages
+from screwgear_ros.cdr import float64_template, joint_state_template
+from screwgear_ros.runs.bagread import (OUTPUT_TOPICS, BagError, _bulk, read_run,
                                         scan)
 
 DATA = Path(__file__).parent / 'data'

@@ -10,6 +10,7 @@ import math
 import random
 
 import numpy as np
+import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.typesys import Stores, get_typestore
 from rosgraph_msgs.msg import Clock
@@ -19,8 +20,8 @@ from visualization_msgs.msg import MarkerArray
 
 from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.plant import DriveInput, Outputs, Plant
-from screwgear_ros.ros.cdr import (Bundle, clock_template, float64_template,
-                                   joint_state_template, template_of)
+from screwgear_ros.cdr import (Bundle, clock_template, float64_template, joint_state_template,
+                               template_of)
 from screwgear_ros.ros.markers import MarkerEncoder, table_markers
 from screwgear_ros.ros.messages import stamp
 from screwgear_ros.status import Contact, contact_states
@@ -200,3 +201,23 @@ def test_the_free_bytes_are_exactly_those_no_decoder_reads():
             except Exception:  # noqa: BLE001 - the decoder refuses it: the byte is read
                 again = None
             assert (again == template.bytes) == free[i], (template.msgtype, i)
+
+
+@pytest.mark.parametrize('names', [[], ['a'], ['pinion_1', 'table', 'pinion_3'],
+                                   ['mesh_1', 'mesh_3']])
+def test_the_rosfree_shapes_lay_out_what_rclpys_messages_do(names):
+    """The core's templates spell the three per-tick messages out (no message packages
+    in the core); walked from rclpy's own messages they must come out the same."""
+    from builtin_interfaces.msg import Time
+
+    def same(a, b):
+        assert (a.msgtype, a.bytes, a.free, a.stamps) == (b.msgtype, b.bytes, b.free, b.stamps)
+        assert [(f.offset, f.codec.format) for f in a.fields] == \
+            [(f.offset, f.codec.format) for f in b.fields]
+    n = len(names)
+    same(joint_state_template(names), template_of(
+        JointState(name=names, position=[0.0] * n, velocity=[0.0] * n, effort=[0.0] * n),
+        [('header', 'stamp')], [[(k, 0), (k, n - 1)] if n else []
+                                for k in ('position', 'velocity', 'effort')]))
+    same(float64_template(), template_of(Float64(), runs=[[('data',)]]))
+    same(clock_template(), template_of(Clock(clock=Time()), [('clock',)]))

@@ -18,7 +18,7 @@ from bag_runs import copy_bag, nudge_table_angle, record_session, truncated_copy
 from bag_runs import installed_check_run as check_run
 from screwgear_ros.events import Command
 from screwgear_ros.params import SimSettings, TableParams
-from screwgear_ros.runs.replay import Schedule
+from screwgear_ros.schedule import Schedule
 
 DATA = Path(__file__).parent / 'data'
 BAGS = ['steady_drive', 'reversals_anti_backlash', 'reversals_conventional',

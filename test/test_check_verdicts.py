@@ -31,11 +31,12 @@ from bag_runs import copy_bag, installed, record_session
 from bag_runs import installed_check_run as check_run
 from test_bag_fuzz import retyped_copy
 from screwgear_ros.events import Command, ParameterChange, Reset
-from screwgear_ros.params import default_values, split_parameters
+from screwgear_ros.parameter_sets import default_values, split_parameters
 from screwgear_ros.runs import check
 from screwgear_ros.runs.bagread import read_run
 from screwgear_ros.runs.compare import compare_runs, exact_comparison
-from screwgear_ros.runs.replay import Schedule, replay_in_process
+from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.schedule import Schedule
 
 DATA = Path(__file__).parent / 'data'
 STORE = get_typestore(Stores.ROS2_JAZZY)

@@ -147,8 +147,9 @@ def test_folding_a_stream_keeps_the_last_valid_command_through_rejections():
 
 
 def test_the_node_subscribes_each_input_with_the_type_the_core_declares():
-    from screwgear_ros.params import ANSWER_TOPICS
-    from screwgear_ros.ros.messages import INPUT_TYPES, input_message, type_name
+    from screwgear_ros.interface import ANSWER_TOPICS
+    from screwgear_ros.cdr import type_name
+    from screwgear_ros.ros.messages import INPUT_TYPES, input_message
     assert {topic: type_name(kind) for topic, kind in INPUT_TYPES.items()} == INPUT_TOPICS
     assert set(ANSWER_TOPICS) <= set(INPUT_TOPICS)
     assert {'cmd_effort', 'joint_commands'} <= set(ANSWER_TOPICS)

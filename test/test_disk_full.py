@@ -26,9 +26,10 @@ from rclpy.serialization import serialize_message
 from rosbags.rosbag2 import Reader
 from std_msgs.msg import Float64, String
 
+from mcap_stream import iter_messages
 from ros_procs import STARTUP_TIMEOUT, start_process
 from screwgear_ros.cli.table_sim import EXIT_RECORDING_FAILED
-from screwgear_ros.runs.bagread import iter_messages, read_run
+from screwgear_ros.runs.bagread import read_run
 from screwgear_ros.runs.recorder import RESERVE_NAME, RunRecorder, TopicSpec
 
 TOPICS = [TopicSpec('/axis_c/text', 'std_msgs/msg/String'),
@@ -111,7 +112,7 @@ def test_a_full_disk_stops_the_recording_with_a_bag_that_reads_back(
         text = serialize_message(String(data=f'{k}:' + 'x' * rng.randrange(0, 200)))
         value = serialize_message(Float64(data=float(k)))
         recorder.write_group(recorder.group([t.name for t in TOPICS]), k, [text, value],
-                             wait=True)
+                             lossless=True)
         handed += [(TOPICS[0].name, k, text), (TOPICS[1].name, k, value)]
     recorder.close()
     assert recorder.error is not None and 'No space left on device' in recorder.error

@@ -19,7 +19,8 @@ import pytest
 
 from screwgear_ros.integrator import advance, trajectory
 from screwgear_ros.model import equilibrium_state, pack
-from screwgear_ros.params import TableParams, equivalent_mass
+from screwgear_ros.params import TableParams
+from screwgear_ros.quantities import equivalent_mass
 from screwgear_ros.plant import DriveInput
 from screwgear_ros.reference import Segment, solve
 

@@ -235,7 +235,7 @@ def test_versions_compare_as_numbers():
 # ------------------------------------------------------------------ namespace
 
 def test_the_urdf_is_pointed_at_another_namespace_and_never_at_the_root():
-    from screwgear_ros.ros.run_io import topic_names
+    from screwgear_ros.interface import topic_names
     from screwgear_ros.ros.urdf import PLANT_NAMESPACE
     shipped = (SHARE / 'urdf/screwgear_table.urdf').read_text(encoding='utf-8')
     assert support.urdf_namespace(shipped) == PLANT_NAMESPACE

@@ -12,10 +12,10 @@ import math
 import numpy as np
 import pytest
 
+from model_laws import drive_line, mesh_load, mesh_state
 from screwgear_ros.integrator import advance
-from screwgear_ros.model import (R1, Z1, active_path, applied_torques, drive_line,
-                                 drive_torques, equilibrium_state, mesh_force, mesh_load,
-                                 mesh_state, mesh_stiffness, pack, rhs,
+from screwgear_ros.model import (R1, Z1, active_path, applied_torques, drive_torques,
+                                 equilibrium_state, mesh_force, mesh_stiffness, pack, rhs,
                                  static_transmission_error)
 from screwgear_ros.params import TableParams
 

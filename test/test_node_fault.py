@@ -1,7 +1,7 @@
 """table_sim when the model itself diverges: it stops integrating, reports the cause
 once, keeps publishing the last finite state, and recovers on ~/reset.
 
-Every parameter set that passes validation is RK4-stable at its dt (params.check_step),
+Every parameter set that passes validation is RK4-stable at its dt (stability.check_step),
 so the trigger is physical: with b = 0 and the `time` mesh phase the single-mesh model
 is a linear periodic system, and pumping the stiffness (k_a' = 0.5, c = 0) at twice the
 mesh natural frequency ω0 is the principal parametric resonance (a Mathieu tongue). The
@@ -22,7 +22,8 @@ from std_srvs.srv import Trigger
 
 from ros_procs import Peer, assert_clean_exit, stamp_ns, start_process
 
-from screwgear_ros.params import TableParams, natural_frequency
+from screwgear_ros.params import TableParams
+from screwgear_ros.quantities import natural_frequency
 
 UNSTABLE = TableParams(mode='conventional', backlash=0.0, mesh_phase='time',
                        mesh_stiffness_amplitude=5.0e6, mesh_damping=0.0)

@@ -36,16 +36,18 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
 from bag_runs import record_session
+from model_laws import drive_line
 from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
 from screwgear_ros.commands import JointCommand
 from screwgear_ros.events import Command
 from screwgear_ros.layout import BASE_LINK, PALETTE, wheels
-from screwgear_ros.model import drive_line, pack
+from screwgear_ros.model import pack
 from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.ros.markers import DISCS, MARKS, MESHES
 from screwgear_ros.ros.urdf import PLANT_NAMESPACE, shipped_description
 from screwgear_ros.runs.bagread import read_run
-from screwgear_ros.runs.replay import Schedule, replay_in_process
+from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.schedule import Schedule
 
 NS = PLANT_NAMESPACE                   # where the shipped URDF's ros2_control block looks
 NODE = f'{NS}/table_sim'

@@ -17,7 +17,8 @@ import pytest
 from screwgear_ros import normalized as nz
 from screwgear_ros.integrator import trajectory
 from screwgear_ros.model import pack
-from screwgear_ros.params import ParameterError, TableParams, natural_frequency
+from screwgear_ros.params import ParameterError, TableParams
+from screwgear_ros.quantities import natural_frequency
 
 LENGTH = 1e-6   # l, m: the paper's length scale
 

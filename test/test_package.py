@@ -60,7 +60,8 @@ def test_urdf_launch_files_and_ros2_control_config_are_installed():
 
 
 def test_installed_config_loads_to_the_defaults():
-    from screwgear_ros.params import SimSettings, TableParams, load_yaml
+    from screwgear_ros.parameter_sets import load_yaml
+    from screwgear_ros.params import SimSettings, TableParams
     assert load_yaml(PREFIX / 'share' / PACKAGE / 'config/paper.yaml') == (TableParams(),
                                                                            SimSettings())
 
@@ -201,7 +202,7 @@ def test_the_urdf_parses_and_its_joints_are_those_of_joint_states():
 
 
 def test_the_ros2_control_block_names_the_stock_plugin_and_this_nodes_topics():
-    from screwgear_ros.ros.run_io import topic_names
+    from screwgear_ros.interface import topic_names
     from screwgear_ros.ros.urdf import PLANT_NAMESPACE
     block = ET.parse(_installed_urdf()).getroot().find('ros2_control')
     assert block.get('type') == 'system'

@@ -20,8 +20,10 @@ import pytest
 
 from ros_procs import STARTUP_TIMEOUT, Peer, start_process, wait_until
 from screwgear_ros.declare import EXCERPT_CHARS, Kind, yaml_value
-from screwgear_ros.params import (ParameterError, default_values, equivalent_mass,
-                                  max_stable_dt, natural_frequency, split_parameters)
+from screwgear_ros.parameter_sets import default_values, split_parameters
+from screwgear_ros.params import ParameterError
+from screwgear_ros.quantities import equivalent_mass, natural_frequency
+from screwgear_ros.stability import max_stable_dt
 
 NODE = '/table_sim'
 SEED = 20

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 import yaml
 
-from screwgear_ros import model, params
+from readme_blocks import generated_block
+from screwgear_ros import model, parameter_docs, parameter_sets, params
 from screwgear_ros.declare import Kind, declared, yaml_value
 from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.ros.parameters import PARAMETERS, complete_harmonics, descriptor
@@ -80,18 +81,15 @@ def test_the_kernel_layout_packs_every_kernel_field_by_name():
 
 def test_the_parameter_file_is_generated_from_the_declarations():
     text = (ROOT / 'config' / 'paper.yaml').read_text(encoding='utf-8')
-    assert text == params.paper_yaml(), \
-        'config/paper.yaml is stale: python -m screwgear_ros.params yaml > config/paper.yaml'
-    loaded = params.ros_parameters(yaml.safe_load(text))
-    assert loaded == params.default_values()          # YAML 1.1 reads every value back
+    assert text == parameter_docs.paper_yaml(), \
+        'config/paper.yaml is stale: python -m screwgear_ros.parameter_docs yaml > config/paper.yaml'
+    loaded = parameter_sets.ros_parameters(yaml.safe_load(text))
+    assert loaded == parameter_sets.default_values()          # YAML 1.1 reads every value back
 
 
 def test_the_readme_table_is_generated_from_the_declarations():
-    readme = (ROOT / 'README.md').read_text(encoding='utf-8')
-    start = readme.index('<!-- parameters: generated')
-    block = readme[readme.index('\n', start) + 1:readme.index('<!-- end of parameters -->')]
-    assert block == params.parameter_table(), \
-        'README parameter table is stale: python -m screwgear_ros.params'
+    assert generated_block('parameters') == parameter_docs.parameter_table(), \
+        'README parameter table is stale: python -m screwgear_ros.parameter_docs'
 
 
 @pytest.mark.parametrize('value, text', [(1e-06, '1.0e-06'), (7.5e-05, '7.5e-05'),

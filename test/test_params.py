@@ -15,7 +15,10 @@ import numpy as np
 import pytest
 import scipy.linalg
 
+from screwgear_ros import parameter_sets as PS
 from screwgear_ros import params as P
+from screwgear_ros import quantities as Q
+from screwgear_ros import stability as S
 from screwgear_ros.model import equilibrium_state, pack
 from screwgear_ros.integrator import advance
 from screwgear_ros.declare import excerpt
@@ -64,6 +67,11 @@ def test_invalid_value_refused_naming_parameter_value_and_rule(name, value, rule
     with pytest.raises(ParameterError) as exc:
         TableParams(**{name: value})
     refused(exc, name, value, rule_word)
+
+
+def damping_for_ratio(p: TableParams, zeta: float) -> float:
+    """Mesh damping c, N·s/m, that gives damping ratio ζ."""
+    return 2.0 * zeta * Q.equivalent_mass(p) * Q.natural_frequency(p)
 
 
 def test_unknown_mode_and_mesh_phase_refused():
@@ -177,7 +185,7 @@ def test_max_stable_dt_is_rk4_imaginary_axis_limit_when_undamped(mode):
     p = TableParams(mode=mode, mesh_damping=0.0, ste_amplitudes=(), ste_phases=(),
                     drive_no_load_speed=0.0)            # an ideal torque source: no damping
     expected = 2.0 * math.sqrt(2.0) / undamped_omega_max(p)
-    assert P.max_stable_dt(p) == pytest.approx(expected, rel=1e-9)
+    assert S.max_stable_dt(p) == pytest.approx(expected, rel=1e-9)
     # For scale: the paper's stiffness allows ~1.9 ms, 38× the default 50 µs step.
     assert 1.8e-3 < expected < 2.0e-3
 
@@ -195,11 +203,11 @@ def test_max_stable_dt_takes_the_ste_lever_of_angle_phase():
     assert P.ste_slope(p, '1') == pytest.approx(slope, rel=1e-15)
     levered = TableParams(mesh_damping=0.0, ste_amplitudes=(), ste_phases=(),
                           drive_no_load_speed=0.0, radius_pinion_1=0.078 + slope, radius_pinion_3=0.078 + slope)
-    assert P.max_stable_dt(p) == pytest.approx(
+    assert S.max_stable_dt(p) == pytest.approx(
         2.0 * math.sqrt(2.0) / undamped_omega_max(levered), rel=1e-9)
     timed = p.replace(mesh_phase='time')
-    assert P.max_stable_dt(timed) == pytest.approx(
-        P.max_stable_dt(p.replace(ste_amplitudes=(), ste_phases=())), rel=1e-12)
+    assert S.max_stable_dt(timed) == pytest.approx(
+        S.max_stable_dt(p.replace(ste_amplitudes=(), ste_phases=())), rel=1e-12)
 
 
 def test_an_ste_slope_past_the_pinion_radius_is_refused():
@@ -226,11 +234,11 @@ def test_max_stable_dt_with_damping_matches_the_integrator(mode, drive):
                     backlash=0.0, table_damping=8867.0,
                     drive_stall_torque=2e5 if drive else 1600.0,
                     drive_no_load_speed=25.0 if drive else 0.0)
-    limit = P.max_stable_dt(p)
+    limit = S.max_stable_dt(p)
     if not drive:     # damping moves the limit a little past 2√2/ω (the region bulges there)
         assert 2.8 < limit * undamped_omega_max(p) < 3.0
     else:             # the drive's damping (8000 N·m·s/rad on I = 0.033) sets the limit
-        assert limit < 0.9 * P.max_stable_dt(p.replace(drive_no_load_speed=0.0))
+        assert limit < 0.9 * S.max_stable_dt(p.replace(drive_no_load_speed=0.0))
     m = pack(p)
     torque = 2.0 * p.drive_stall_torque if drive else 0.0
 
@@ -252,16 +260,16 @@ def test_max_stable_dt_with_damping_matches_the_integrator(mode, drive):
 
 def test_check_step_and_split_parameters_refuse_unstable_dt():
     p = TableParams()
-    limit = P.max_stable_dt(p)
-    P.check_step(p, 50e-6)
+    limit = S.max_stable_dt(p)
+    S.check_step(p, 50e-6)
     with pytest.raises(ParameterError) as exc:
-        P.check_step(p, 1.01 * limit)
+        S.check_step(p, 1.01 * limit)
     assert exc.value.name == 'dt' and 'RK4 is unstable above' in exc.value.rule
     # A stiffer mesh makes a formerly fine step unstable; the message gives the stiffness.
-    values = {**P.default_values(), 'mesh_stiffness_mean': 1e10, 'dt': 1e-4,
+    values = {**PS.default_values(), 'mesh_stiffness_mean': 1e10, 'dt': 1e-4,
               'publish_rate': 1000.0}
     with pytest.raises(ParameterError) as exc:
-        P.split_parameters(values)
+        PS.split_parameters(values)
     assert exc.value.name == 'dt' and exc.value.value == 1e-4
     assert '1.0001e+10 N/m' in exc.value.rule          # k_eff + k_a
 
@@ -269,7 +277,7 @@ def test_check_step_and_split_parameters_refuse_unstable_dt():
 # ---------------------------------------------------------------- YAML
 
 def test_config_files_load_to_the_defaults():
-    params, settings = P.load_yaml(CONFIG / 'paper.yaml')
+    params, settings = PS.load_yaml(CONFIG / 'paper.yaml')
     assert params == TableParams()
     assert settings == SimSettings()
     from screwgear_ros import normalized
@@ -281,7 +289,7 @@ def test_unknown_parameter_in_yaml_refused(tmp_path):
     bad = tmp_path / 'typo.yaml'
     bad.write_text(text.replace('backlash: 7.5e-05', 'backlesh: 7.5e-05'), encoding='utf-8')
     with pytest.raises(ParameterError) as exc:
-        P.load_yaml(bad)
+        PS.load_yaml(bad)
     refused(exc, 'backlesh', 7.5e-05, 'not a parameter')
 
 
@@ -292,12 +300,12 @@ def test_yaml_forms_accepted(tmp_path):
                  'backlash: 1.0e-5\n'):
         f = tmp_path / 'p.yaml'
         f.write_text(body, encoding='utf-8')
-        params, _ = P.load_yaml(f)
+        params, _ = PS.load_yaml(f)
         assert params == TableParams(backlash=1e-5)
 
 
 def test_default_values_round_trip():
-    assert P.split_parameters(P.default_values()) == (TableParams(), SimSettings())
+    assert PS.split_parameters(PS.default_values()) == (TableParams(), SimSettings())
 
 
 # ---------------------------------------------------------------- derived quantities
@@ -305,23 +313,23 @@ def test_default_values_round_trip():
 def test_derived_quantities_reproduce_the_papers_example():
     """model.md §6: m_e = 5.1477 kg (paper 5.150), F_m = 5128 N, ω_e = 60.319 rad/s, Ω ≈ 0.0433."""
     p = TableParams()
-    assert P.equivalent_mass(p) == pytest.approx(5.1477, abs=5e-5)
-    assert P.mean_mesh_force(p) == pytest.approx(5128.2, abs=0.05)
-    assert P.mesh_frequency_at(p) == pytest.approx(60.319, abs=5e-4)
+    assert Q.equivalent_mass(p) == pytest.approx(5.1477, abs=5e-5)
+    assert Q.mean_mesh_force(p) == pytest.approx(5128.2, abs=0.05)
+    assert Q.mesh_frequency_at(p) == pytest.approx(60.319, abs=5e-4)
     assert p.mesh_frequency == pytest.approx(60.319, abs=5e-4)
-    w0 = P.natural_frequency(p)
+    w0 = Q.natural_frequency(p)
     assert w0 == pytest.approx(math.sqrt(1e7 / 5.1477), rel=1e-4)
     # §6 quotes Ω = 0.04329 from the paper's rounded m_e = 5.150 kg; with m_e = 5.1477 it
     # is 0.043277: agreement to the paper's precision.
     assert p.mesh_frequency / w0 == pytest.approx(0.04329, abs=2e-5)
-    assert P.damping_ratio(p) == pytest.approx(0.05, rel=1e-12)
-    assert P.damping_for_ratio(p, 0.1) == pytest.approx(2 * p.mesh_damping, rel=1e-12)
-    assert P.stiffness_fluctuation(p) == pytest.approx(0.1)
-    assert P.mean_mesh_force(p) / (p.mesh_stiffness_mean * 1e-6) == pytest.approx(512.8, abs=0.05)
+    assert Q.damping_ratio(p) == pytest.approx(0.05, rel=1e-12)
+    assert damping_for_ratio(p, 0.1) == pytest.approx(2 * p.mesh_damping, rel=1e-12)
+    assert Q.stiffness_fluctuation(p) == pytest.approx(0.1)
+    assert Q.mean_mesh_force(p) / (p.mesh_stiffness_mean * 1e-6) == pytest.approx(512.8, abs=0.05)
     assert p.ste_amplitudes[0] / 1e-6 == pytest.approx(1538.4)
     # P = (ζ/k_a')·√k_m: 3162 for ζ = 0.1, k_a' = 0.1 only with k_m = 1e7 (model.md §6)
-    assert P.performance_index(0.1, 0.1, 1e7) == pytest.approx(3162.3, abs=0.05)
-    assert P.performance_index(0.1, 0.0, 1e7) == math.inf
+    assert Q.performance_index(0.1, 0.1, 1e7) == pytest.approx(3162.3, abs=0.05)
+    assert Q.performance_index(0.1, 0.0, 1e7) == math.inf
 
 
 def test_effective_stiffness_derating_and_preload_stiffness():

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from screwgear_ros.model import EquilibriumNotFound, equilibrium_state
-from screwgear_ros.params import ParameterError, SimSettings, TableParams, max_stable_dt
+from screwgear_ros.params import ParameterError, SimSettings, TableParams
+from screwgear_ros.stability import max_stable_dt
 from screwgear_ros.plant import DriveInput, Plant
 from screwgear_ros.session import Session
 

@@ -35,8 +35,9 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import (Empty, Float64, Float64MultiArray, Header, Int8, MultiArrayDimension,
                           MultiArrayLayout, String)
 
+from mcap_stream import iter_messages
 from screwgear_ros.runs import RunRecorder, TopicSpec
-from screwgear_ros.runs.bagread import BagError, iter_messages, read_run
+from screwgear_ros.runs.bagread import BagError, read_run
 
 TOPICS = [
     TopicSpec('/axis_c/joint_states', 'sensor_msgs/msg/JointState'),
@@ -402,7 +403,7 @@ def test_write_group_keeps_order_and_counts_whole_batches(tmp_path: Path) -> Non
 
 
 def test_a_producer_that_may_wait_loses_nothing(tmp_path: Path, monkeypatch) -> None:
-    """write_group(wait=True), as the node flat out writes: a queue of 40 messages and
+    """write_group(lossless=True), as the node flat out writes: a queue of 40 messages and
     5000 ticks written as fast as the loop goes. The producer waits for the writer to
     make room instead of dropping: every message is in the bag, in order."""
     from screwgear_ros.runs import recorder as recording
@@ -412,7 +413,7 @@ def test_a_producer_that_may_wait_loses_nothing(tmp_path: Path, monkeypatch) -> 
     group = recorder.group([topic, topic])
     data = [serialize_message(Float64(data=float(k))) for k in range(10000)]
     for k in range(5000):
-        recorder.write_group(group, k, data[2 * k:2 * k + 2], wait=True)
+        recorder.write_group(group, k, data[2 * k:2 * k + 2], lossless=True)
     recorder.close()
     assert (recorder.written, recorder.dropped, recorder.error) == (10000, 0, None)
     mcap_file, = (tmp_path / 'bag').glob('*.mcap')

@@ -17,7 +17,8 @@ import pytest
 
 from bag_runs import reversal_run
 from screwgear_ros.events import Command
-from screwgear_ros.params import SimSettings, TableParams, equivalent_mass
+from screwgear_ros.params import SimSettings, TableParams
+from screwgear_ros.quantities import equivalent_mass
 from screwgear_ros.plant import DriveInput, Plant
 from screwgear_ros.reference import ATOL, RTOL, ReferenceFailure, Segment, solve
 
@@ -201,7 +202,7 @@ def test_reference_and_check_follow_the_recorded_mesh_formulation(tmp_path):
     from bag_runs import record_session
     from screwgear_ros.runs.bagread import read_run
     from screwgear_ros.runs.check import check_run
-    from screwgear_ros.runs.replay import Schedule
+    from screwgear_ros.schedule import Schedule
 
     p = TableParams(mesh_formulation='energy_consistent', table_damping=PAPER_TABLE_DAMPING)
     dt, torque = 50e-6, 400.0

@@ -282,7 +282,8 @@ def record_a_fault(bag: Path) -> None:
     """A run of the diverging model recorded as the node does: the time stands still for
     a few ticks, then a detuning change, a reset and a command revive it in one tick."""
     from test_replay_quietly import _diverging
-    from screwgear_ros.ros.run_io import RunIO, topic_names
+    from screwgear_ros.interface import topic_names
+    from screwgear_ros.ros.run_io import RunIO
     from screwgear_ros.session import Session
     params, settings = _diverging()
     session = Session(params, settings)

@@ -17,11 +17,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from screwgear_ros.ros.run_io import RunIO, topic_names
+from screwgear_ros.interface import topic_names
+from screwgear_ros.ros.run_io import RunIO
 from screwgear_ros.events import Command, ParameterChange, Reset
-from screwgear_ros.params import MeshPhase, Mode, SimSettings, TableParams, natural_frequency
+from screwgear_ros.params import MeshPhase, Mode, SimSettings, TableParams
+from screwgear_ros.quantities import natural_frequency
 from screwgear_ros.runs.bagread import read_run
-from screwgear_ros.runs.replay import Schedule, load_scenario, replay_in_process
+from screwgear_ros.runs.replay import load_scenario, replay_in_process
+from screwgear_ros.schedule import Schedule
 from screwgear_ros import session as session_module
 from screwgear_ros.session import QUIET_TICKS_PER_CALL, ROW, Session, row_of
 

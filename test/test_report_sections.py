@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from screwgear_ros.params import TableParams, equivalent_mass
+from screwgear_ros.params import TableParams
+from screwgear_ros.quantities import equivalent_mass
 from screwgear_ros.report import (antibacklash, damping, derived, energy, fluctuation, index,
                                   measures, response, stability, stiffness, summary, thermal)
 from screwgear_ros.report.common import agreement

@@ -12,11 +12,12 @@ from mcap.reader import make_reader
 from bag_runs import record_session
 from screwgear_ros.events import Command, ParameterChange, Reset
 from screwgear_ros.params import SimSettings, TableParams
-from screwgear_ros.ros.run_io import RunIO, topic_names
+from screwgear_ros.interface import topic_names
+from screwgear_ros.ros.run_io import RunIO
 from screwgear_ros.runs.bagformat import typestore
 from screwgear_ros.runs.bagread import read_run
 from screwgear_ros.runs.replay import replay_in_process
-from screwgear_ros.runs.replay import Schedule
+from screwgear_ros.schedule import Schedule
 from screwgear_ros.session import Session
 
 

@@ -13,7 +13,8 @@ import pytest
 from bag_runs import installed, installed_check_run
 from screwgear_ros import Simulation
 from screwgear_ros.metrics import SETTLING_BAND, run_metrics
-from screwgear_ros.params import ParameterError, default_values, split_parameters
+from screwgear_ros.parameter_sets import default_values, split_parameters
+from screwgear_ros.params import ParameterError
 from screwgear_ros.runs.bagread import read_run
 from screwgear_ros.scenario import ScenarioError, Setpoint, load_scenario
 

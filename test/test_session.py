@@ -18,10 +18,12 @@ import pytest
 from bag_runs import record_session
 from screwgear_ros.events import Command, ParameterChange, Reset
 from screwgear_ros.model import equilibrium_state
-from screwgear_ros.params import SimSettings, TableParams, natural_frequency
+from screwgear_ros.params import SimSettings, TableParams
+from screwgear_ros.quantities import natural_frequency
 from screwgear_ros.plant import DriveInput, Plant
 from screwgear_ros.runs.bagread import read_run
-from screwgear_ros.runs.replay import Schedule, replay_in_process
+from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.schedule import Schedule
 from screwgear_ros.session import Session
 
 P = TableParams(table_damping=8867.0)

@@ -16,7 +16,8 @@ import yaml
 from bag_runs import installed_check_run
 from screwgear_ros import InputRejected, ParameterError, Simulation
 from screwgear_ros.commands import apply_command
-from screwgear_ros.params import SimSettings, TableParams, split_parameters
+from screwgear_ros.parameter_sets import split_parameters
+from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.plant import DriveInput
 from screwgear_ros.runs.bagread import read_run
 
@@ -63,7 +64,7 @@ def test_from_yaml_takes_the_node_parameter_file_and_overrides(tmp_path):
                                     {'inertia_table': 'heavy'}])
 def test_a_refused_value_gets_the_nodes_message(values, tmp_path):
     with pytest.raises(ParameterError) as expected:     # what the node itself says
-        from screwgear_ros.params import default_values
+        from screwgear_ros.parameter_sets import default_values
         split_parameters({**default_values(), **values})
     with pytest.raises(ParameterError) as got:
         Simulation.from_values(**values)

@@ -69,7 +69,8 @@ from ..ros.replaying import (CHILD_CLOSE, CHILD_GRACE, START_FACTOR, Progress, r
 from ..ros.shutdown import STOP_SIGNALS, stop_on_signals
 from ..runs.bagread import BagError, RecordedRun, read_run
 from ..runs.compare import compare_runs, exact_comparison, format_comparison, format_exact
-from ..runs.replay import Schedule, differences, load_scenario, schedule_from_run
+from ..runs.replay import load_scenario, schedule_from_run
+from ..schedule import Schedule, differences
 from ..runs.replay_plan import LockstepPlan, plan_from_run, plan_from_schedule
 
 EXIT_OK, EXIT_DIFFERENT, EXIT_ERROR = 0, 1, 2

@@ -29,6 +29,10 @@ texts are handed over under RunIO's own lock). ``_gate`` is thread-safe, and so 
 (a threading.Event that the signal thread of
 :func:`~screwgear_ros.ros.shutdown.stop_on_signals`, a failed pacing thread and
 ``close()`` set; never a signal handler). Nothing is ever set to None.
+
+Why one module of this length: the node's subscriptions, pacing thread, lockstep gate
+and shutdown share its state and the order its threads take it in, which is the whole
+correctness argument; the ROS-free parts live in the core and in ``ros/``.
 """
 
 from __future__ import annotations
@@ -56,13 +60,15 @@ from ..commands import carries_no_command, command_value
 from ..events import Command, ParameterChange, Reset
 from ..model import pack
 from ..pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns, wall_period
-from ..params import (ANSWER_TOPICS, ANSWERS, TICK_TOPIC, ParameterError, SimSettings,
-                      TableParams, split_parameters)
+from ..interface import (ANSWER_TOPICS, ANSWERS, BY_KEY, LATCHED_OUTPUTS, RECORDED_TOPICS,
+                         TICK_TOPIC)
+from ..parameter_sets import split_parameters
+from ..params import ParameterError, SimSettings, TableParams
 from ..ratelimit import RateLimiter
 from ..warmup import compiled_now, without_blas_probe
 from ..session import Session, Tick
 from ..ros import inputs, messages, param_dump, parameters
-from ..ros.messages import INPUT_TYPES, LATCHED_OUTPUTS, OUTPUT_TYPES
+from ..ros.messages import INPUT_TYPES, OUTPUT_TYPES
 from ..ros.run_io import RunIO
 from ..ros.shutdown import spin_until, stop_on_signals
 from ..status import (MAX_PHASE_PER_STEP, Health, diagnostic_values, mesh_phase_per_step,
@@ -76,8 +82,8 @@ LOCKSTEP_NOTICE = 3.0       # s of wall time without an answer before the node s
 #: The interpreter's switch interval in the node's process, s (Python's default: 5 ms).
 #: Flat out the pacing thread holds the interpreter lock; a thread that wants it back
 #: after a C call released it (the recorder's writer after each chunk it compresses and
-#: writes, the executor with an arrived command) waited up to a whole interval for it.
-#: At 0.5 ms recording flat out cost about 6 % instead of 10 % (3 × 8 s, one run each).
+#: writes, the executor with an arrived command) would wait up to a whole interval for
+#: it; a shorter interval makes recording flat out cheaper (bench_recording measures it).
 SWITCH_INTERVAL = 0.0005
 #: Exit status of a node whose recording failed (a full disk): it ran, and stopped as
 #: asked, but the bag ends at the fault (the log's ERROR line says where).
@@ -124,7 +130,8 @@ class TableSim(Node):
                                                 partial(self._on_command, topic), 10, raw=True)
                 for topic in ordered}
         self._tick_sub = self.create_subscription(Empty, f'~/{TICK_TOPIC}', self._on_tick, 10)
-        self.create_service(Trigger, '~/reset', self._on_reset, qos_profile=SERVICE_QOS)
+        self.create_service(Trigger, BY_KEY['reset_service'].name, self._on_reset,
+                            qos_profile=SERVICE_QOS)
         self._name_checks = 0
         self._name_timer = self.create_timer(NAME_CHECK_PERIOD, self._check_name)
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -139,8 +146,7 @@ class TableSim(Node):
         self._fqn = self.get_fully_qualified_name()
         topics = {key: pub.topic_name for key, pub in publishers.items()}
         topics.update({topic: sub.topic_name for topic, sub in subs.items()})
-        topics.update({'run_parameters': self._fqn + '/run_parameters',
-                       'reset': self._fqn + '/reset'})
+        topics.update({key: f'{self._fqn}/{key}' for key in RECORDED_TOPICS})
         self.io = RunIO(topics, settings.joint_names, publishers)
         self._derive(params, settings, keep=False)   # ParameterError: refuse to start
         if completed:

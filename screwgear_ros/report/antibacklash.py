@@ -8,6 +8,9 @@ flanks (δ1 > b, δ3 < −b) through a reversal. The table speed before the reve
 with a viscous table load c_t = T·(r2/r1)/ω2, so that torque T holds speed ω2; the drive is
 the paper's ideal torque source (``drive_no_load_speed`` 0), so every speed of the chart
 is reachable.
+
+Why one module of this length: as every module of ``report/``, it is one section of the
+paper report, its computation, figures and text together.
 """
 
 from __future__ import annotations
@@ -21,7 +24,8 @@ from tqdm import tqdm
 
 from ..events import Command, ParameterChange
 from ..params import (PAPER_DRIVE_TORQUE, PAPER_PINION_SPEED, Mode, SimSettings, TableParams,
-                      effective_stiffness, stiffness_fluctuation)
+                      effective_stiffness)
+from ..quantities import stiffness_fluctuation
 from ..session import Session
 from .common import COLORS, HOLDS, VAGUE, Section, Verdict, plt, save_figure, table
 

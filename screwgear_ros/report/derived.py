@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..normalized import from_table
-from ..params import (PAPER_DRIVE_TORQUE, PAPER_PINION_SPEED, TableParams, equivalent_mass,
-                      mean_mesh_force, mesh_frequency_at, natural_frequency)
+from ..params import PAPER_DRIVE_TORQUE, PAPER_PINION_SPEED, TableParams
+from ..quantities import equivalent_mass, mean_mesh_force, mesh_frequency_at, natural_frequency
 from .common import HOLDS, VAGUE, Section, Verdict, fmt, table
 
 #: The paper's printed numbers.

@@ -12,7 +12,8 @@ from tqdm import tqdm
 from .. import floquet
 from ..batch import Coefficients, integrate
 from ..normalized import NormalizedParams
-from ..params import TableParams, natural_frequency
+from ..params import TableParams
+from ..quantities import natural_frequency
 from .common import COLORS, FAILS, HOLDS, Section, Verdict, plt, save_figure, table
 
 ZETAS = (0.05, 0.15)

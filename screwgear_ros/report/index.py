@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..params import performance_index
+from ..quantities import performance_index
 from .common import COLORS, FAILS, VAGUE, Section, Verdict, fmt, plt, save_figure, table
 from .steady import SteadyMap, steady_map
 

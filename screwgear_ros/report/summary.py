@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..params import (PAPER_DRIVE_TORQUE, PAPER_PINION_SPEED, TableParams, equivalent_mass,
-                      mean_mesh_force, natural_frequency, stiffness_fluctuation)
+from ..params import PAPER_DRIVE_TORQUE, PAPER_PINION_SPEED, TableParams
+from ..quantities import equivalent_mass, mean_mesh_force, natural_frequency, stiffness_fluctuation
 from .antibacklash import ARCSEC, AntiBacklashStudy, mesh_modes
 from .common import FAILS, HOLDS, UNCHECKABLE, VAGUE, Section, fmt, table
 from .derived import MODULE, Derived

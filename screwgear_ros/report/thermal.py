@@ -10,7 +10,8 @@ import numpy as np
 
 from ..batch import Coefficients
 from ..normalized import from_table
-from ..params import (PAPER_DRIVE_TORQUE, TableParams, effective_stiffness, equivalent_mass)
+from ..params import PAPER_DRIVE_TORQUE, effective_stiffness, TableParams
+from ..quantities import equivalent_mass
 from . import measures
 from .common import COLORS, HOLDS, VAGUE, Section, Verdict, fmt, plt, save_figure, table
 from .steady import steady_period

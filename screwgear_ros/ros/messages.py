@@ -1,46 +1,38 @@
-"""The node's topics and message types (declared once here), and the messages that are
-not serialized once per tick by :mod:`screwgear_ros.ros.cdr`: inputs as recorded, the
-active path, the URDF, diagnostics. Fresh objects: a recorder serializes them later on
+"""The message classes of the node's topics (declared in :mod:`screwgear_ros.interface`),
+and the messages that are not serialized once per tick by :mod:`screwgear_ros.cdr`:
+inputs as recorded, the active path, the URDF, diagnostics. Fresh objects: a recorder serializes them later on
 its own thread, so a message handed over must never change afterwards.
 """
 
 from __future__ import annotations
 
+import importlib
+
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Empty, Float64, Float64MultiArray, Int8, String
-from visualization_msgs.msg import MarkerArray
+from std_msgs.msg import Int8, String
 
 from ..commands import JointCommand
+from ..interface import BY_KEY, COMMAND_TOPICS, OUTPUT_TOPICS, RECORDED_TOPICS
 
 MESH_NAMES = ['mesh_1', 'mesh_3']
 
+
+def message_class(name: str) -> type:
+    """The rclpy message class of a type name: sensor_msgs.msg.JointState for
+    'sensor_msgs/msg/JointState'."""
+    package, kind, cls = name.split('/')
+    return getattr(importlib.import_module(f'{package}.{kind}'), cls)
+
+
 #: The message class of each input topic of :data:`screwgear_ros.commands.INPUT_TOPICS`.
-INPUT_TYPES = {'cmd_torque': Float64, 'cmd_direction': Int8, 'cmd_effort': Float64MultiArray,
-               'load_torque': Float64, 'joint_commands': JointState}
+INPUT_TYPES = {key: message_class(name) for key, name in COMMAND_TOPICS.items()}
 #: The node's outputs: key → (topic, relative unless absolute, message class).
-OUTPUT_TYPES = {
-    'joint_states': ('joint_states', JointState),
-    'mesh_state': ('mesh_state', JointState),
-    'transmission_error': ('transmission_error', Float64),
-    'active_path': ('active_path', Int8),
-    'clock': ('/clock', Clock),
-    'diagnostics': ('/diagnostics', DiagnosticArray),
-    'robot_description': ('robot_description', String),
-    'table_markers': ('table_markers', MarkerArray),
-}
-#: Outputs published (and recorded) transient local: a late subscriber gets the last one
-#: (a viewer opened while the table stands, in lockstep or halted, still sees it).
-LATCHED_OUTPUTS = frozenset({'active_path', 'robot_description', 'table_markers'})
+OUTPUT_TYPES = {key: (BY_KEY[key].name, message_class(name))
+                for key, name in OUTPUT_TOPICS.items()}
 #: What the recording holds besides outputs and inputs, under the node's private namespace.
-PRIVATE_TYPES = {'run_parameters': String, 'reset': Empty}
-
-
-def type_name(cls: type) -> str:
-    """'sensor_msgs/msg/JointState' for sensor_msgs.msg.JointState."""
-    return f'{cls.__module__.split(".")[0]}/msg/{cls.__name__}'
+PRIVATE_TYPES = {key: message_class(name) for key, name in RECORDED_TOPICS.items()}
 
 
 def input_message(topic: str, value: object, time_ns: int = 0) -> object:
@@ -83,7 +75,6 @@ def diagnostics(name: str, hardware_id: str, level: int, message: str,
     return msg
 
 
-__all__ = ['MESH_NAMES', 'INPUT_TYPES', 'OUTPUT_TYPES', 'LATCHED_OUTPUTS',
-           'PRIVATE_TYPES',
-           'type_name', 'input_message', 'stamp', 'active_path', 'robot_description',
+__all__ = ['MESH_NAMES', 'message_class', 'INPUT_TYPES', 'OUTPUT_TYPES', 'PRIVATE_TYPES',
+           'input_message', 'stamp', 'active_path', 'robot_description',
            'diagnostics']

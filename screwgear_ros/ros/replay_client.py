@@ -36,8 +36,8 @@ from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
 from ..events import Command, Event, ParameterChange, Reset, describe
-from ..params import TICK_TOPIC
-from ..runs.replay import Schedule
+from ..interface import TICK_TOPIC
+from ..schedule import Schedule
 from .messages import INPUT_TYPES, input_message
 from .shutdown import spin_executor_until
 

@@ -26,7 +26,7 @@ from pathlib import Path
 import yaml
 
 from ..events import Reset
-from ..runs.replay import Schedule
+from ..schedule import Schedule
 from ..runs.replay_plan import LockstepPlan, sending_order
 from .replay_client import ReplayClient, ReplayError
 

@@ -1,7 +1,7 @@
 """What the node makes of a session's ticks: messages, published and recorded.
 
 :class:`RunIO` serializes each output of a tick once, straight into CDR bytes
-(:mod:`screwgear_ros.ros.cdr`: no message objects, no rclpy serializer), and hands the
+(:mod:`screwgear_ros.cdr`: no message objects, no rclpy serializer), and hands the
 same bytes to the topic's publisher (rclpy publishes ``bytes`` as a serialized
 message) and to the recorder (which then only queues them); it records every event a
 tick applied at the step it took effect at (the bag contract of docs/recording.md).
@@ -11,8 +11,8 @@ recording of an in-process session, with no DDS.
 A tick's topic that no subscription has matched is not published to: DDS would deliver
 its message to nobody, and no later subscriber could get it (they are volatile: a reader
 matched later never receives an earlier sample), so skipping it changes nothing anybody
-can see. Asking the publisher's count costs 0.45 µs where a publish to nobody costs
-1.06 µs; a topic found matched is published without asking again until
+can see. Asking the publisher's count costs less than a publish to nobody; a topic found
+matched is published without asking again until
 ``LISTENER_RECOUNT`` s of wall time have passed, so a subscriber gets every message from
 the one after its match on, and a topic whose last subscriber left is published to for
 at most that long.
@@ -43,15 +43,17 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 
-from .. import run_parameters
+from .. import cdr, run_parameters
 from ..events import Command, ParameterChange
 from ..pacing import sim_time_ns
 from ..params import SimSettings, TableParams
 from ..plant import Outputs
 from ..session import Session, Tick
-from . import cdr, messages
+from . import messages
 from .markers import MarkerEncoder
-from .messages import INPUT_TYPES, LATCHED_OUTPUTS, OUTPUT_TYPES, PRIVATE_TYPES, type_name
+from ..interface import LATCHED_OUTPUTS
+from ..cdr import type_name
+from .messages import INPUT_TYPES, OUTPUT_TYPES, PRIVATE_TYPES
 from .urdf import robot_description
 
 if TYPE_CHECKING:
@@ -63,20 +65,6 @@ if TYPE_CHECKING:
 MARKER_PERIOD = 1.0 / 30.0
 #: Wall time after which a tick's topic found matched is asked for its subscribers again, s.
 LISTENER_RECOUNT = 1.0
-
-
-def topic_names(namespace: str = '', node_name: str = 'table_sim',
-                clock: bool = True) -> dict[str, str]:
-    """Key → resolved topic name of every topic a table in ``namespace`` publishes or
-    records (outputs, inputs, the private run_parameters and reset)."""
-    ns = namespace.rstrip('/')
-    names = {key: topic if topic.startswith('/') else f'{ns}/{topic}'
-             for key, (topic, _) in OUTPUT_TYPES.items()}
-    if not clock:
-        del names['clock']
-    names.update({topic: f'{ns}/{topic}' for topic in INPUT_TYPES})
-    names.update({key: f'{ns}/{node_name}/{key}' for key in PRIVATE_TYPES})
-    return names
 
 
 def _message_class(key: str) -> type:
@@ -171,9 +159,8 @@ class RunIO:
 
     def prepare(self, session: Session, params: TableParams, settings: SimSettings) -> None:
         """Executor thread, before it submits a parameter change: render its texts
-        (:meth:`render`, a few ms of YAML and XML) there, so that the pacing thread only
-        takes them when the change takes effect (issue 12: no parameter bookkeeping on
-        the real-time thread)."""
+        (:meth:`render`: YAML and XML) there, so that the pacing thread only takes them
+        when the change takes effect: no parameter bookkeeping on the real-time thread."""
         rendered = self.render(session, params, settings)
         with self._rendered_lock:
             self._rendered[(params, settings)] = rendered
@@ -243,7 +230,7 @@ class RunIO:
 
     def outputs(self, out: Outputs, dt: float, lossless: bool = True) -> None:
         """/clock, joint_states, mesh_state and transmission_error of ``out``;
-        ``lossless`` as for :meth:`tick` (:meth:`RunRecorder.write_group`'s wait)."""
+        ``lossless`` as for :meth:`tick` (:meth:`RunRecorder.write_group`'s)."""
         t_ns = sim_time_ns(out.step, dt)
         tick = self._bundle.encode(t_ns, out.position, out.velocity, out.effort, out.delta,
                                    out.delta_rate, out.mesh_force, (out.transmission_error,))
@@ -294,12 +281,10 @@ class RunIO:
     def _markers(self, session: Session, now: float) -> None:
         """table_markers of the last outputs (``now``: time.monotonic()), once
         ``MARKER_PERIOD`` s of wall time passed, if they are recorded or somebody
-        subscribes to them. Built as message objects and serialized, they took about
-        0.25 ms of the pacing thread on one tick in 30, the most of the node's p99 jitter
-        at factor 1 (bench_speed: 0.72 ms with them, 0.43 ms without, 0.33 ms for a bare
-        1 kHz publisher), and the recorder serialized them once more; encoded from a
-        template they take a few microseconds, after 0.6 ms the first time a look
-        appears."""
+        subscribes to them. They are encoded from a template (drawn once per look) because
+        building and serializing the message objects on the pacing thread, once for the
+        publisher and again for the recorder, is the largest part of the node's tick
+        jitter (bench_speed measures it)."""
         if 'table_markers' not in self.topics or now < self._next_markers:
             return
         self._next_markers = now + MARKER_PERIOD
@@ -327,4 +312,4 @@ class RunIO:
         return t_ns, encoder.encode(out, t_ns)
 
 
-__all__ = ['topic_names', 'serialize', 'RunIO']
+__all__ = ['serialize', 'RunIO']

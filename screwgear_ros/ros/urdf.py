@@ -22,6 +22,7 @@ import sys
 import xml.etree.ElementTree as ET
 
 from ..commands import COMMAND_INTERFACE, COMMANDED_JOINT, load_limit
+from ..interface import topic_names
 from ..layout import BASE_LINK, FACE_WIDTH, MARK_FROM, MARK_TO, PALETTE, Wheel, wheels
 from ..params import SimSettings, TableParams
 
@@ -122,7 +123,6 @@ def robot_description(params: TableParams, settings: SimSettings, commands_topic
 
 def shipped_description() -> str:
     """``urdf/screwgear_table.urdf``: the defaults, table_sim in PLANT_NAMESPACE."""
-    from .run_io import topic_names       # rclpy: only where the node's names are needed
     names = topic_names(PLANT_NAMESPACE)
     return robot_description(TableParams(), SimSettings(), names['joint_commands'],
                              names['joint_states'])

@@ -1,8 +1,7 @@
 """Read a recorded run back: inputs as applied, parameter changes, resets, outputs.
 
-The MCAP file is read record by record in file order (:func:`scan`; ``mcap``'s
-record classes for schemas, channels and chunks, :func:`iter_messages` with ``mcap``'s
-stream reader for tools that want every message), so messages with equal log times keep
+The MCAP file is read record by record in file order (:func:`scan`, with ``mcap``'s
+record classes for schemas, channels and chunks), so messages with equal log times keep
 the order the node wrote them in (which is the order it applied them), and a bag whose
 writer was killed reads up to its last complete chunk. Only the data section is read:
 the summary repeats it and is checked, never trusted. A bag that cannot be used raises
@@ -11,12 +10,16 @@ ROS 2 Jazzy CDR codec of ``rosbags``, except the ~4 per tick of fixed layout
 (joint_states, transmission_error, mesh_state, clock): a chunk's message records are
 located in one pass and those messages are
 decoded in bulk with NumPy, on the layout the node writes them in
-(:class:`screwgear_ros.ros.cdr.Template`: a message is decoded that way only if every
+(:class:`screwgear_ros.cdr.Template`: a message is decoded that way only if every
 byte outside its stamps and values equals the template's, which fixes where they are;
-any other message of these topics goes through ``rosbags`` as before). Topics the
+any other message of these topics goes through ``rosbags``). Topics the
 check does not read are skipped undecoded. Topics are matched on their relative name,
 so a namespaced table reads the same. Log times are simulation times:
 step = round(log_time / dt).
+
+Why one module of this length: scanning the file, decoding in bulk and assembling a
+:class:`RecordedRun` share the file's schema and channel tables and one error type, and
+the bag contract is read in one pass from top to bottom.
 """
 
 from __future__ import annotations
@@ -26,34 +29,26 @@ import struct
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 import yaml
-from mcap.exceptions import InvalidMagic, McapError
 from mcap.opcode import Opcode
 from mcap.data_stream import ReadDataStream
-from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Schema
-from mcap.stream_reader import StreamReader
+from mcap.records import Channel, Chunk, Message, Schema
 
+from ..cdr import Template, float64_template, joint_state_template
 from ..commands import INPUT_TOPICS, command_value
 from ..events import Command, Event, ParameterChange, Reset
+from ..interface import BY_KEY, CONTRACT, Direction
 from ..run_parameters import RunParameters, RunParametersError, load
-from ..ros.cdr import Template, float64_template, joint_state_template
 from .bagformat import MCAP_MAGIC, MCAP_MESSAGE, MCAP_MESSAGE_FIELDS, MCAP_RECORD, typestore
 
-OUTPUT_TOPICS = {
-    'joint_states': 'sensor_msgs/msg/JointState',
-    'transmission_error': 'std_msgs/msg/Float64',
-    'mesh_state': 'sensor_msgs/msg/JointState',
-    'active_path': 'std_msgs/msg/Int8',
-    'clock': 'rosgraph_msgs/msg/Clock',
-}
+#: The outputs the readers decode: relative name → the only type it may have.
+OUTPUT_TOPICS = {key: name for key, name in CONTRACT.items()
+                 if BY_KEY[key].direction is Direction.OUT}
 RUN_PARAMETERS = 'run_parameters'
 RESET = 'reset'
-#: Every topic of the recording contract (relative name → the only type it may have).
-CONTRACT = {**OUTPUT_TOPICS, **INPUT_TOPICS, RUN_PARAMETERS: 'std_msgs/msg/String',
-            RESET: 'std_msgs/msg/Empty'}
 
 
 class BagError(Exception):
@@ -160,47 +155,6 @@ def find_mcap(path: str | Path) -> tuple[Path, Path]:
         raise BagError('invalid', f'{path} holds {len(candidates)} .mcap files; a table_sim '
                        'run is one file')
     return path, candidates[0]
-
-
-def iter_messages(mcap_path: Path, status: dict[str, Any]) -> Iterator[tuple[str, str, int, bytes]]:
-    """(topic, type, log time ns, CDR bytes) of the data section, in file order.
-
-    Stops quietly where the file stops making sense and records why in
-    ``status['truncated']`` (a killed writer leaves no footer and a partial chunk).
-    """
-    schemas: dict[int, str] = {}
-    channels: dict[int, tuple[str, str]] = {}
-    with open(mcap_path, 'rb') as stream:
-        reader = StreamReader(stream, record_size_limit=1 << 30)
-        records = reader.records
-        while True:
-            try:
-                record = next(records)
-            except StopIteration:
-                break
-            except InvalidMagic:
-                if stream.tell() <= 16:
-                    raise BagError('not_a_bag', f'{mcap_path} is not an MCAP file') from None
-                status['truncated'] = f'{mcap_path.name} has no valid end magic'
-                break
-            except (McapError, struct.error, ValueError, MemoryError) as exc:
-                status['truncated'] = (f'{mcap_path.name} ends without its summary after '
-                                       f'{stream.tell()} bytes ({type(exc).__name__}): the '
-                                       'recording was not closed (killed?)')
-                break
-            except Exception as exc:  # noqa: BLE001 - zstd or CRC errors in a cut chunk
-                status['truncated'] = (f'{mcap_path.name} is damaged after {stream.tell()} '
-                                       f'bytes: {type(exc).__name__}: {exc}')
-                break
-            if isinstance(record, Message):
-                topic, msgtype = channels[record.channel_id]
-                yield topic, msgtype, record.log_time, record.data
-            elif isinstance(record, Schema):
-                schemas[record.id] = record.name
-            elif isinstance(record, Channel):
-                channels[record.id] = (record.topic, schemas.get(record.schema_id, ''))
-            elif isinstance(record, (DataEnd, Footer)):
-                break      # the summary after it repeats the data section (unchecked)
 
 
 def _relative(topic: str) -> str:
@@ -379,7 +333,7 @@ def _chunk(body: memoryview) -> Chunk:
 
 
 def scan(mcap_path: Path, status: dict[str, Any]) -> _Scan:
-    """The file's records in order, as :func:`iter_messages` reads them: a killed
+    """The file's records in order: a killed
     writer's file reads up to its last whole chunk (``status['truncated']`` says why),
     and so does one with a damaged chunk. Keeps the messages of the topics
     :func:`read_run` uses, undecoded. Message indexes and the summary are never used:
@@ -678,5 +632,5 @@ def _parse(text: str, topic: str) -> RunParameters:
 
 
 __all__ = ['BagError', 'Command', 'ParameterChange', 'Reset', 'Event', 'Signal',
-           'RecordedRun', 'OUTPUT_TOPICS', 'BULK_TOPICS', 'find_mcap', 'iter_messages', 'scan',
+           'RecordedRun', 'OUTPUT_TOPICS', 'BULK_TOPICS', 'find_mcap', 'scan',
            'read_run']

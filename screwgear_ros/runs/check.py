@@ -40,6 +40,10 @@ fails a run).
 
 The RK4 replay at dt/2 runs in a second process (forked) while this one replays at dt
 and solves the reference; with one core, or ``parallel=False``, it runs after them.
+
+Why one module of this length: the comparisons, their tolerances and the verdict are
+one judgement of when a run passes; the bag reading, replay and reference it uses live
+in their own modules.
 """
 
 from __future__ import annotations

@@ -26,7 +26,8 @@ import numpy as np
 from ..events import Command, Event, ParameterChange, describe
 from .bagread import RecordedRun
 from .check import signal_names
-from .replay import replay_in_process, ros_values
+from ..schedule import ros_values
+from .replay import replay_in_process
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,9 @@ through a reset). check_run's errors are the per-sample arrays its report keeps.
 inspect it); :func:`save` writes it and closes it. Each panel carries its
 :class:`Panel` (or its signal's name) as the axes label, and every mark drawn on
 it a :class:`Mark` as gid.
+
+Why one module of this length: every view of a run is drawn on the same panels and
+marks, which the tests read back by their labels and gids.
 """
 
 from __future__ import annotations

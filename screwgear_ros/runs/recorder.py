@@ -4,12 +4,12 @@
 queue and writes them on its own writer thread (serializing those that are not CDR
 bytes yet), so a slow disk never stalls the integrator: when the queue is full a message
 is dropped and counted, never waited for. Except by a producer that has no deadline and
-says so (``write_group(..., wait=True)``: the node flat out, in-process runs): once the
+says so (``write_group(..., lossless=True)``: the node flat out, in-process runs): once the
 queue is half full it waits, up to ``ROOM_TIMEOUT`` at a time, while the writer,
-hurried, empties it, so a run as fast as possible records everything. Without waiting,
-the node flat out with nobody subscribed produced 78 000 ticks a second, more than the
-writer could take while it met the pacing thread for the interpreter lock at every
-chunk it compressed and wrote: 70 % of the messages were dropped.
+hurried, empties it, so a run as fast as possible records everything: without waiting,
+the node flat out produces ticks faster than the writer can take them while it meets
+the pacing thread for the interpreter lock at every chunk it compresses and writes, and
+most messages would be dropped.
 
 What recording costs the node is mostly how often the two threads meet, not the MCAP
 writing: a queue put that wakes the writer, and the writer taking the interpreter
@@ -78,7 +78,7 @@ CHUNK_SIZE = 256 * 1024
 FLUSH_PERIOD = 1.0
 #: Default wall time the writer thread sleeps after writing what was queued, s.
 BATCH_PERIOD = 0.01
-#: Longest a producer that waits for room (write_group's ``wait``) waits at a time, s;
+#: Longest a producer that waits for room (write_group's ``lossless``) waits at a time, s;
 #: then it goes on, and a full queue drops as it always does.
 ROOM_TIMEOUT = 1.0
 
@@ -183,7 +183,7 @@ class RunRecorder:
         self._close_called = False        # close() ran (the writer may close on its own)
         self._close_lock = threading.Lock()   # orders write()'s check-and-put against close()
         self._abandon = False
-        # A producer waiting for room (write_group(wait=True)) sets _hurry, so that the
+        # A producer waiting for room (write_group(lossless=True)) sets _hurry, so that the
         # writer skips its batch_period sleep, and waits on _progress, which the writer
         # notifies after each batch it handled.
         self._hurry = threading.Event()
@@ -265,14 +265,14 @@ class RunRecorder:
                           tuple(g.channel_ids[0] for g in alone))
 
     def write_group(self, group: TopicGroup, sim_time_ns: int, messages: Sequence[Any],
-                    wait: bool = False) -> None:
+                    lossless: bool = False) -> None:
         """Queue one message on each of ``group``'s topics, in its order, at log time
-        ``sim_time_ns``, with one put; never blocks, unless ``wait``.
+        ``sim_time_ns``, with one put; never blocks, unless ``lossless``.
 
         What a tick records at once (the node's outputs of one step): one queue
         operation instead of one per message, and no topic to look up. Thread-safe. If
         the queue cannot take them all, all are dropped and counted (a tick is recorded
-        whole or not at all). ``wait`` (a producer with no deadline: the node flat out):
+        whole or not at all). ``lossless`` (a producer with no deadline: the node flat out):
         when the queue is half full, first wait until the writer has made room, at most
         ``ROOM_TIMEOUT`` s.
         """
@@ -280,7 +280,7 @@ class RunRecorder:
         if n != len(group.topics):
             raise ValueError(f'{n} messages for the {len(group.topics)} topics '
                              f'of {group.topics}')
-        if wait and not self._closed and \
+        if lossless and not self._closed and \
                 2 * (self._accepted - self._handled + n) > self._queue_size:
             self._wait_for_room(n)
         self._put((group, sim_time_ns, messages), n)

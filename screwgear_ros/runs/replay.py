@@ -10,23 +10,19 @@ sample's step are checked against the session's (a bag that disagrees is
 bit; with ``refine = 2`` the same run at dt/2 (the Richardson estimate of RK4's
 error that ``check_run`` judges by).
 
-:class:`Schedule` is what a replay does to a node, and when: start values, then
-session events at their steps (from a recording, :func:`schedule_from_run`, or a
-scripted scenario, :func:`load_scenario`). An event at step s is due once the
-node has published the outputs of a step >= s; it then takes effect at the next
-tick's first step (:meth:`Schedule.due`).
+A :class:`~screwgear_ros.schedule.Schedule` comes from a recording
+(:func:`schedule_from_run`) or a scripted scenario (:func:`load_scenario`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from ..events import Event, ParameterChange, describe
-from ..params import SimSettings, TableParams
+from ..schedule import Schedule, ros_values
 from ..session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
 from .bagread import BagError, RecordedRun
 
@@ -118,66 +114,6 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
     return replayed
 
 
-#: Settings a replay does not copy from the recording: where to record, and how the
-#: node is paced (replay_run sets both itself).
-NOT_REPLAYED = ('record', 'real_time_factor', 'lockstep')
-
-
-def ros_values(params: TableParams, settings: SimSettings) -> dict[str, Any]:
-    """Every node parameter a replay sets, by ROS name (``NOT_REPLAYED`` aside)."""
-    values = {**params.as_dict(), **settings.as_dict()}
-    return {k: v for k, v in values.items() if k not in NOT_REPLAYED}
-
-
-def differences(live: dict[str, Any], start: dict[str, Any]) -> list[str]:
-    """The values of a running node (``live``, by ROS name) that differ from a schedule's
-    start values, as 'name = live (recorded start)'."""
-    def plain(value: Any) -> Any:
-        return list(value) if isinstance(value, (list, tuple)) else value
-    return [f'{n} = {live.get(n)!r} (recorded {start[n]!r})' for n in sorted(start)
-            if plain(live.get(n)) != plain(start[n])]
-
-
-@dataclass
-class Schedule:
-    """What a replay does: start a node with ``params``/``settings``, then submit
-    ``events`` (each with the step it is to take effect at), until step ``end_step``."""
-
-    params: TableParams
-    settings: SimSettings
-    events: list[Event] = field(default_factory=list)
-    end_step: int = 0
-    _next: int = 0
-
-    @property
-    def start(self) -> dict[str, Any]:
-        """The start values by ROS name (``NOT_REPLAYED`` aside)."""
-        return ros_values(self.params, self.settings)
-
-    @property
-    def dt(self) -> float:
-        return self.settings.dt
-
-    def due(self, step: int) -> list[Event]:
-        """The events not yet taken whose step is <= ``step`` (the node has published
-        the outputs of ``step``; they take effect at its next tick), in order."""
-        first = self._next
-        while self._next < len(self.events) and self.events[self._next].step <= step:
-            self._next += 1
-        return self.events[first:self._next]
-
-    def changed_values(self, change: ParameterChange) -> dict[str, Any]:
-        """The ROS parameters ``change`` sets, against the parameters in force before it."""
-        before = self.start
-        for event in self.events:
-            if event is change:
-                break
-            if isinstance(event, ParameterChange):
-                before = ros_values(event.params, event.settings)
-        after = ros_values(change.params, change.settings)
-        return {k: v for k, v in after.items() if before.get(k) != v}
-
-
 def replayed_events(run: RecordedRun) -> list[tuple[int, Event]]:
     """The recorded (file position, event)s a replay plays: parameter changes that change
     nothing a replay sets (a real_time_factor change) are left out."""
@@ -215,5 +151,5 @@ def load_scenario(path: str | Path) -> Schedule:
     return scenario.schedule()
 
 
-__all__ = ['ReplayedOutputs', 'replay_in_process', 'NOT_REPLAYED',
-           'ros_values', 'differences', 'Schedule', 'replayed_events', 'schedule_from_run', 'load_scenario']
+__all__ = ['ReplayedOutputs', 'replay_in_process', 'replayed_events', 'schedule_from_run',
+           'load_scenario']

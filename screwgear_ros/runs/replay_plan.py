@@ -23,7 +23,8 @@ import numpy as np
 
 from ..events import Command, Event, ParameterChange
 from .bagread import RecordedRun
-from .replay import Schedule, replayed_events
+from ..schedule import Schedule
+from .replay import replayed_events
 
 @dataclass
 class LockstepPlan:

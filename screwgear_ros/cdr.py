@@ -12,8 +12,11 @@ publishes ``bytes`` as a serialized message) and handed to the recorder. A
 apart.
 
 :func:`template_of` writes the template of a prototype message, walking its fields in
-the order of the message definition (rclpy's ``get_fields_and_field_types``), so the
-layout is never restated here. The CDR rules are the plain ones (XCDR1 little endian,
+the order of the message definition (``get_fields_and_field_types``, as rclpy's generated
+classes answer it). The three layouts of every tick are prototyped by :class:`Shape`, a
+message's field list spelt out, so that this module (and the bag reader that decodes
+with the same templates) needs none of ROS's message packages; tests compare their bytes
+with what rclpy and rosbags make of the real messages. The CDR rules are the plain ones (XCDR1 little endian,
 as ROS 2 publishes): a 4-byte encapsulation header, then each primitive aligned to its
 size counted from the end of that header; a string is its uint32 length with the NUL,
 its UTF-8 bytes and the NUL; a sequence its uint32 count and its elements, the first
@@ -26,7 +29,7 @@ zeros too; rclpy leaves padding bytes uninitialized, so only its decoding is com
 
 :func:`joint_state_template`, :func:`float64_template` and :func:`clock_template` build
 the three layouts the node publishes every tick; :mod:`screwgear_ros.ros.markers` builds
-the markers' from the MarkerArray it draws.
+the markers' from the rclpy MarkerArray it draws.
 """
 
 from __future__ import annotations
@@ -34,13 +37,6 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass
 from typing import Any, Sequence
-
-from builtin_interfaces.msg import Time
-from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64
-
-from .messages import type_name
 
 _STAMP = struct.Struct('<iI')          # builtin_interfaces/Time: int32 sec, uint32 nanosec
 #: CDR encapsulation header: plain CDR, little endian, no options.
@@ -118,7 +114,7 @@ class _Writer:
 
     def message(self, msg: Any, path: Path = ()) -> None:
         """All fields of ``msg`` in their declared order."""
-        fields = type(msg).get_fields_and_field_types()
+        fields = msg.get_fields_and_field_types()
         if not fields:    # rosidl serializes a placeholder byte that Python does not show
             raise TypeError(f'cdr: {type(msg).__name__} at {path} has no fields')
         first = len(self.leaves)
@@ -220,8 +216,8 @@ class Template(_Packed):
 
 class Bundle(_Packed):
     """Several templates side by side, encoded by one ``struct.pack`` and then cut
-    apart: the messages a tick publishes (one pack of the four instead of four saved
-    0.86 µs a tick). ``templates`` keep their own layouts; each encoding is byte for
+    apart: the messages a tick publishes (one pack instead of one per message: each
+    pack call has a fixed cost, paid every tick). ``templates`` keep their own layouts; each encoding is byte for
     byte what its template's :meth:`Template.encode` gives."""
 
     def __init__(self, templates: Sequence[Template]) -> None:
@@ -247,6 +243,37 @@ class Bundle(_Packed):
         return [data[start:end] for start, end in self._bounds]
 
 
+def type_name(msg: Any) -> str:
+    """'sensor_msgs/msg/JointState' for a sensor_msgs.msg.JointState (class or message)
+    or a :class:`Shape` of one."""
+    if isinstance(msg, Shape):
+        return msg.msgtype
+    cls = msg if isinstance(msg, type) else type(msg)
+    return f'{cls.__module__.split(".")[0]}/msg/{cls.__name__}'
+
+
+@dataclass(frozen=True)
+class Shape:
+    """A message as :func:`template_of` walks it: its type name and its fields in
+    declared order, each as (rosidl type, value)."""
+
+    msgtype: str
+    fields: dict[str, tuple[str, Any]]
+
+    def get_fields_and_field_types(self) -> dict[str, str]:
+        return {name: kind for name, (kind, _) in self.fields.items()}
+
+    def __getattr__(self, name: str) -> Any:
+        try:
+            return self.fields[name][1]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
+def _time() -> Shape:
+    return Shape('builtin_interfaces/msg/Time', {'sec': ('int32', 0), 'nanosec': ('uint32', 0)})
+
+
 def template_of(msg: Any, stamps: Sequence[Path] = (),
                 runs: Sequence[Sequence[Path]] = ()) -> Template:
     """The template of ``msg``'s layout: its CDR bytes, the builtin_interfaces/Time at
@@ -254,7 +281,7 @@ def template_of(msg: Any, stamps: Sequence[Path] = (),
     first path to its last, nothing but doubles)."""
     w = _Writer()
     w.message(msg)
-    return Template(type_name(type(msg)), w.buf, [w.stamp(p) for p in stamps],
+    return Template(type_name(msg), w.buf, [w.stamp(p) for p in stamps],
                     [w.run(paths) for paths in runs], w.free)
 
 
@@ -262,8 +289,11 @@ def joint_state_template(names: Sequence[str]) -> Template:
     """sensor_msgs/JointState with these names and one position, velocity and effort each
     (frame_id '')."""
     n = len(names)
-    prototype = JointState(name=list(names), position=[0.0] * n, velocity=[0.0] * n,
-                           effort=[0.0] * n)
+    header = Shape('std_msgs/msg/Header', {'stamp': ('builtin_interfaces/Time', _time()),
+                                           'frame_id': ('string', '')})
+    prototype = Shape('sensor_msgs/msg/JointState', {
+        'header': ('std_msgs/Header', header), 'name': ('sequence<string>', list(names)),
+        **{key: ('sequence<double>', [0.0] * n) for key in ('position', 'velocity', 'effort')}})
     return template_of(prototype, [('header', 'stamp')],
                        [[(key, 0), (key, n - 1)] if n else []
                         for key in ('position', 'velocity', 'effort')])
@@ -271,13 +301,15 @@ def joint_state_template(names: Sequence[str]) -> Template:
 
 def float64_template() -> Template:
     """std_msgs/Float64."""
-    return template_of(Float64(), runs=[[('data',)]])
+    return template_of(Shape('std_msgs/msg/Float64', {'data': ('double', 0.0)}),
+                       runs=[[('data',)]])
 
 
 def clock_template() -> Template:
     """rosgraph_msgs/Clock."""
-    return template_of(Clock(clock=Time()), [('clock',)])
+    return template_of(Shape('rosgraph_msgs/msg/Clock',
+                             {'clock': ('builtin_interfaces/Time', _time())}), [('clock',)])
 
 
-__all__ = ['Bundle', 'Field', 'Template', 'template_of', 'joint_state_template',
+__all__ = ['Bundle', 'Field', 'Template', 'Shape', 'type_name', 'template_of', 'joint_state_template',
            'float64_template', 'clock_template']

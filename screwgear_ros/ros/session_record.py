@@ -4,10 +4,10 @@
 caller ticks, with the node's :class:`~screwgear_ros.ros.run_io.RunIO` (publishers none),
 so a bag is written exactly as table_sim writes it, tick by tick, as fast as the machine
 goes and dropping nothing (the recorder makes a tick wait for room rather than drop
-it). :func:`record_session` plays a :class:`~screwgear_ros.runs.replay.Schedule` into a
+it). :func:`record_session` plays a :class:`~screwgear_ros.schedule.Schedule` into a
 fresh session that way. RunIO encodes the node's messages, so recording needs rclpy's
-message packages; they are imported here, when a recording starts, and never by
-``import screwgear_ros``.
+message packages: this module belongs to the ROS shell, and the core's
+:class:`~screwgear_ros.simulation.Simulation` imports it only when asked to record.
 """
 
 from __future__ import annotations
@@ -16,9 +16,11 @@ import os
 from typing import Any
 
 from ..events import ParameterChange
+from ..interface import topic_names
+from ..runs.recorder import RunRecorder
+from ..schedule import Schedule
 from ..session import Session, Tick
-from .recorder import RunRecorder
-from .replay import Schedule
+from .run_io import RunIO
 
 
 class SessionRecording:
@@ -29,7 +31,6 @@ class SessionRecording:
 
     def __init__(self, path: str | os.PathLike[str], session: Session, namespace: str = '',
                  **recorder_options: Any) -> None:
-        from ..ros.run_io import RunIO, topic_names    # rclpy's messages: only to record
         self.session = session
         self.io = RunIO(topic_names(namespace, clock=session.settings.publish_clock),
                         session.settings.joint_names)
