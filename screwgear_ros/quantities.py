@@ -1,5 +1,6 @@
 """Quantities the paper derives from the parameters: equivalent mass, natural frequency,
-damping ratio, stiffness fluctuation, mean mesh force, mesh frequency, performance index.
+damping ratio, stiffness fluctuation, mean mesh force, mesh frequency, performance index;
+and the terminal speed of the drive line (what linearize takes as steady rotation).
 
 The two the validation of :class:`~screwgear_ros.params.TableParams` itself needs
 (:func:`~screwgear_ros.params.effective_stiffness`, :func:`~screwgear_ros.params.ste_slope`)
@@ -50,5 +51,30 @@ def performance_index(zeta: float, ka_rel: float, k_m: float) -> float:
     return math.inf if ka_rel == 0.0 else zeta / ka_rel * math.sqrt(k_m)
 
 
+
+
+def terminal_speed(p: TableParams, torque: float, load: float = 0.0) -> float:
+    """Steady speed, rad/s, of the driving pinion under a constant command ``torque`` > 0
+    (N·m) against the table damping c_t and a constant table load (N·m): the speed at
+    which the delivered torque min(T, T_s·(1 − ω/ω_nl)) balances c_t·(r1/r2)²·ω +
+    T_load·r1/r2 (rigid kinematics, ω2 = ω·r1/r2; the preloads cancel). ``inf`` when
+    nothing holds the drive back (ideal source and c_t = 0).
+
+    It is the exact mean speed of a periodic steady state in the `paper` formulation
+    while the speed ripple stays on one piece of the line (docs/model_notes.md §10).
+    """
+    ratio = p.radius_pinion_1 / p.radius_table
+    damping = p.table_damping * ratio ** 2             # N·m·s/rad at the pinion
+    resisting = load * ratio                           # N·m at the pinion
+    flat = (torque - resisting) / damping if damping > 0.0 else math.inf
+    if p.drive_no_load_speed <= 0.0:
+        return flat
+    corner = p.drive_no_load_speed * (1.0 - torque / p.drive_stall_torque)
+    if flat <= corner:
+        return flat
+    return (p.drive_stall_torque - resisting) / (damping + p.drive_stall_torque
+                                                 / p.drive_no_load_speed)
+
+
 __all__ = ['equivalent_mass', 'natural_frequency', 'damping_ratio', 'stiffness_fluctuation',
-           'mean_mesh_force', 'mesh_frequency_at', 'performance_index']
+           'mean_mesh_force', 'mesh_frequency_at', 'performance_index', 'terminal_speed']

@@ -5,7 +5,8 @@ then used on runs driven through a Session: with the `energy_consistent` mesh th
 balance closes to RK4's accuracy, shrinking at RK4's order as dt halves, in both modes
 with backlash, STE and stiffness fluctuation on; with the `paper` mesh it misses by an
 amount that does not depend on dt and is exactly the work of the paper's mesh terms.
-The drive line is checked against the closed-form terminal speed of :func:`terminal_speed` below.
+The drive line is checked against the closed-form terminal speed
+(:func:`screwgear_ros.quantities.terminal_speed`).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from screwgear_ros import energy
 from screwgear_ros.events import Command, ParameterChange
 from screwgear_ros.model import equilibrium_state
 from screwgear_ros.params import PAPER_PINION_SPEED, SimSettings, TableParams
-from screwgear_ros.quantities import natural_frequency
+from screwgear_ros.quantities import natural_frequency, terminal_speed
 from screwgear_ros.run_parameters import RunParameters, dump, load
 from screwgear_ros.session import Session
 
@@ -30,29 +31,6 @@ PAPER_TABLE_SPEED = PAPER_PINION_SPEED * R1 / R2      # 0.3368 rad/s
 PAPER_TABLE_DAMPING = 8867.0                          # 400 N·m holds 0.3366 rad/s
 DTS = (80e-6, 40e-6, 20e-6)
 DURATION = 3.0                                        # s
-
-
-def terminal_speed(p: TableParams, torque: float, load: float = 0.0) -> float:
-    """Steady speed, rad/s, of the driving pinion under a constant command ``torque`` > 0
-    (N·m) against the table damping c_t and a constant table load (N·m): the speed at
-    which the delivered torque min(T, T_s·(1 − ω/ω_nl)) balances c_t·(r1/r2)²·ω +
-    T_load·r1/r2 (rigid kinematics, ω2 = ω·r1/r2; the preloads cancel). ``inf`` when
-    nothing holds the drive back (ideal source and c_t = 0).
-
-    It is the exact mean speed of a periodic steady state in the `paper` formulation
-    while the speed ripple stays on one piece of the line (docs/model_notes.md §10).
-    """
-    ratio = p.radius_pinion_1 / p.radius_table
-    damping = p.table_damping * ratio ** 2             # N·m·s/rad at the pinion
-    resisting = load * ratio                           # N·m at the pinion
-    flat = (torque - resisting) / damping if damping > 0.0 else math.inf
-    if p.drive_no_load_speed <= 0.0:
-        return flat
-    corner = p.drive_no_load_speed * (1.0 - torque / p.drive_stall_torque)
-    if flat <= corner:
-        return flat
-    return (p.drive_stall_torque - resisting) / (damping + p.drive_stall_torque
-                                                 / p.drive_no_load_speed)
 
 
 # ---------------------------------------------------------------- quadrature

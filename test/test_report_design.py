@@ -10,7 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from screwgear_ros.params import TableParams, effective_stiffness, natural_frequency
+from screwgear_ros.params import TableParams, effective_stiffness
+from screwgear_ros.quantities import natural_frequency
 from screwgear_ros.report import design
 
 

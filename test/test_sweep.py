@@ -15,7 +15,8 @@ from pathlib import Path
 import pytest
 
 from bag_runs import installed
-from screwgear_ros.params import TableParams, natural_frequency
+from screwgear_ros.params import TableParams
+from screwgear_ros.quantities import natural_frequency
 
 pq = pytest.importorskip('pyarrow.parquet')
 

@@ -3,10 +3,10 @@
 
 The operating point is the preload equilibrium (no torque, no load) or the steady motion
 under a constant drive torque, direction and table load: the rigid motion at the speed
-where the torque the drive delivers (its torque–speed line, :func:`~screwgear_ros.model.
-drive_line`) balances the load and the table damping (:func:`~screwgear_ros.params.
-terminal_speed`), at rest when nothing turns the table. In steady rotation the mesh phase
-advances, so the model takes the mesh as its time average: stiffness k_eff = k_m·(1 − α·ΔT)
+where the torque the drive delivers (its torque–speed line, docs/model_notes.md §10)
+balances the load and the table damping
+(:func:`~screwgear_ros.quantities.terminal_speed`), at rest when nothing turns the table.
+In steady rotation the mesh phase advances, so the model takes the mesh as its time average: stiffness k_eff = k_m·(1 − α·ΔT)
 + k_p (the fluctuation k_a averages out), no static transmission error (a periodic
 excitation of the mesh, not a function of the deviations), lever r. Each mesh is on the
 branch of the contact law its mean force puts it on, and the drive on the piece of its line
@@ -42,7 +42,8 @@ from ..commands import load_limit
 from ..model import (NEWTON_ITERATIONS, ContactBranch, DrivePiece, active_path, active_speed,
                      drive_on, drive_piece, drive_torques, equilibrium_state, mesh_motion,
                      motion, pack)
-from ..params import MeshPhase, Mode, TableParams, effective_stiffness, terminal_speed
+from ..params import MeshPhase, Mode, TableParams, effective_stiffness
+from ..quantities import terminal_speed
 
 STATES = ('pinion_1_angle', 'table_angle', 'pinion_3_angle',
           'pinion_1_speed', 'table_speed', 'pinion_3_speed')

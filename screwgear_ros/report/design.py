@@ -18,7 +18,8 @@ import numpy as np
 
 from ..design.frequency import Measurement, default_bias, measure
 from ..design.linearize import OUTPUTS, ModeInfo, linearize
-from ..params import TableParams, natural_frequency
+from ..params import TableParams
+from ..quantities import natural_frequency
 from .common import HOLDS, Section, Verdict, fmt, save_figure, table
 
 #: Amplitude of the drive torque sine, N·m (the executable's default).

@@ -24,7 +24,8 @@ import yaml
 
 from ..declare import ParameterError, declared
 from ..metrics import Metrics
-from ..params import SimSettings, TableParams, split_parameters
+from ..parameter_sets import split_parameters
+from ..params import SimSettings, TableParams
 from ..scenario import ScenarioError, _Reader, _unknown, load_scenario
 from ..simulation import ParameterFileError, file_values
 
@@ -425,7 +426,7 @@ def _runs(reader: _Reader, bundle: Bundle, scenario: Any, grid: tuple[Axis, ...]
 
 
 def _default(name: str) -> Any:
-    from ..params import default_values
+    from ..parameter_sets import default_values
     return default_values()[name]
 
 
