@@ -152,7 +152,7 @@ BAD = {
     'drawn_value_refused': ('monte_carlo:\n  count: 40\n  seed: 1\n  parameters:\n'
                             '    backlash: {normal: [1.0e-5, 2.0e-5]}\n', 'backlash',
                             'refused by table_sim'),
-    'rk4_stability': ('grid:\n  mesh_stiffness_mean: [1.0e+7, 1.0e+13]\n',
+    'rk4_stability': ('grid:\n  mesh_stiffness_mean: [1.0e+7, 1.0e+12]\n',
                       'mesh_stiffness_mean', 'RK4 is unstable'),
     'node_only_setting': ('grid:\n  record: [a, b]\n', 'record', 'no meaning for an '
                           'in-process run'),
