@@ -23,7 +23,7 @@ from sensor_msgs.msg import JointState
 from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
 from screwgear_ros import Simulation
 from screwgear_ros.params import SimSettings, TableParams
-from screwgear_ros.ros.messages import LATCHED_OUTPUTS, OUTPUT_TYPES
+from screwgear_ros.interface import BY_KEY, LATCHED_OUTPUTS
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / 'README.md'
@@ -97,7 +97,7 @@ def test_quick_start_sign_is_measured():
 def test_quick_start_qos_names_the_latched_topics():
     line = next(part for part in section().split('\n- ') if part.startswith('**QoS**'))
     latched = set(re.findall(r'`([^`]+)`', line.split('except', 1)[1]))
-    assert latched == {OUTPUT_TYPES[key][0] for key in LATCHED_OUTPUTS}
+    assert latched == {BY_KEY[key].name for key in LATCHED_OUTPUTS}
     assert 'transient local' in words(line)
 
 
