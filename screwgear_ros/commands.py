@@ -110,14 +110,18 @@ def _signed_drive(topic: str, current: DriveInput, value: Any, max_torque: float
     ``deadband`` (N·m, effort_deadband) it is zero torque and keeps the direction in
     force: a controller at rest whose effort flips sign by rounding noise commands no
     reversal."""
-    try:
-        effort = _finite(topic, value)
-    except InputRejected:
-        raise InputRejected(topic, shown, 'the effort must be a finite number') from None
+    effort = value
+    # A float within the limit (so finite) is valid as it is: the common case, checked in
+    # one comparison; anything else gets the full checks and their messages.
+    if type(effort) is not float or not abs(effort) <= max_torque:
+        try:
+            effort = _finite(topic, value)
+        except InputRejected:
+            raise InputRejected(topic, shown, 'the effort must be a finite number') from None
+        if abs(effort) > max_torque:
+            raise InputRejected(topic, shown, f'|effort| must be <= {max_torque:g} N·m '
+                                '(max_torque)')
     magnitude = abs(effort)
-    if magnitude > max_torque:
-        raise InputRejected(topic, shown, f'|effort| must be <= {max_torque:g} N·m '
-                            '(max_torque)')
     # DriveInput.of: a closed loop folds one of these into the input every tick.
     if magnitude <= deadband:
         return DriveInput.of(0.0, current.direction, current.load)

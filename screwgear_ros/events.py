@@ -25,6 +25,14 @@ class Command:
     value: Any
     step: int | None = None
 
+    @classmethod
+    def of(cls, topic: str, value: Any) -> 'Command':
+        """``Command(topic, value)``, made without the frozen dataclass's
+        ``object.__setattr__`` per field: a closed loop submits one a tick."""
+        command = object.__new__(cls)
+        command.__dict__.update(topic=topic, value=value, step=None)
+        return command
+
     def at(self, step: int) -> 'Command':
         """This command, taking effect at ``step``."""
         return _stamped(self, step)

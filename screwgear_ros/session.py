@@ -160,13 +160,17 @@ class Session:
         rejected: list[InputRejected] = []
         notices: list[str] = []
         commanded = False
+        if len(events) == 1 and isinstance(events[0], Command):
+            # A closed loop's tick (one command): the same as the loop below, without
+            # building its lists.
+            error = self._command(events[0])
+            if error is not None:
+                return (), (error,), (), False
+            return (events[0].at(start),), (), (), True
         for event in events:
             if isinstance(event, Command):
-                try:
-                    plant.set_input(apply_command(plant.input, event.topic, event.value,
-                                                  plant.params, self.settings.joint_names))
-                except InputRejected as error:
-                    self.rejected[event.topic] += 1
+                error = self._command(event)
+                if error is not None:
                     rejected.append(error)
                     continue
                 commanded = True
@@ -183,6 +187,18 @@ class Session:
                 raise TypeError(f'not a session event: {event!r}')
             applied.append(event.at(start))
         return tuple(applied), tuple(rejected), tuple(notices), commanded
+
+    def _command(self, command: Command) -> InputRejected | None:
+        """Fold ``command`` into the input in force, validated against the parameters in
+        force; the refusal (counted) if it is refused."""
+        plant = self.plant
+        try:
+            plant.set_input(apply_command(plant.input, command.topic, command.value,
+                                          plant.params, self.settings.joint_names))
+        except InputRejected as error:
+            self.rejected[command.topic] += 1
+            return error
+        return None
 
     def _time_out(self, start: int) -> str | None:
         """command_timeout (module docstring), at the first step of a tick that accepted

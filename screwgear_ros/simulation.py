@@ -372,7 +372,7 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
             if isinstance(effort, np.generic):
                 effort = effort.item()
             value = [effort]
-            submit(Command('cmd_effort', value))
+            submit(Command.of('cmd_effort', value))
             command[i - 1] = effort
         else:
             value = None

@@ -208,3 +208,10 @@ def test_an_applied_event_is_the_submitted_one_with_its_step():
         assert type(stamped) is type(event) and event.step is None
         assert vars(stamped) == vars(replace(event, step=42))
         assert stamped == replace(event, step=42)
+
+
+def test_the_fast_command_is_what_the_dataclass_makes():
+    """Command.of (a closed loop submits one a tick) makes exactly Command(topic, value)."""
+    for topic, value in (('cmd_effort', [2.5]), ('cmd_torque', 3.0), ('cmd_direction', -1)):
+        fast, made = Command.of(topic, value), Command(topic, value)
+        assert vars(fast) == vars(made) and fast == made and repr(fast) == repr(made)
