@@ -62,7 +62,7 @@ def row_of(o: Outputs) -> tuple[float, ...]:
 @dataclass(slots=True)
 class Tick:
     """What one tick did. Read-only by convention, like :class:`~screwgear_ros.plant.Outputs`
-    and for the same reason not ``frozen`` (one a tick: 0.16 µs, 0.88 µs frozen)."""
+    and for the same reason not ``frozen``: one is made a tick."""
 
     start: int                          # step its events took effect at
     applied: tuple[Event, ...]          # those events, in order, ``step`` set
