@@ -107,6 +107,11 @@ class Plant:
         # (of another type, maybe) goes through numba's dispatcher again once.
         self._advance: Callable[..., int] | None = None
 
+    def __getstate__(self) -> dict[str, Any]:
+        """The plant as a value: its compiled entry (:func:`compiled_entry`) belongs to
+        this process, and a copy finds its own at its first advance."""
+        return {**self.__dict__, '_advance': None}
+
     @property
     def params(self) -> TableParams:
         return self._params

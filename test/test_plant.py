@@ -204,3 +204,16 @@ def test_a_state_array_put_in_the_plant_is_the_one_integrated():
     b.advance(40)
     assert a.state is moved and np.array_equal(moved, b.state)
     assert a.outputs() == b.outputs()
+
+
+def test_a_plant_that_ran_copies_and_pickles_and_the_copy_runs_on_bit_for_bit():
+    import copy
+    import pickle
+    plant = Plant(TableParams(table_damping=8867.0), DT)
+    plant.set_input(DriveInput(250.0, -1, 10.0))
+    plant.advance(40)
+    twins = [pickle.loads(pickle.dumps(plant)), copy.deepcopy(plant)]
+    expected = plant.advance_outputs(40)
+    for twin in twins:
+        assert twin.advance_outputs(40) == expected
+        assert np.array_equal(twin.state, plant.state)
