@@ -20,8 +20,11 @@ Prints, measured in this run, interleaved ``--repeat`` times (median, and the ra
   included (a lockstep tick costs that, plus a round trip, plus the hand-offs).
 
 Ratios are the goal figures (in-process ≥ 0.8 of the physics alone and ≥ 30× lockstep;
-lockstep against the floor). Timings on a shared machine are noisy: compare the
-ratios of one run, run twice.
+lockstep against the floor). Timings on a shared machine are noisy: the in-process pair
+(physics alone, then in-process) is measured ``--pairs`` times, alternating, and each
+pair gives a ratio; both are also timed in this thread's CPU time, which does not count
+the time other processes take the core from it (the ratio a quiet machine would show,
+less its cache effects). Compare the ratios of one run, run twice.
 """
 
 from __future__ import annotations
@@ -42,6 +45,7 @@ from ros_procs import STARTUP_TIMEOUT, start_process  # noqa: E402
 
 VALUES = {'table_damping': 8867.0, 'command_timeout': 0.0, 'publish_rate': 1000.0}
 IN_PROCESS_TICKS = 4000
+PAIRS = 15
 WINDOW = 5.0        # s of wall time per DDS measurement
 
 
@@ -51,26 +55,29 @@ def pd(o) -> float:
     return 300.0 if wanted > 300.0 else -300.0 if wanted < -300.0 else wanted
 
 
-def physics_alone(ticks: int) -> float:
-    """Ticks/s of the same ticks with no controller: one compiled call per chunk."""
+def physics_alone(ticks: int) -> tuple[float, float]:
+    """Ticks/s of the same ticks with no controller: one compiled call per chunk; by the
+    wall clock and by this thread's CPU time."""
     from screwgear_ros import Simulation
     from screwgear_ros.session import ROW
     sim = Simulation.from_values(VALUES)
     sim.reset()
     sim.step(150.0)                      # a moving table, as in the closed loop
     rows = np.empty((ticks, ROW))
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.thread_time()
     done = sim.session.tick_quietly(ticks, rows)
-    return done / (time.perf_counter() - started)
+    return done / (time.perf_counter() - started), done / (time.thread_time() - cpu)
 
 
-def in_process(ticks: int) -> float:
+def in_process(ticks: int) -> tuple[float, float]:
+    """Ticks/s of Simulation.run closed by the PD law; wall clock and thread CPU time."""
     from screwgear_ros import Simulation
     sim = Simulation.from_values(VALUES)
     period = sim.tick_period
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.thread_time()
     run = sim.run(pd, ticks * period)
-    return (len(run) - 1) / (time.perf_counter() - started)
+    return ((len(run) - 1) / (time.perf_counter() - started),
+            (len(run) - 1) / (time.thread_time() - cpu))
 
 
 def lockstep(window: float) -> float:
@@ -217,13 +224,16 @@ def ping_pong(window: float) -> float:
         echo.wait(10)
 
 
-def spread(values: list[float]) -> str:
-    return (f'{statistics.median(values):10.0f}  ({min(values):.0f} … {max(values):.0f})')
+def spread(values: list[float], digits: int = 0) -> str:
+    return (f'{statistics.median(values):10.{digits}f}  ({min(values):.{digits}f} … '
+            f'{max(values):.{digits}f})')
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    parser.add_argument('--repeat', type=int, default=3)
+    parser.add_argument('--repeat', type=int, default=3, help='DDS measurements')
+    parser.add_argument('--pairs', type=int, default=PAIRS,
+                        help='in-process pairs (physics alone, in-process)')
     parser.add_argument('--window', type=float, default=WINDOW,
                         help='s of wall time per DDS measurement')
     parser.add_argument('--no-dds', action='store_true', help='in-process figures only')
@@ -234,25 +244,31 @@ def main() -> int:
     physics_alone(200)                  # load the compiled kernels
     in_process(200)
     seen: dict[str, list[float]] = {'physics': [], 'in_process': [], 'ratio': [],
+                                    'physics_cpu': [], 'in_process_cpu': [], 'ratio_cpu': [],
                                     'lockstep': [], 'ping_pong': [], 'flat_out': []}
-    for _ in range(args.repeat):
-        a = physics_alone(IN_PROCESS_TICKS)
-        b = in_process(IN_PROCESS_TICKS)
-        seen['physics'].append(a)
-        seen['in_process'].append(b)
-        seen['ratio'].append(b / a)
-        if not args.no_dds:
+    for k in range(max(args.pairs, args.repeat)):
+        if k < args.pairs:
+            (a, a_cpu), (b, b_cpu) = physics_alone(IN_PROCESS_TICKS), in_process(IN_PROCESS_TICKS)
+            seen['physics'].append(a)
+            seen['in_process'].append(b)
+            seen['ratio'].append(b / a)
+            seen['physics_cpu'].append(a_cpu)
+            seen['in_process_cpu'].append(b_cpu)
+            seen['ratio_cpu'].append(b_cpu / a_cpu)
+        if k < args.repeat and not args.no_dds:
             seen['lockstep'].append(lockstep(args.window))
             seen['ping_pong'].append(ping_pong(args.window))
             seen['flat_out'].append(flat_out(args.window))
     load = os.getloadavg()[0]
-    print(f'closed loops, {args.repeat} × interleaved, load average {load:.1f}, '
-          f'{os.cpu_count()} cores; median (min … max)')
+    print(f'closed loops, {args.pairs} in-process pairs, {args.repeat} DDS rounds, '
+          f'interleaved, load average {load:.1f}, {os.cpu_count()} cores; median (min … max)')
     print(f'physics alone (1 compiled call / chunk)   ticks/s {spread(seen["physics"])}')
     print(f'in-process Simulation.run, Python PD      ticks/s {spread(seen["in_process"])}')
-    print(f'  ratio to the physics alone (same run)           '
-          f'{statistics.median(seen["ratio"]):10.2f}  ({min(seen["ratio"]):.2f} … '
-          f'{max(seen["ratio"]):.2f})')
+    print(f'  ratio to the physics alone (same pair)          {spread(seen["ratio"], 2)}')
+    print(f'physics alone, thread CPU time            ticks/s {spread(seen["physics_cpu"])}')
+    print(f'in-process, thread CPU time               ticks/s '
+          f'{spread(seen["in_process_cpu"])}')
+    print(f'  ratio to the physics alone, CPU time            {spread(seen["ratio_cpu"], 2)}')
     if not args.no_dds:
         lock, floor = statistics.median(seen['lockstep']), statistics.median(seen['ping_pong'])
         inproc = statistics.median(seen['in_process'])

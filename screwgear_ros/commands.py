@@ -88,7 +88,8 @@ def _torque(topic: str, value: Any, max_torque: float) -> float:
 
 def apply_torque(current: DriveInput, value: float, max_torque: float) -> DriveInput:
     """cmd_torque: drive torque magnitude T, N·m, finite and 0 ≤ T ≤ max_torque."""
-    return replace(current, torque=_torque('cmd_torque', value, max_torque))
+    return DriveInput.of(_torque('cmd_torque', value, max_torque), current.direction,
+                         current.load)
 
 
 def apply_direction(current: DriveInput, value: int) -> DriveInput:
@@ -104,17 +105,22 @@ def _signed_drive(topic: str, current: DriveInput, value: Any, max_torque: float
     ``deadband`` (N·m, effort_deadband) it is zero torque and keeps the direction in
     force: a controller at rest whose effort flips sign by rounding noise commands no
     reversal."""
-    try:
-        effort = _finite(topic, value)
-    except InputRejected:
-        raise InputRejected(topic, shown, 'the effort must be a finite number') from None
-    if abs(effort) > max_torque:
-        raise InputRejected(topic, shown, f'|effort| must be <= {max_torque:g} N·m '
-                            '(max_torque)')
-    if abs(effort) <= deadband:
-        return DriveInput(torque=0.0, direction=current.direction, load=current.load)
-    return DriveInput(torque=abs(effort), direction=1 if effort > 0.0 else -1,
-                      load=current.load)
+    effort = value
+    # A float within the limit (so finite) is valid as it is: the common case, checked in
+    # one comparison; anything else gets the full checks and their messages.
+    if type(effort) is not float or not abs(effort) <= max_torque:
+        try:
+            effort = _finite(topic, value)
+        except InputRejected:
+            raise InputRejected(topic, shown, 'the effort must be a finite number') from None
+        if abs(effort) > max_torque:
+            raise InputRejected(topic, shown, f'|effort| must be <= {max_torque:g} N·m '
+                                '(max_torque)')
+    magnitude = abs(effort)
+    # DriveInput.of: a closed loop folds one of these into the input every tick.
+    if magnitude <= deadband:
+        return DriveInput.of(0.0, current.direction, current.load)
+    return DriveInput.of(magnitude, 1 if effort > 0.0 else -1, current.load)
 
 
 def apply_effort(current: DriveInput, values: Sequence[float], max_torque: float,
@@ -165,7 +171,7 @@ def apply_load(current: DriveInput, value: float, max_load: float) -> DriveInput
     if abs(load) > max_load:
         raise InputRejected('load_torque', value,
                             f'|load| must be <= {max_load:g} N·m')
-    return replace(current, load=load)
+    return DriveInput.of(current.torque, current.direction, load)
 
 
 def load_limit(max_torque: float, radius_pinion: float, radius_table: float) -> float:
@@ -202,12 +208,12 @@ def apply_command(current: DriveInput, topic: str, value: Any, params: TablePara
     ``value`` is :func:`command_value` of the message; ``joint_names`` are the
     joint_states names in force (default: the default names).
     """
+    if topic == 'cmd_effort':            # first: a closed loop sends one a tick
+        return apply_effort(current, value, params.max_torque, params.effort_deadband)
     if topic == 'cmd_torque':
         return apply_torque(current, value, params.max_torque)
     if topic == 'cmd_direction':
         return apply_direction(current, value)
-    if topic == 'cmd_effort':
-        return apply_effort(current, value, params.max_torque, params.effort_deadband)
     if topic == 'load_torque':
         return apply_load(current, value, load_limit(params.max_torque, params.radius_pinion_1,
                                                      params.radius_table))

@@ -25,10 +25,17 @@ class Command:
     value: Any
     step: int | None = None
 
+    @classmethod
+    def of(cls, topic: str, value: Any) -> 'Command':
+        """``Command(topic, value)``, made without the frozen dataclass's
+        ``object.__setattr__`` per field: a closed loop submits one a tick."""
+        command = object.__new__(cls)
+        command.__dict__.update(topic=topic, value=value, step=None)
+        return command
+
     def at(self, step: int) -> 'Command':
-        """This command, taking effect at ``step`` (dataclasses.replace, without its
-        generic field walk: the session stamps every command it applies)."""
-        return Command(self.topic, self.value, step)
+        """This command, taking effect at ``step``."""
+        return _stamped(self, step)
 
 
 @dataclass(frozen=True)
@@ -40,7 +47,7 @@ class ParameterChange:
     step: int | None = None
 
     def at(self, step: int) -> 'ParameterChange':
-        return ParameterChange(self.params, self.settings, step)
+        return _stamped(self, step)
 
 
 @dataclass(frozen=True)
@@ -50,10 +57,19 @@ class Reset:
     step: int | None = None
 
     def at(self, step: int) -> 'Reset':
-        return Reset(step)
+        return _stamped(self, step)
 
 
 Event = Command | ParameterChange | Reset
+
+
+def _stamped(event: Any, step: int) -> Any:
+    """A copy of ``event`` (an event above) with ``step`` set: ``dataclasses.replace``
+    without its field walk and the frozen dataclass's ``object.__setattr__`` per field:
+    the session stamps every event it applies, and a closed loop sends one a tick."""
+    stamped = object.__new__(type(event))
+    stamped.__dict__.update(event.__dict__, step=step)
+    return stamped
 
 
 def describe(event: Event) -> str:

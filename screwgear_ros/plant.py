@@ -13,6 +13,7 @@ plant restores the last finite state, stops, and reports why through
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, Callable
 
 import numpy as np
 
@@ -30,6 +31,15 @@ class DriveInput:
     direction: int = 1
     load: float = 0.0
 
+    @classmethod
+    def of(cls, torque: float, direction: int, load: float) -> 'DriveInput':
+        """``DriveInput(torque, direction, load)``, made without the frozen dataclass's
+        ``object.__setattr__`` per field (its generated ``__init__`` costs several times
+        this): the session makes one for every command it applies."""
+        drive = object.__new__(cls)
+        drive.__dict__.update(torque=torque, direction=direction, load=load)
+        return drive
+
 
 @dataclass(slots=True)
 class Outputs:
@@ -37,7 +47,7 @@ class Outputs:
 
     Read-only by convention: nothing changes one after the plant made it. Not
     ``frozen``: a frozen dataclass sets each field through ``object.__setattr__``, which
-    made one cost 0.70 µs against 0.14 µs, and the node makes one a tick.
+    costs several times a plain slot store, and the node makes one a tick.
     """
 
     time: float                              # simulation time, s
@@ -78,12 +88,30 @@ class Plant:
         self.step = 0
         self._input = DriveInput()
         self._path = active_path(params.mode, self._input.direction)   # of both
+        self._drive = _kernel_drive(self._input)
         self.state = (equilibrium_state(params) if initial_state is None
                       else np.array(initial_state, dtype=np.float64))
         self.fault: str | None = None
         # Scratch of the compiled calls: the state before a tick, the outputs after it.
         self._backup = np.empty(6)
         self._observed = np.empty(OBSERVED)
+
+    @property
+    def state(self) -> np.ndarray:
+        """θ1, θ2, θ3, ω1, ω2, ω3 (rad, rad/s); changed in place by every advance."""
+        return self._state
+
+    @state.setter
+    def state(self, value: np.ndarray) -> None:
+        self._state = value
+        # The compiled entry is chosen by the types of the arrays it takes: a new array
+        # (of another type, maybe) goes through numba's dispatcher again once.
+        self._advance: Callable[..., int] | None = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The plant as a value: its compiled entry (:func:`compiled_entry`) belongs to
+        this process, and a copy finds its own at its first advance."""
+        return {**self.__dict__, '_advance': None}
 
     @property
     def params(self) -> TableParams:
@@ -110,12 +138,17 @@ class Plant:
         check_step(params, self.dt)
         self._params = params
         self._model = pack(params)
+        self._advance = None
         self._path = active_path(params.mode, self._input.direction)
 
     def set_input(self, drive: DriveInput) -> None:
         """Apply a validated input from the next step on."""
+        # The path depends on the mode (fixed between set_params) and the direction
+        # only: most commands (one a tick, in a closed loop) keep the direction.
+        if drive.direction != self._input.direction:
+            self._path = active_path(self._params.mode, drive.direction)
         self._input = drive
-        self._path = active_path(self._params.mode, drive.direction)
+        self._drive = _kernel_drive(drive)
 
     def reset(self) -> None:
         """Back to the preload equilibrium at rest, keeping the simulation time."""
@@ -127,10 +160,14 @@ class Plant:
         if self.fault is not None:
             return False
         m = self._model
-        changes = advance_observed(self.state, self._backup, self._observed, self.step, n,
-                                   self.dt, m.p, m.ste_amp, m.ste_phase, self._input.torque,
-                                   float(self._input.direction), self._input.load,
-                                   self.contact_location)
+        torque, direction, load = self._drive
+        changes = (self._advance or advance_observed)(
+            self._state, self._backup, self._observed, self.step, n, self.dt, m.p,
+            m.ste_amp, m.ste_phase, torque, direction, load, self.contact_location)
+        if self._advance is None:       # after the dispatcher's call: it has the code now
+            self._advance = compiled_entry(advance_observed, (
+                self._state, self._backup, self._observed, self.step, n, self.dt, m.p,
+                m.ste_amp, m.ste_phase, torque, direction, load, self.contact_location))
         if changes < 0:
             self.fault = self._fault(n)
             return False
@@ -155,10 +192,10 @@ class Plant:
         if self.fault is not None or ticks <= 0:
             return 0
         m = self._model
+        torque, direction, load = self._drive
         done, changes, faulted = advance_ticks(
-            self.state, self._backup, rows, self.step, ticks, n, self.dt, m.p, m.ste_amp,
-            m.ste_phase, self._input.torque, float(self._input.direction), self._input.load,
-            self.contact_location)
+            self._state, self._backup, rows, self.step, ticks, n, self.dt, m.p, m.ste_amp,
+            m.ste_phase, torque, direction, load, self.contact_location)
         self.step += (done - faulted) * n       # a faulted tick's time stands still
         if faulted:
             self.fault = self._fault(n)
@@ -170,13 +207,16 @@ class Plant:
         """:meth:`advance` n steps, then :meth:`outputs`, in one compiled call
         (:func:`screwgear_ros.integrator.advance_observed` computes the outputs of the
         state it leaves): what a tick does."""
-        return self.last_outputs() if self.advance(n) else self.outputs()
+        if self.advance(n):
+            return self.last_outputs()
+        return self.outputs()
 
     def outputs(self) -> Outputs:
         """Joint and mesh quantities of the current state (and input)."""
         m = self._model
-        observe(self.state, self._observed, self.time, m.p, m.ste_amp, m.ste_phase,
-                self._input.torque, float(self._input.direction), self._input.load)
+        torque, direction, load = self._drive
+        observe(self._state, self._observed, self.time, m.p, m.ste_amp, m.ste_phase, torque,
+                direction, load)
         return self.last_outputs()
 
     @property
@@ -193,8 +233,29 @@ class Plant:
         them again."""
         th1, th2, th3, w1, w2, w3, t1, table, t3, d1, dd1, f1, d3, dd3, f3 = \
             self._observed.tolist()
-        return Outputs(self.time, self.step, (th1, th2, th3), (w1, w2, w3), (t1, table, t3),
+        step = self.step
+        return Outputs(step * self.dt, step, (th1, th2, th3), (w1, w2, w3), (t1, table, t3),
                        (d1, d3), (dd1, dd3), (f1, f3), self._path)
+
+
+def _kernel_drive(drive: DriveInput) -> tuple[float, float, float]:
+    """The input as the compiled calls take it (torque, direction, load as floats), made
+    once per input rather than at each call."""
+    return float(drive.torque), float(drive.direction), float(drive.load)
+
+
+def compiled_entry(dispatcher: Any, args: tuple[Any, ...]) -> Callable[..., Any]:
+    """The compiled code ``dispatcher`` runs for arguments of exactly the types of
+    ``args`` (which it has run once, so it has the code: loaded from numba's cache or
+    compiled), called without the dispatcher; the dispatcher itself if it has none.
+
+    The dispatcher types every argument again at each call to choose that code; calling
+    the code directly skips that, and gives the same bits (the same machine code). It
+    is valid only for arguments of those types: a caller uses it only while they stay
+    the same (the plant's own arrays, its floats and ints).
+    """
+    compiled = dispatcher.overloads.get(tuple(dispatcher.typeof_pyval(a) for a in args))
+    return dispatcher if compiled is None else compiled.entry_point
 
 
 __all__ = ['DriveInput', 'OBSERVED_DELTA', 'OBSERVED_JOINTS', 'Outputs', 'Plant']

@@ -328,7 +328,10 @@ class Simulation:
             from .ros.session_record import SessionRecording   # rclpy messages: only to record
             recording = SessionRecording(record, session)
         observed = np.empty((ticks + 1, OBSERVED))
-        command = np.full(ticks + 1, np.nan)
+        # A list, made an array at the end: a store into it costs a fraction of NumPy's
+        # per-element one, and holds whatever the controller answered until the session
+        # has judged it (a refused answer raises InputRejected, as the node refuses it).
+        command: list[Any] = [math.nan] * (ticks + 1)
         columns: tuple[list[int], list[int], list[int]] = ([], [], [])
         rejected: list[tuple[int, str]] = []
         try:
@@ -341,12 +344,13 @@ class Simulation:
         n = len(steps)
         return Run(self.params, self.settings, np.array(steps, dtype=np.int64), observed[:n],
                    np.array(paths, dtype=np.int8), np.array(directions, dtype=np.int8),
-                   command[:n], session.plant.fault, None if record is None else Path(record),
+                   np.array(command[:n], dtype=np.float64), session.plant.fault,
+                   None if record is None else Path(record),
                    rejected)
 
 
 def _loop(session: Session, controller: Controller | None, first: Observation, ticks: int,
-          observed: np.ndarray, command: np.ndarray,
+          observed: np.ndarray, command: list[Any],
           columns: tuple[list[int], list[int], list[int]], events: list[Event],
           recording: Any, rejected: list[tuple[int, str]]) -> None:
     """The closed loop of :meth:`Simulation.run`: every sample's observed vector into
@@ -373,7 +377,7 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
             if isinstance(effort, np.generic):
                 effort = effort.item()
             value = [effort]
-            submit(Command('cmd_effort', value))
+            submit(Command.of('cmd_effort', value))
             command[i - 1] = effort
         else:
             value = None

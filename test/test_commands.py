@@ -243,3 +243,28 @@ def test_message_and_value_convert_both_ways_for_live_and_recorded_messages():
     assert command_value('cmd_effort', effort) == [4.0]
     assert command_value('cmd_effort', typestore().deserialize_cdr(
         serialize(effort), 'std_msgs/msg/Float64MultiArray')) == [4.0]
+
+
+def test_a_plain_float_effort_folds_exactly_as_any_other_number_of_its_value():
+    """A plain float within max_torque is taken without the full checks; a float
+    subclass (numpy's) gets them. Both give the same input, bit for bit, and the same
+    refusal, over a seeded spread of efforts around the limits and the deadband."""
+    import numpy as np
+    rng = np.random.default_rng(28)
+    band, top = P.effort_deadband, P.max_torque
+    efforts = [0.0, -0.0, band, -band, 2.0 * band, top, -top, np.nextafter(top, np.inf),
+               -np.nextafter(top, np.inf), math.nan, math.inf, -math.inf,
+               *rng.uniform(-1.2 * top, 1.2 * top, 200), *(rng.uniform(-3, 3, 50) * band)]
+
+    def fold(value):
+        try:
+            return apply_command(NOW, 'cmd_effort', [value], P)
+        except InputRejected as error:
+            return str(error).replace(repr(value), '<value>')
+
+    for effort in efforts:
+        plain = fold(float(effort))
+        assert plain == fold(np.float64(effort))
+        if isinstance(plain, DriveInput):
+            assert math.copysign(1.0, plain.torque) == 1.0 and plain.torque == abs(effort) or (
+                plain.torque == 0.0 and abs(effort) <= band)

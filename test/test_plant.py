@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -176,3 +177,44 @@ def test_one_call_ticks_equal_advance_then_outputs_and_the_model_itself():
     out = fused.advance_outputs(5000)
     assert fused.fault is not None and np.array_equal(fused.state, good)
     assert out.step == fused.step and out.position == tuple(good[:3])
+
+
+def test_the_fast_drive_input_is_what_the_dataclass_makes():
+    """DriveInput.of (the session folds a command into one every tick) makes exactly what
+    the frozen dataclass's own constructor makes: every field, equality, hash, repr,
+    and it stays frozen."""
+    for values in [(0.0, 1, 0.0), (123.5, -1, -7.25), (1e-300, 1, 3e5)]:
+        fast, made = DriveInput.of(*values), DriveInput(*values)
+        assert vars(fast) == vars(made)
+        assert fast == made and hash(fast) == hash(made) and repr(fast) == repr(made)
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            fast.torque = 1.0          # type: ignore[misc]
+
+
+def test_a_state_array_put_in_the_plant_is_the_one_integrated():
+    """Assigning ``plant.state`` after the plant has run (its compiled call is then
+    chosen) integrates the new array, exactly as a plant that always had it."""
+    p = TableParams(table_damping=8867.0)
+    a, b = Plant(p, DT), Plant(p, DT)
+    for plant in (a, b):
+        plant.set_input(DriveInput(300.0, 1, 0.0))
+        plant.advance(40)
+    moved = a.state.copy()
+    a.state = moved
+    a.advance(40)
+    b.advance(40)
+    assert a.state is moved and np.array_equal(moved, b.state)
+    assert a.outputs() == b.outputs()
+
+
+def test_a_plant_that_ran_copies_and_pickles_and_the_copy_runs_on_bit_for_bit():
+    import copy
+    import pickle
+    plant = Plant(TableParams(table_damping=8867.0), DT)
+    plant.set_input(DriveInput(250.0, -1, 10.0))
+    plant.advance(40)
+    twins = [pickle.loads(pickle.dumps(plant)), copy.deepcopy(plant)]
+    expected = plant.advance_outputs(40)
+    for twin in twins:
+        assert twin.advance_outputs(40) == expected
+        assert np.array_equal(twin.state, plant.state)

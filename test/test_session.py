@@ -199,3 +199,21 @@ def test_a_recording_from_before_command_timeout_replays_without_one():
     old = '\n'.join(line for line in text.splitlines() if not line.startswith('command_timeout'))
     assert load(text).settings.command_timeout == S.command_timeout == 1.0
     assert load(old).settings.command_timeout == 0.0
+
+
+def test_an_applied_event_is_the_submitted_one_with_its_step():
+    """The session stamps each event it applies with its step: a copy equal in every
+    field to dataclasses.replace, the submitted one unchanged."""
+    for event in (Command('cmd_effort', [1.5]), Command('joint_commands', None),
+                  ParameterChange(TableParams(), SimSettings()), Reset()):
+        stamped = event.at(42)
+        assert type(stamped) is type(event) and event.step is None
+        assert vars(stamped) == vars(replace(event, step=42))
+        assert stamped == replace(event, step=42)
+
+
+def test_the_fast_command_is_what_the_dataclass_makes():
+    """Command.of (a closed loop submits one a tick) makes exactly Command(topic, value)."""
+    for topic, value in (('cmd_effort', [2.5]), ('cmd_torque', 3.0), ('cmd_direction', -1)):
+        fast, made = Command.of(topic, value), Command(topic, value)
+        assert vars(fast) == vars(made) and fast == made and repr(fast) == repr(made)

@@ -195,3 +195,15 @@ def test_a_recorded_run_passes_check_run(tmp_path):
     assert replay_in_process(recorded).joint_states.tobytes() == run.joint_states.tobytes()
     proc = installed_check_run(tmp_path / 'bag')
     assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize('answer', ['ten', [1.0], True, math.inf])
+def test_an_answer_that_is_no_number_ends_the_run_with_the_nodes_refusal(answer):
+    """Whatever the controller returns is judged by the session as the node judges a
+    cmd_effort: InputRejected with the node's message, never another error."""
+    sim = Simulation.from_values(command_timeout=0.0)
+    with pytest.raises(InputRejected) as expected:      # what the node says about it
+        apply_command(DriveInput(), 'cmd_effort', [answer], sim.params)
+    with pytest.raises(InputRejected) as got:
+        sim.run(lambda o: 50.0 if o.step < 100 else answer, 0.02)
+    assert str(got.value) == str(expected.value)
