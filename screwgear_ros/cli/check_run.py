@@ -29,10 +29,12 @@ from ..model import EquilibriumNotFound
 from ..reference import ReferenceFailure
 from ..runs.bagread import BagError, read_run
 from ..runs.check import check_run, format_report
+from . import interruptible
 
 EXIT_OK, EXIT_FAIL, EXIT_UNUSABLE = 0, 1, 2
 
 
+@interruptible('check_run', 'nothing was judged; the bag is untouched')
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog='check_run', description='Re-integrate the inputs recorded in a table_sim bag '

@@ -32,10 +32,12 @@ from ..design.linearize import OUTPUTS, OperatingPointError
 from ..params import ParameterError
 from ..simulation import ParameterFileError, file_values, resolve
 from .linearize import format_modes
+from . import interruptible
 
 EXIT_OK, EXIT_FAULT, EXIT_ERROR = 0, 1, 2
 
 
+@interruptible('frequency_response', 'no CSV or figure was written')
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog='frequency_response', description='Measure the frequency response of the table '

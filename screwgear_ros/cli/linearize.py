@@ -23,6 +23,7 @@ from pathlib import Path
 from ..design.linearize import LinearModel, OperatingPointError, linearize
 from ..params import ParameterError
 from ..simulation import ParameterFileError, file_values, resolve
+from . import interruptible
 
 EXIT_OK, EXIT_ERROR = 0, 2
 
@@ -53,6 +54,7 @@ def format_modes(model: LinearModel) -> list[str]:
     return lines
 
 
+@interruptible('linearize', 'no model was written')
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog='linearize', description="The table's linear model (A, B, C, D) at the preload "

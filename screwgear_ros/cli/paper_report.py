@@ -5,8 +5,11 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from . import interruptible
 
 
+@interruptible('paper_report', 'the report is incomplete; OUTDIR keeps the sections '
+               'written so far')
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog='paper_report',

@@ -15,6 +15,7 @@ import sys
 from ..model import EquilibriumNotFound
 from ..runs.bagread import BagError, read_run
 from ..runs.plot import DEFAULT_NAME, FigureFileError, default_output, output_path, run_figure, save
+from . import interruptible
 
 EXIT_OK, EXIT_UNUSABLE = 0, 2
 
@@ -30,6 +31,7 @@ def _span(text: str) -> tuple[float, float]:
     return t0, t1
 
 
+@interruptible('plot_run', 'no figure was written; the bag is untouched')
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog='plot_run', description='Draw a run recorded by table_sim: table angle and '

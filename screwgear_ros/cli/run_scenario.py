@@ -24,10 +24,13 @@ from pathlib import Path
 from ..commands import InputRejected
 from ..metrics import format_metrics, run_metrics
 from ..scenario import ScenarioError, load_scenario
+from . import interruptible
 
 EXIT_OK, EXIT_FAULT, EXIT_ERROR = 0, 1, 2
 
 
+@interruptible('run_scenario', 'the run was cut short; a --record bag is closed and holds '
+               'the ticks run so far')
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog='run_scenario', description='Run a scenario file in-process (no ROS graph, as '
