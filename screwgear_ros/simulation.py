@@ -324,9 +324,6 @@ class Simulation:
         first = self.reset()
         session = self.session
         recording = None
-        if record is not None:
-            from .ros.session_record import SessionRecording   # rclpy messages: only to record
-            recording = SessionRecording(record, session)
         observed = np.empty((ticks + 1, OBSERVED))
         # A list, made an array at the end: a store into it costs a fraction of NumPy's
         # per-element one, and holds whatever the controller answered until the session
@@ -335,6 +332,9 @@ class Simulation:
         columns: tuple[list[int], list[int], list[int]] = ([], [], [])
         rejected: list[tuple[int, str]] = []
         try:
+            if record is not None:
+                from .ros.session_record import SessionRecording   # rclpy messages: to record
+                recording = SessionRecording(record, session)
             _loop(session, controller, first, ticks, observed, command, columns,
                   sorted(events, key=lambda e: e.step), recording, rejected)
         finally:

@@ -29,8 +29,8 @@ from . import interruptible
 EXIT_OK, EXIT_FAULT, EXIT_ERROR = 0, 1, 2
 
 
-@interruptible('run_scenario', 'the run was cut short; a --record bag is closed and holds '
-               'the ticks run so far')
+@interruptible('run_scenario', 'the run was cut short; a --record bag is closed with the '
+               'ticks run so far (none is left if the recording had not started)')
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog='run_scenario', description='Run a scenario file in-process (no ROS graph, as '

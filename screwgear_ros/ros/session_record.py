@@ -35,7 +35,11 @@ class SessionRecording:
         self.io = RunIO(topic_names(namespace, clock=session.settings.publish_clock),
                         session.settings.joint_names)
         self.recorder: RunRecorder = self.io.open_recorder(path, **recorder_options)
-        self.io.start(session)
+        try:
+            self.io.start(session)
+        except BaseException:          # Ctrl-C included: the bag opened is still closed
+            self.recorder.close()
+            raise
 
     def submit_change(self, change: ParameterChange) -> None:
         """Submit a parameter change to the session with its texts rendered first, as the

@@ -192,11 +192,25 @@ class RunRecorder:
         self._topics = [{'name': t.name, 'type': t.msgtype,
                          'qos': [qos_profile(t.transient_local)]} for t in topics]
         self._counts = [0] * len(topics)     # added per topic = its next sequence number
-        self.path.mkdir(parents=True, exist_ok=True)
+        made = not self.path.exists()
         self._mcap_name = f'{self.path.name}_0.mcap'
+        self.path.mkdir(parents=True, exist_ok=True)
+        try:
+            self._open(topics, open_file, int(chunk_size), compression)
+        except BaseException:
+            # Nothing is recorded before the writer thread runs, so a start cut short
+            # (Ctrl-C, a disk with no room) leaves no half-written bag behind.
+            self._discard(made)
+            raise
+        atexit.register(self.close)
+
+    def _open(self, topics: Sequence[TopicSpec], open_file: Callable[[Path], Any],
+              chunk_size: int, compression: bool) -> None:
+        """Start the bag: metadata.yaml, the MCAP header, schemas and channels, the
+        reserve, the writer thread."""
         self._custom = {'screwgear_ros.package_version': __version__}
         self._file = open_file(self.path / self._mcap_name)
-        self._mcap = McapWriter(self._file, int(chunk_size), compression)
+        self._mcap = McapWriter(self._file, chunk_size, compression)
         self._channel_ids: list[int] = []     # per topic, in the order of ``topics``
         self._write_metadata_yaml()
         self._mcap.start(profile=MCAP_PROFILE, library=f'screwgear_ros-{__version__}')
@@ -219,7 +233,26 @@ class RunRecorder:
         self._reserve = _Reserve(self.path / RESERVE_NAME, open_file, 2 * self._end_bound())
         self._thread = threading.Thread(target=self._run, name='run_recorder', daemon=True)
         self._thread.start()
-        atexit.register(self.close)
+
+    def _discard(self, made: bool) -> None:
+        """Remove what a start cut short had written (the directory too if it made it)."""
+        thread = getattr(self, '_thread', None)
+        if thread is not None and thread.is_alive():
+            self.close()                 # the writer runs: the bag is a bag, keep it
+            return
+        reserve = getattr(self, '_reserve', None)
+        if reserve is not None:
+            reserve.release()
+        file = getattr(self, '_file', None)
+        if file is not None:
+            file.close()
+        for name in (self._mcap_name, RESERVE_NAME, 'metadata.yaml', 'metadata.yaml.tmp'):
+            (self.path / name).unlink(missing_ok=True)
+        if made:
+            try:
+                self.path.rmdir()
+            except OSError:
+                pass
 
     # ------------------------------------------------------------------ node side
 
