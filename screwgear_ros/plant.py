@@ -254,7 +254,10 @@ def compiled_entry(dispatcher: Any, args: tuple[Any, ...]) -> Callable[..., Any]
     is valid only for arguments of those types: a caller uses it only while they stay
     the same (the plant's own arrays, its floats and ints).
     """
-    compiled = dispatcher.overloads.get(tuple(dispatcher.typeof_pyval(a) for a in args))
+    overloads = getattr(dispatcher, 'overloads', None)
+    if overloads is None:          # NUMBA_DISABLE_JIT: the plain Python function itself
+        return dispatcher
+    compiled = overloads.get(tuple(dispatcher.typeof_pyval(a) for a in args))
     return dispatcher if compiled is None else compiled.entry_point
 
 
