@@ -621,10 +621,13 @@ def test_over_the_urdf_limit_a_command_passes_the_manager_and_the_node_refuses_i
     drive in force."""
     assert 'Enforcing command limits is disabled' in stack.proc('ros2_control_node').output()
     before = rejected(stack)
-    in_force = stack.node_js.wait_next(lambda m: True, 10).effort
     stack.command(500.0)
     wait_until(lambda: rejected(stack) > before, 15, 'the node counting the refusal')
-    assert stack.node_js.wait_next(lambda m: True, 10).effort[::2] == in_force[::2]
+    # The drive in force (−20 N·m) stays: what the pinions carry beyond the preload is at
+    # most its 20 N·m (the drive line delivers less as the pinion speeds up, so the
+    # effort itself moves from sample to sample).
+    effort = stack.node_js.wait_next(lambda m: True, 10).effort
+    assert abs(effort[0] - T_P) + abs(effort[2] + T_P) <= 20.0 + 1e-9, effort
     assert 'joint_commands: rejected' in stack.proc('table_sim').output()
     stack.command(-20.0)
 
