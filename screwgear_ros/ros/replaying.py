@@ -33,6 +33,10 @@ from .replay_client import ReplayClient, ReplayError
 START_FACTOR = 0.01      # free-running fresh node: real-time factor until connected
 CHILD_GRACE = 0.5        # s an interrupted replay waits for its node to close the bag
 GRAPH_SETTLE = 3.0       # s to wait for the graph to name what a fresh node's step betrays
+#: s of graph checks after the last tick: on a busy machine discovery can name a second
+#: node of the target's name only after a short replay is over, and a replay that may
+#: have driven two tables must not report success.
+GRAPH_FINAL = 1.0
 CHILD_CLOSE = 30.0       # s a finished replay waits for it (the comparison reads the bag)
 
 
@@ -76,6 +80,7 @@ def replay_lockstep(schedule: Schedule, plan: LockstepPlan, client: ReplayClient
         client.answer()
         progress.step, meshes = client.wait_tick(meshes, after)
         progress.ticks, after = tick, None
+    client.settle_graph(GRAPH_FINAL)
     return first
 
 
@@ -107,6 +112,7 @@ def replay_free(schedule: Schedule, client: ReplayClient, spawned: bool, rate: f
             client.perform(due, schedule)
             progress.events += 1
     progress.step = client.wait_clock(schedule.end_step + offset + ticks)
+    client.settle_graph(GRAPH_FINAL)
     return offset
 
 
