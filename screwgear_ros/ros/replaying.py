@@ -36,7 +36,7 @@ GRAPH_SETTLE = 3.0       # s to wait for the graph to name what a fresh node's s
 #: s of graph checks after the last tick: on a busy machine discovery can name a second
 #: node of the target's name only after a short replay is over, and a replay that may
 #: have driven two tables must not report success.
-GRAPH_FINAL = 1.0
+GRAPH_FINAL = GRAPH_SETTLE
 CHILD_CLOSE = 30.0       # s a finished replay waits for it (the comparison reads the bag)
 
 
