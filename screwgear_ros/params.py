@@ -152,6 +152,29 @@ class TableParams:
                                                     high=FREQUENCY, kernel=True)
     table_damping: float = parameter(0.0, 'c_t', 'N·m·s/rad', 'viscous table bearing loss',
                                      low=0.0, high=DAMPING, kernel=True)
+    table_coulomb_torque: float = parameter(
+        0.0, 'τ_C2', 'N·m', 'Coulomb (sliding) friction torque of the table bearing '
+        '(docs/model_notes.md §13)', low=0.0, high=TORQUE, kernel=True)
+    table_static_torque: float = parameter(
+        0.0, 'τ_S2', 'N·m', 'static (breakaway) friction torque of the table bearing, '
+        '>= table_coulomb_torque; the table sticks while the torque holding it stays '
+        'within it; 0 = no bearing friction', low=0.0, high=TORQUE, kernel=True)
+    table_stribeck_speed: float = parameter(
+        0.0, 'ω_S2', 'rad/s', 'Stribeck speed of the table bearing: the sliding friction '
+        'falls from τ_S2 to τ_C2 as exp(-|ω|/ω_S2); 0 = at once', low=0.0, high=FREQUENCY,
+        kernel=True)
+    pinion_coulomb_torque: float = parameter(
+        0.0, 'τ_Cp', 'N·m', 'Coulomb (sliding) friction torque of each pinion bearing',
+        low=0.0, high=TORQUE, kernel=True)
+    pinion_static_torque: float = parameter(
+        0.0, 'τ_Sp', 'N·m', 'static (breakaway) friction torque of each pinion bearing, '
+        '>= pinion_coulomb_torque; 0 = no bearing friction', low=0.0, high=TORQUE,
+        kernel=True)
+    pinion_stribeck_speed: float = parameter(
+        0.0, 'ω_Sp', 'rad/s', 'Stribeck speed of each pinion bearing; 0 = at once',
+        low=0.0, high=FREQUENCY, kernel=True)
+    pinion_damping: float = parameter(0.0, 'c_p', 'N·m·s/rad', 'viscous loss of each pinion '
+                                      'bearing', low=0.0, high=DAMPING, kernel=True)
     mesh_frequency: float = parameter(24 * PAPER_PINION_SPEED, 'ω_e', 'rad/s',
                                       'mesh frequency used when mesh_phase is time',
                                       low=0.0, high=FREQUENCY, kernel=True,
@@ -196,6 +219,14 @@ class TableParams:
                 f'must equal radius_pinion_1 = {self.radius_pinion_1:g} m in anti_backlash mode '
                 'with a preload: T1 = +T_p and T3 = -T_p balance at the table only when r1 = r3 '
                 f'(else the preload alone turns the table with r2·T_p·(1/r1 - 1/r3))')
+        for body in ('table', 'pinion'):
+            coulomb = getattr(self, f'{body}_coulomb_torque')
+            static = getattr(self, f'{body}_static_torque')
+            if static < coulomb:
+                raise ParameterError(
+                    f'{body}_static_torque', static,
+                    f'must be >= {body}_coulomb_torque = {coulomb:g} N·m (the breakaway '
+                    'torque is where the sliding friction starts from)')
         derating = 1.0 - self.thermal_coefficient * self.temperature_rise
         if derating <= 0.0:
             raise ParameterError(
