@@ -5,7 +5,7 @@ and 3 (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.10), adaptive step size
 tableau is data: the published coefficients, taken at run time from SciPy's
 ``scipy.integrate._ivp.dop853_coefficients`` (A, B, C, E3, E5), so this module holds
 the algorithm only. The kernel calls the compiled model right-hand side
-:func:`screwgear_ros.model.rhs` directly and allocates nothing per step (one stage
+:func:`screwgear_ros.model.rhs_on` directly and allocates nothing per step (one stage
 array per call).
 
 Output: the kernel steps *exactly* onto every requested time (the step is cut to end
@@ -17,6 +17,15 @@ with the order-5 and order-3 error vectors e5, e3 (RMS norms over the scale),
 err = |h|·‖e5‖² / sqrt(‖e5‖² + 0.01·‖e3‖²) · 1/sqrt(n); a step is accepted when err ≤ 1
 and the next step is h·min(10, max(0.2, 0.9·err^(−1/8))), never growing right after a
 rejection.
+
+Bearing friction (docs/model_notes.md §13): each body's friction is held on its piece
+(slipping forward or backward, stuck) through a step. When an accepted step ends with a
+body on another piece (its speed through zero, or its holding torque past the static
+torque), the event is located by bisection on the step's length, each trial a full
+DOP853 step from the step's start (so the event state has the method's accuracy, not an
+interpolant's); the step ends there, a body that sticks gets its speed set to exactly 0,
+and integration goes on from there on the new pieces, a stuck body's angle and speed
+frozen (its slope is exactly 0).
 
 Failure is a status, never an exception from compiled code: the step size collapsing
 below 10 × the spacing of floating-point numbers at t (the solution changes faster
@@ -31,8 +40,9 @@ import math
 import numpy as np
 import scipy
 
+from .friction import FrictionPiece
 from .jit import allocating_kernel, kernel
-from .model import rhs
+from .model import friction_law, rhs_on
 
 #: SciPy's private module of the tableau, and the names taken from it.
 TABLEAU_MODULE = 'scipy.integrate._ivp.dop853_coefficients'
@@ -71,13 +81,17 @@ OK, STEP_COLLAPSED, NON_FINITE, BUDGET = 0, 1, 2, 3
 MAX_STEPS = 50_000_000
 
 N = 6
+#: Bisection on a step's length for a friction event: the instant to 1e-15 of the step.
+EVENT_TOLERANCE = 1e-15
+EVENT_BISECTIONS = 60
 
 
 @kernel
-def _f(t, y, out, k, p, ste_amp, ste_phase, torque, direction, load):
-    """out[k, :] = f(t, y) through the model's compiled rhs."""
-    d = rhs(t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase,
-            torque, direction, load)
+def _f(t, y, out, k, p, ste_amp, ste_phase, torque, direction, load, fp):
+    """out[k, :] = f(t, y) through the model's compiled rhs, each body's bearing friction
+    held on its piece in ``fp`` (pinion 1, table, pinion 3)."""
+    d = rhs_on(t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase,
+               torque, direction, load, fp[0], fp[1], fp[2])
     out[k, 0] = d[0]
     out[k, 1] = d[1]
     out[k, 2] = d[2]
@@ -94,7 +108,7 @@ def _spacing(t):
 
 @kernel
 def _initial_step(t0, y0, k, t_span, p, ste_amp, ste_phase, torque, direction, load,
-                  rtol, atol, y1):
+                  rtol, atol, y1, fp):
     """Hairer's starting step (Solving ODEs I, §II.4), k[0] = f(t0, y0) given; uses
     k[1] and y1 as scratch."""
     d0 = 0.0
@@ -109,7 +123,7 @@ def _initial_step(t0, y0, k, t_span, p, ste_amp, ste_phase, torque, direction, l
     h0 = min(h0, t_span)
     for i in range(N):
         y1[i] = y0[i] + h0 * k[0, i]
-    _f(t0 + h0, y1, k, 1, p, ste_amp, ste_phase, torque, direction, load)
+    _f(t0 + h0, y1, k, 1, p, ste_amp, ste_phase, torque, direction, load, fp)
     d2 = 0.0
     for i in range(N):
         sc = atol + rtol * abs(y0[i])
@@ -124,6 +138,66 @@ def _initial_step(t0, y0, k, t_span, p, ste_amp, ste_phase, torque, direction, l
     if not (h > 0.0) or not math.isfinite(h):
         h = t_span
     return h
+
+
+@kernel
+def _stages(t, y, h, k, a, b, c, y_stage, y_new, p, ste_amp, ste_phase, torque, direction,
+            load, fp):
+    """Stages 2..12 of a step of h from (t, y), k[0] = f(t, y) given, into k; the new
+    state into y_new. Returns whether it is finite."""
+    n_stages = b.shape[0]
+    for s in range(1, n_stages):
+        for i in range(N):
+            acc = 0.0
+            for j in range(s):
+                acc += a[s, j] * k[j, i]
+            y_stage[i] = y[i] + h * acc
+        _f(t + c[s] * h, y_stage, k, s, p, ste_amp, ste_phase, torque, direction, load, fp)
+    finite = True
+    for i in range(N):
+        acc = 0.0
+        for j in range(n_stages):
+            acc += b[j] * k[j, i]
+        y_new[i] = y[i] + h * acc
+        if not math.isfinite(y_new[i]):
+            finite = False
+    return finite
+
+
+@kernel
+def _law(t, y, p, ste_amp, ste_phase, torque, direction, load, fp):
+    """The friction pieces at (t, y) coming from ``fp``."""
+    return friction_law(t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase, torque,
+                        direction, load, fp[0], fp[1], fp[2])
+
+
+@kernel
+def _same(u, v):
+    return u[0] == v[0] and u[1] == v[1] and u[2] == v[2]
+
+
+@kernel
+def _event(t, y, h, k, a, b, c, y_stage, y_new, p, ste_amp, ste_phase, torque, direction,
+           load, fp, after):
+    """The first instant t + s·h (0 < s ≤ 1) at which a bearing leaves its piece in ``fp``
+    within the accepted step of h from (t, y), by bisection on s, each trial a step of
+    s·h from (t, y) (k[0] = f(t, y) kept): s, with y_new the state there and the pieces
+    there (``after``: those at s = 1)."""
+    lo, hi = 0.0, 1.0
+    for _ in range(EVENT_BISECTIONS):
+        if hi - lo <= EVENT_TOLERANCE:
+            break
+        mid = 0.5 * (lo + hi)
+        _stages(t, y, mid * h, k, a, b, c, y_stage, y_new, p, ste_amp, ste_phase, torque,
+                direction, load, fp)
+        now = _law(t + mid * h, y_new, p, ste_amp, ste_phase, torque, direction, load, fp)
+        if _same(now, fp):
+            lo = mid
+        else:
+            hi, after = mid, now
+    _stages(t, y, hi * h, k, a, b, c, y_stage, y_new, p, ste_amp, ste_phase, torque, direction,
+            load, fp)
+    return hi, after
 
 
 @allocating_kernel
@@ -153,12 +227,14 @@ def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load
     if done == n_out:
         return OK, t, 0.0, 0, 0, done
     t_end = t_out[n_out - 1]
-    _f(t, y, k, 0, p, ste_amp, ste_phase, torque, direction, load)
+    none = FrictionPiece.FROM_STATE
+    fp = _law(t, y, p, ste_amp, ste_phase, torque, direction, load, (none, none, none))
+    _f(t, y, k, 0, p, ste_amp, ste_phase, torque, direction, load, fp)
     for i in range(N):
         if not (math.isfinite(y[i]) and math.isfinite(k[0, i])):
             return NON_FINITE, t, 0.0, 0, 0, done
     h = _initial_step(t, y, k, t_end - t, p, ste_amp, ste_phase, torque, direction, load,
-                      rtol, atol, y_stage)
+                      rtol, atol, y_stage, fp)
     accepted = 0
     rejected = 0
     last_rejected = False
@@ -174,26 +250,11 @@ def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load
         # cut the step to land on the next output time exactly
         lands = t + h >= target - min_step
         h_step = target - t if lands else h
-        # stages 2..12
-        for s in range(1, n_stages):
-            for i in range(N):
-                acc = 0.0
-                for j in range(s):
-                    acc += a[s, j] * k[j, i]
-                y_stage[i] = y[i] + h_step * acc
-            _f(t + c[s] * h_step, y_stage, k, s, p, ste_amp, ste_phase, torque, direction,
-               load)
-        finite = True
-        for i in range(N):
-            acc = 0.0
-            for j in range(n_stages):
-                acc += b[j] * k[j, i]
-            y_new[i] = y[i] + h_step * acc
-            if not math.isfinite(y_new[i]):
-                finite = False
+        finite = _stages(t, y, h_step, k, a, b, c, y_stage, y_new, p, ste_amp, ste_phase,
+                         torque, direction, load, fp)
         t_new = target if lands else t + h_step
         if finite:
-            _f(t_new, y_new, k, n_stages, p, ste_amp, ste_phase, torque, direction, load)
+            _f(t_new, y_new, k, n_stages, p, ste_amp, ste_phase, torque, direction, load, fp)
             for i in range(N):
                 if not math.isfinite(k[n_stages, i]):
                     finite = False
@@ -217,6 +278,27 @@ def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load
             err = math.inf
         last_non_finite = not finite
         if err <= 1.0:
+            after = _law(t_new, y_new, p, ste_amp, ste_phase, torque, direction, load, fp)
+            if not _same(after, fp):
+                # a bearing sticks or breaks away inside the step: end the step there,
+                # stop a body that sticks exactly, go on from there on the new pieces
+                s_event, after = _event(t, y, h_step, k, a, b, c, y_stage, y_new, p,
+                                        ste_amp, ste_phase, torque, direction, load, fp, after)
+                for j in range(3):
+                    if after[j] == FrictionPiece.STUCK and fp[j] != FrictionPiece.STUCK:
+                        y_new[3 + j] = 0.0
+                t = t + s_event * h_step
+                for i in range(N):
+                    y[i] = y_new[i]
+                fp = after
+                _f(t, y, k, 0, p, ste_amp, ste_phase, torque, direction, load, fp)
+                accepted += 1
+                last_rejected = False
+                while done < n_out and t_out[done] <= t:
+                    for i in range(N):
+                        out[done, i] = y[i]
+                    done += 1
+                continue
             if err == 0.0:
                 factor = MAX_FACTOR
             else:

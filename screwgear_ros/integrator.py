@@ -10,15 +10,18 @@ boundaries.
 Contact location (``locate``, the default): the mesh force jumps (a flank is hit with
 δ̇ ≠ 0) or kinks (it lifts off) where a mesh changes its branch of the contact law
 (:class:`~screwgear_ros.model.ContactBranch`), the drive torque kinks where the command
-meets the drive's torque–speed line (:class:`~screwgear_ros.model.DrivePiece`), and an
-RK4 step across such a point is only first- or second-order accurate. So each step is
-integrated with the meshes and the drive held on the pieces they are on at its start
-(the smooth continuation of each piece). If the law is on another piece at the step's
+meets the drive's torque–speed line (:class:`~screwgear_ros.model.DrivePiece`), a
+bearing's friction jumps where its body sticks or breaks away
+(:class:`~screwgear_ros.friction.FrictionPiece`), and an RK4 step across such a point
+is only first- or second-order accurate. So each step is integrated with the meshes,
+the drive and the bearings held on the pieces they are on at its start (the smooth
+continuation of each piece; a stuck body stands exactly still). If the law is on another piece at the step's
 end, the change is located on the step's cubic Hermite interpolant
 (:func:`screwgear_ros.rk.hermite`, from the ends and their slopes: O(dt⁴)) by bisection
 on the pieces the law gives there (bisection, because a mesh can leave a branch
 tangentially, as a flank touched at rest does, where secant methods stall); the step is
-redone up to that instant, switched to the new pieces, and the rest of the step
+redone up to that instant, switched to the new pieces (a body that sticks there gets
+its speed set to exactly 0), and the rest of the step
 integrated from there, which may locate another change. The step grid is unchanged: a
 step ends where it always ends. A step without a change does exactly what the
 fixed-step RK4 does (its slopes agree bit for bit while no stage leaves the pieces) at
@@ -34,9 +37,9 @@ import math
 import numpy as np
 
 from . import rk
+from .friction import FrictionPiece
 from .jit import inline_kernel, kernel
-from .model import (ContactBranch, DrivePiece, active_speed, contact_branches, drive_piece,
-                    motion, outputs)
+from .model import ContactBranch, DrivePiece, body_torques, friction_pieces, motion, outputs
 
 #: Changes located within one step before the step is finished by the plain law (a mesh
 #: chattering on its boundary; never reached by a sane run).
@@ -46,54 +49,79 @@ MAX_CHANGES = 16
 THETA_TOLERANCE = 1e-15
 MAX_BISECTIONS = 60
 
-#: Held pieces (branch of mesh 1, branch of mesh 3, drive piece) meaning "the law's own".
-BY_LAW = (ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE)
+#: Held pieces (branch of mesh 1, branch of mesh 3, drive piece, bearing friction of
+#: pinion 1, the table, pinion 3) meaning "the law's own".
+BY_LAW = (ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE,
+          FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE)
 
 
 @inline_kernel
 def _slope(t, y, args):
-    """dy/dt with the meshes and the drive held on the pieces args[6] = (branch of mesh 1,
-    branch of mesh 3, drive piece)."""
+    """dy/dt with the meshes, the drive and the bearings held on the pieces args[6] =
+    (branch of mesh 1, branch of mesh 3, drive piece, friction pieces of the three bodies).
+    A stuck body's speed and acceleration are both 0: its slope is exactly 0."""
     p, ste_amp, ste_phase, torque, direction, load, held = args
     a1, a2, a3 = motion(t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase, torque,
-                        direction, load, held[0], held[1], held[2])[:3]
+                        direction, load, held[0], held[1], held[2], held[3], held[4],
+                        held[5])[:3]
     return (y[3], y[4], y[5], a1, a2, a3)
 
 
 @inline_kernel
 def _law(t, y, p, ste_amp, ste_phase, torque, direction, load):
-    """dy/dt by the contact law and drive line themselves, and the pieces they are on."""
-    a1, a2, a3, _, _, _, _, _, branch_1, branch_3, drive = motion(
-        t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase, torque, direction, load,
-        BY_LAW[0], BY_LAW[1], BY_LAW[2])
-    return (y[3], y[4], y[5], a1, a2, a3), (branch_1, branch_3, drive)
+    """dy/dt by the contact law, drive line and friction law themselves (from the state
+    alone), and the pieces they are on."""
+    a1, a2, a3, _, _, _, _, _, branch_1, branch_3, drive, friction_1, friction_2, friction_3 = \
+        motion(t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase, torque, direction,
+               load, BY_LAW[0], BY_LAW[1], BY_LAW[2], BY_LAW[3], BY_LAW[4], BY_LAW[5])
+    return ((y[3], y[4], y[5], a1, a2, a3),
+            (branch_1, branch_3, drive, friction_1, friction_2, friction_3))
 
 
 @inline_kernel
-def _pieces(t, y, p, ste_amp, ste_phase, torque, direction):
-    """The pieces the law is on at (t, y), without the slope."""
-    branch_1, branch_3 = contact_branches(t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp,
-                                          ste_phase)
-    return branch_1, branch_3, drive_piece(torque, active_speed(y[3], y[5], direction, p), p)
+def _pieces(t, y, p, ste_amp, ste_phase, torque, direction, load, held):
+    """The pieces the law is on at (t, y), coming from the ``held`` ones, without the
+    slope: contact branches and drive piece from the state, each bearing's friction piece
+    from its held one (a slipping body whose speed has reached zero is judged at rest)."""
+    tau1, tau2, tau3, _, _, _, _, branch_1, branch_3, drive = body_torques(
+        t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase, torque, direction, load,
+        BY_LAW[0], BY_LAW[1], BY_LAW[2])
+    friction_1, friction_2, friction_3 = friction_pieces(y[3], y[4], y[5], tau1, tau2, tau3, p,
+                                                         held[3], held[4], held[5])
+    return branch_1, branch_3, drive, friction_1, friction_2, friction_3
 
 
 @inline_kernel
 def _same(a, b):
-    return a[0] == b[0] and a[1] == b[1] and a[2] == b[2]
+    return (a[0] == b[0] and a[1] == b[1] and a[2] == b[2] and a[3] == b[3] and a[4] == b[4]
+            and a[5] == b[5])
+
+
+@inline_kernel
+def _stick(y, held, after):
+    """``y`` with the speed of each body that sticks (from a slip piece in ``held`` to
+    STUCK in ``after``) set to exactly 0."""
+    stuck = FrictionPiece.STUCK
+    w1 = 0.0 if after[3] == stuck and held[3] != stuck else y[3]
+    w2 = 0.0 if after[4] == stuck and held[4] != stuck else y[4]
+    w3 = 0.0 if after[5] == stuck and held[5] != stuck else y[5]
+    return (y[0], y[1], y[2], w1, w2, w3)
 
 
 @kernel
-def _locate(t, h, y0, f0, y1, f1, p, ste_amp, ste_phase, torque, direction, held, after):
+def _locate(t, h, y0, f0, y1, f1, p, ste_amp, ste_phase, torque, direction, load, held,
+            after):
     """First instant t + θ·h at which the law leaves the ``held`` pieces, on the Hermite
     interpolant of the step (y0, f0) → (y1, f1), by bisection: (θ just past the change,
-    the pieces the law gives there). The law has left them at θ = 1, for ``after``."""
+    the pieces the law gives there, coming from ``held``). The law has left them at θ = 1,
+    for ``after``."""
     lo, hi = 0.0, 1.0
     for _ in range(MAX_BISECTIONS):
         if hi - lo <= THETA_TOLERANCE:
             break
         theta = 0.5 * (lo + hi)
         now = _pieces(t + theta * h, rk.hermite(y0, f0, y1, f1, h, theta), p, ste_amp,
-                      ste_phase, torque, direction)
+                      ste_phase, torque, direction, load, held)
         if _same(now, held):
             lo = theta
         else:
@@ -120,9 +148,11 @@ def _located_step(t0, t_end, dt, y, slope, held, p, ste_amp, ste_phase, torque, 
                                       load)
             return y_end, slope_end, end, changes
         theta, after = _locate(t, h, y, slope, y_end, _slope(t + h, y_end, args), p, ste_amp,
-                               ste_phase, torque, direction, held, end)
+                               ste_phase, torque, direction, load, held,
+                               _pieces(t_end, y_end, p, ste_amp, ste_phase, torque, direction,
+                                       load, held))
         tau = theta * h
-        y = rk.step_from(_slope, t, y, tau, slope, args)         # up to the change
+        y = _stick(rk.step_from(_slope, t, y, tau, slope, args), held, after)  # up to the change
         t = t + tau
         h = t_end - t
         held = after

@@ -24,6 +24,7 @@ from enum import IntEnum
 import numpy as np
 
 from .declare import kernel_fields
+from .friction import FrictionPiece, friction_on, friction_piece
 from .jit import kernel
 from .params import (MeshFormulation, MeshPhase, Mode, TableParams, effective_stiffness,
                      ste_slope)
@@ -41,6 +42,10 @@ C, B, TP = _AT['mesh_damping'], _AT['backlash'], _AT['preload_torque']
 TV, WV = _AT['torque_fluctuation_amplitude'], _AT['torque_fluctuation_frequency']
 CT, WE = _AT['table_damping'], _AT['mesh_frequency']
 WNL, TS = _AT['drive_no_load_speed'], _AT['drive_stall_torque']
+TC2, TS2, WS2 = (_AT['table_coulomb_torque'], _AT['table_static_torque'],
+                 _AT['table_stribeck_speed'])
+TCP, TSP, WSP, CP = (_AT['pinion_coulomb_torque'], _AT['pinion_static_torque'],
+                     _AT['pinion_stribeck_speed'], _AT['pinion_damping'])
 K_EFF, MODE, PHASE, FORMULATION = range(len(KERNEL), len(KERNEL) + 4)   # derived: k_eff, enums
 N_PACKED = len(KERNEL) + 4
 
@@ -302,22 +307,24 @@ def drive_torques(t: float, torque: float, direction: float,
 
 
 @kernel
-def motion(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
-           p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
-           direction: float, load: float, branch_1: ContactBranch, branch_3: ContactBranch,
-           drive: DrivePiece) -> tuple[float, float, float, float, float, float, float, float,
-                                       ContactBranch, ContactBranch, DrivePiece]:
-    """The 3-DOF equations of motion (model.md §3) at one state, meshes on the given
-    contact branches and the drive on the given piece of its line (FROM_STATE: the ones
-    the contact law and the drive line pick at this state).
+def body_torques(t: float, th1: float, th2: float, th3: float, w1: float, w2: float,
+                 w3: float, p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray,
+                 torque: float, direction: float, load: float, branch_1: ContactBranch,
+                 branch_3: ContactBranch, drive: DrivePiece
+                 ) -> tuple[float, float, float, float, float, float, float, ContactBranch,
+                            ContactBranch, DrivePiece]:
+    """The torque on each body from everything but its bearing friction, meshes on the
+    given contact branches and the drive on the given piece of its line (FROM_STATE: the
+    ones the contact law and the drive line pick at this state):
 
-    I1·θ̈1 = T1 − Q1;  I3·θ̈3 = T3 − Q3;  I2·θ̈2 = r2·(F1 + F3) − T_load − c_t·θ̇2,
+    τ1 = T1 − Q1 − c_p·θ̇1;  τ3 = T3 − Q3 − c_p·θ̇3;  τ2 = r2·(F1 + F3) − T_load − c_t·θ̇2,
+
     Q = r·F (`paper`) or the energy-consistent pinion load (:func:`mesh_load_on`); T1, T3
     through the drive's torque–speed line (:func:`applied_torques`). In `conventional`
     mode pinion 3 is disengaged (F3 = Q3 = 0).
 
-    Returns (θ̈1, θ̈2, θ̈3 in rad/s², T1, net table torque, T3 in N·m, F1, F3 in N,
-    branch of mesh 1, branch of mesh 3, drive piece).
+    Returns (τ1, τ2, τ3, T1, T3 in N·m, F1, F3 in N, branch of mesh 1, branch of mesh 3,
+    drive piece).
     """
     t1, t3, drive = applied_torques_on(drive, t, w1, w3, torque, direction, p)
     f1, q1, branch_1 = mesh_load_on(th1, w1, p[R1], p[Z1], th2, w2, t, p, ste_amp, ste_phase,
@@ -327,9 +334,63 @@ def motion(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w
     else:
         f3, q3, branch_3 = mesh_load_on(th3, w3, p[R3], p[Z3], th2, w2, t, p, ste_amp,
                                         ste_phase, branch_3)
+    tau1 = t1 - q1
+    tau3 = t3 - q3
+    if p[CP] != 0.0:
+        tau1 -= p[CP] * w1
+        tau3 -= p[CP] * w3
     table = p[R2] * (f1 + f3) - load - p[CT] * w2
-    return ((t1 - q1) / p[I1], table / p[I2], (t3 - q3) / p[I3], t1, table, t3, f1, f3,
-            branch_1, branch_3, drive)
+    return tau1, table, tau3, t1, t3, f1, f3, branch_1, branch_3, drive
+
+
+@kernel
+def friction_pieces(w1: float, w2: float, w3: float, tau1: float, tau2: float, tau3: float,
+                    p: np.ndarray, held_1: FrictionPiece, held_2: FrictionPiece,
+                    held_3: FrictionPiece) -> tuple[FrictionPiece, FrictionPiece,
+                                                    FrictionPiece]:
+    """The pieces of the bearing friction law (:func:`~screwgear_ros.friction.friction_piece`)
+    of pinion 1, the table and pinion 3, coming from the ``held`` ones (FROM_STATE: from
+    the speeds and torques alone), under the torques τ of :func:`body_torques`."""
+    return (friction_piece(held_1, w1, tau1, p[TSP]), friction_piece(held_2, w2, tau2, p[TS2]),
+            friction_piece(held_3, w3, tau3, p[TSP]))
+
+
+@kernel
+def motion(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
+           p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
+           direction: float, load: float, branch_1: ContactBranch, branch_3: ContactBranch,
+           drive: DrivePiece, friction_1: FrictionPiece, friction_2: FrictionPiece,
+           friction_3: FrictionPiece
+           ) -> tuple[float, float, float, float, float, float, float, float, ContactBranch,
+                      ContactBranch, DrivePiece, FrictionPiece, FrictionPiece, FrictionPiece]:
+    """The 3-DOF equations of motion (model.md §3) at one state, meshes on the given
+    contact branches, the drive on the given piece of its line and each body's bearing
+    friction on the given piece of its law (FROM_STATE: the ones the laws pick at this
+    state).
+
+    I_j·θ̈_j = τ_j + T_f,j with the torques τ of :func:`body_torques` and the bearing
+    friction T_f of :func:`~screwgear_ros.friction.friction_on` (docs/model_notes.md §13:
+    stuck, θ̈_j = 0; none, τ_j/I_j exactly as without friction).
+
+    Returns (θ̈1, θ̈2, θ̈3 in rad/s², T1, net table torque (friction included), T3 in
+    N·m, F1, F3 in N, branch of mesh 1, branch of mesh 3, drive piece, friction pieces of
+    pinion 1, the table, pinion 3).
+    """
+    tau1, tau2, tau3, t1, t3, f1, f3, branch_1, branch_3, drive = body_torques(
+        t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque, direction, load, branch_1,
+        branch_3, drive)
+    if friction_1 == FrictionPiece.FROM_STATE:
+        friction_1 = friction_piece(friction_1, w1, tau1, p[TSP])
+    if friction_2 == FrictionPiece.FROM_STATE:
+        friction_2 = friction_piece(friction_2, w2, tau2, p[TS2])
+    if friction_3 == FrictionPiece.FROM_STATE:
+        friction_3 = friction_piece(friction_3, w3, tau3, p[TSP])
+    a1 = friction_on(friction_1, w1, tau1, p[I1], p[TCP], p[TSP], p[WSP])[0]
+    a2, table_friction = friction_on(friction_2, w2, tau2, p[I2], p[TC2], p[TS2], p[WS2])
+    a3 = friction_on(friction_3, w3, tau3, p[I3], p[TCP], p[TSP], p[WSP])[0]
+    table = tau2 if friction_2 == FrictionPiece.NONE else tau2 + table_friction
+    return (a1, a2, a3, t1, table, t3, f1, f3, branch_1, branch_3, drive, friction_1,
+            friction_2, friction_3)
 
 
 @kernel
@@ -339,8 +400,36 @@ def rhs(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: 
     """dy/dt of the 3-DOF equations of motion (:func:`motion`), rad/s and rad/s²."""
     a1, a2, a3 = motion(t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque,
                         direction, load, ContactBranch.FROM_STATE, ContactBranch.FROM_STATE,
-                        DrivePiece.FROM_STATE)[:3]
+                        DrivePiece.FROM_STATE, FrictionPiece.FROM_STATE,
+                        FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE)[:3]
     return w1, w2, w3, a1, a2, a3
+
+
+@kernel
+def rhs_on(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
+           p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
+           direction: float, load: float, friction_1: FrictionPiece, friction_2: FrictionPiece,
+           friction_3: FrictionPiece) -> tuple[float, float, float, float, float, float]:
+    """:func:`rhs` with each body's bearing friction held on the given piece (the
+    reference solver's right-hand side between friction events)."""
+    a1, a2, a3 = motion(t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque,
+                        direction, load, ContactBranch.FROM_STATE, ContactBranch.FROM_STATE,
+                        DrivePiece.FROM_STATE, friction_1, friction_2, friction_3)[:3]
+    return w1, w2, w3, a1, a2, a3
+
+
+@kernel
+def friction_law(t: float, th1: float, th2: float, th3: float, w1: float, w2: float,
+                 w3: float, p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray,
+                 torque: float, direction: float, load: float, held_1: FrictionPiece,
+                 held_2: FrictionPiece, held_3: FrictionPiece
+                 ) -> tuple[FrictionPiece, FrictionPiece, FrictionPiece]:
+    """The friction pieces of pinion 1, the table and pinion 3 at this state, coming from
+    the ``held`` ones (:func:`friction_pieces`; FROM_STATE: from the state alone)."""
+    tau1, tau2, tau3 = body_torques(t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque,
+                                    direction, load, ContactBranch.FROM_STATE,
+                                    ContactBranch.FROM_STATE, DrivePiece.FROM_STATE)[:3]
+    return friction_pieces(w1, w2, w3, tau1, tau2, tau3, p, held_1, held_2, held_3)
 
 
 @kernel
@@ -366,9 +455,10 @@ def outputs(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, 
     :func:`applied_torques`: the command itself below the line), then δ (m), δ̇ (m/s) and
     the mesh force F (N) of mesh 1 and of mesh 3 (δ3 and δ̇3 also when pinion 3 is
     disengaged, with F3 = 0)."""
-    _, _, _, t1, table, t3, f1, f3, _, _, _ = motion(
+    _, _, _, t1, table, t3, f1, f3, _, _, _, _, _, _ = motion(
         t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque, direction, load,
-        ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE)
+        ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE,
+        FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE)
     _, _, d1, dd1, _ = mesh_motion(th1, w1, p[R1], p[Z1], th2, w2, t, p, ste_amp, ste_phase)
     _, _, d3, dd3, _ = mesh_motion(th3, w3, p[R3], p[Z3], th2, w2, t, p, ste_amp, ste_phase)
     return t1, table, t3, d1, dd1, f1, d3, dd3, f3
@@ -387,7 +477,8 @@ def stiffest_linearization(params: TableParams) -> np.ndarray:
     longest pinion lever r + z·Σ n·|ε_n| (`angle` phase, see
     :func:`~screwgear_ros.params.ste_slope`), mesh and table damping included, and the
     drive's torque–speed line on every pinion it can drive (its slope −T_s/ω_nl acts as
-    a damper on the driven pinion; :func:`drive_piece`).
+    a damper on the driven pinion; :func:`drive_piece`) with the pinions' viscous bearing
+    loss c_p. Bearing friction's Stribeck slope is left out (docs/model_notes.md §13).
     Generalized mesh directions: δ1 = r1·θ1 − r2·θ2, δ3 = r3·θ3 − r2·θ2 (mesh 3 only
     in `anti_backlash`). Its eigenvalues bound the step an explicit method can take."""
     k = effective_stiffness(params) + params.mesh_stiffness_amplitude
@@ -397,7 +488,7 @@ def stiffest_linearization(params: TableParams) -> np.ndarray:
     g = np.array([[lever_1, -params.radius_table, 0.0], [0.0, -params.radius_table, lever_3]])
     drive = (params.drive_stall_torque / params.drive_no_load_speed
              if params.drive_no_load_speed > 0.0 else 0.0)
-    driven = np.array([drive, 0.0, drive])
+    driven = np.array([drive + params.pinion_damping, 0.0, drive + params.pinion_damping])
     if params.mode is Mode.CONVENTIONAL:
         g, driven[2] = g[:1], 0.0
     stiffness = k * g.T @ g
@@ -577,10 +668,11 @@ __all__ = [
     'mesh_force', 'mesh_stiffness_slope', 'mesh_load_on', 'active_speed', 'applied_torques', 'drive_torques', 'rhs', 'rhs_vector',
     'DrivePiece', 'drive_piece', 'drive_on', 'applied_torques_on',
     'active_path', 'ContactBranch', 'contact_branch', 'branch_force', 'mesh_motion',
-    'branch_penetration', 'motion', 'contact_branches', 'outputs',
+    'branch_penetration', 'body_torques', 'friction_pieces', 'friction_law', 'rhs_on',
+    'motion', 'contact_branches', 'outputs',
     'stiffest_linearization', 'EquilibriumNotFound', 'NEWTON_ITERATIONS',
     'equilibrium_state', 'MODE_ANTI_BACKLASH', 'MODE_CONVENTIONAL', 'PHASE_ANGLE', 'PHASE_TIME',
     'N_PACKED', 'I1', 'I2', 'I3', 'R1', 'R2', 'R3', 'Z1', 'Z3', 'K_EFF', 'K_A', 'PHI_K', 'C', 'B',
     'TP', 'TV', 'WV', 'CT', 'WE', 'WNL', 'TS', 'MODE', 'PHASE', 'FORMULATION', 'FORM_PAPER',
-    'FORM_ENERGY',
+    'FORM_ENERGY', 'TC2', 'TS2', 'WS2', 'TCP', 'TSP', 'WSP', 'CP',
 ]

@@ -10,7 +10,8 @@ parameters, so a recording is re-integrated with the physics it ran. A run is de
 The integrator is Dormand–Prince 8(5,3) with adaptive steps, compiled
 (:mod:`screwgear_ros.dop853`, calling the compiled ``model.rhs`` directly) and
 independent of the node's fixed-step RK4. ``method='scipy'`` runs SciPy's DOP853
-(``solve_ivp``) on the same segments instead, for cross-checks. A run the reference
+(``solve_ivp``) on the same segments instead, for cross-checks of runs without bearing
+friction (the compiled solver locates where a body sticks or breaks away; SciPy's does not). A run the reference
 cannot follow (the step size collapsing below the spacing of floating-point numbers,
 non-finite values) raises :class:`ReferenceFailure`, which says why and where.
 """
@@ -87,6 +88,10 @@ def solve(initial_state: np.ndarray, segments: Sequence[Segment], dt: float,
     """
     if method not in METHODS:
         raise ValueError(f'method must be one of {METHODS}, not {method!r}')
+    if method == 'scipy' and any(seg.params.table_static_torque > 0.0
+                                 or seg.params.pinion_static_torque > 0.0 for seg in segments):
+        raise ValueError("method 'scipy' has no events for bearing friction (a body "
+                         "sticking); use 'dop853'")
     sample_steps = np.asarray(sample_steps, dtype=np.int64)
     if len(segments) == 0 or segments[0].start_step > (sample_steps[0] if len(sample_steps) else 0):
         raise ValueError('the first segment must start at or before the first sample')

@@ -33,7 +33,7 @@ from .session import ROW, Session
 from .status import contact_states, mesh_frequency_ratio
 
 #: The modules holding the core's compiled functions.
-_MODULES = ('model', 'integrator', 'normalized', 'dop853', 'floquet')
+_MODULES = ('friction', 'model', 'integrator', 'normalized', 'dop853', 'floquet')
 
 
 def kernels(imported_only: bool = False) -> list:

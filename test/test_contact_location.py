@@ -25,6 +25,7 @@ from screwgear_ros import run_parameters
 from screwgear_ros.model import (B, C, R1, R3, TS, WNL, Z1, Z3, ContactBranch, DrivePiece,
                                  active_speed, contact_branches, drive_piece, equilibrium_state,
                                  mesh_motion, motion, pack, rhs_vector)
+from screwgear_ros.friction import FrictionPiece
 from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.session import Session
 
@@ -35,6 +36,8 @@ TABLE_DAMPING = 8867.0                      # N·m·s/rad: the paper's speed at 
 #: free flight through the gap would otherwise be crossed in steps long enough to hide a
 #: whole bounce on a flank (the shortest contact episode here lasts 76 µs).
 MAX_STEP = 20e-6
+#: These runs have no bearing friction.
+NO_FRICTION = (FrictionPiece.NONE,) * 3
 
 SCENARIOS = {
     # the flank of mesh 1 lifts off, crosses the gap, bounces on the reverse flank
@@ -103,7 +106,7 @@ def reference(p: TableParams, y0: np.ndarray, rtol: float = 1e-12,
     def held(direction, pieces):
         def f(tt, yy):
             a = motion(tt, *yy, m.p, m.ste_amp, m.ste_phase, TORQUE, direction, 0.0,
-                       *pieces)[:3]
+                       *pieces, *NO_FRICTION)[:3]
             return np.array([yy[3], yy[4], yy[5], *a])
         return f
 

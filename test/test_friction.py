@@ -12,9 +12,16 @@ import math
 import numpy as np
 import pytest
 
+from bag_runs import installed_check_run
+from screwgear_ros.events import Command
 from screwgear_ros.friction import (FrictionPiece, at_rest, friction_on, friction_piece,
                                     sliding_torque)
-from screwgear_ros.params import ParameterError, TableParams
+from screwgear_ros.integrator import OBSERVED
+from screwgear_ros.params import ParameterError, SimSettings, TableParams
+from screwgear_ros.plant import Plant
+from screwgear_ros.ros.session_record import record_session
+from screwgear_ros.runs.bagread import read_run
+from screwgear_ros.schedule import Schedule
 
 COULOMB, STATIC, STRIBECK = 3.0, 5.0, 0.02      # N·m, N·m, rad/s
 
@@ -105,3 +112,177 @@ def test_parameters():
             TableParams(**{f'{body}_stribeck_speed': -1.0})
     with pytest.raises(ParameterError, match='pinion_damping'):
         TableParams(pinion_damping=-1.0)
+
+
+# ------------------------------------------------------------------ integrated: closed forms
+
+def _steps(plant: Plant, n: int) -> np.ndarray:
+    """The plant's observed vector after each of its next n steps (n × OBSERVED)."""
+    rows = np.empty((n, OBSERVED))
+    assert plant.advance_ticks(n, 1, rows) == n and plant.fault is None
+    return rows
+
+
+#: Breakaway: the table's bearing (τ_C2 < τ_S2, Stribeck), no pinion friction, the ideal
+#: torque source ramped smoothly by the drive's fluctuation T_v·sin(ω_v·t) (zero command),
+#: so that the torque reaching the table grows quasi-statically (1e-3 N·m a step).
+RAMP_TOP, RAMP_TIME = 40.0, 2.0            # N·m at the pinion, s to reach it
+TABLE_STATIC = 200.0                       # N·m
+
+
+def _breakaway_params(mode: str) -> TableParams:
+    return TableParams(mode=mode, table_coulomb_torque=150.0, table_static_torque=TABLE_STATIC,
+                       table_stribeck_speed=0.01, drive_no_load_speed=0.0,
+                       ste_amplitudes=(20e-6,), ste_phases=(0.0,),
+                       torque_fluctuation_amplitude=RAMP_TOP,
+                       torque_fluctuation_frequency=math.pi / (2.0 * RAMP_TIME))
+
+
+@pytest.mark.parametrize('mode', ['anti_backlash', 'conventional'])
+def test_breakaway_under_a_slow_torque_ramp(mode):
+    """The table stands exactly still (the pinion winds up the mesh by its elastic
+    deflection) until the torque reaching it, r2/r1 times the drive torque (the preloads
+    cancel: r1 = r3), exceeds τ_S2; it breaks away there, within 0.5 %."""
+    p = _breakaway_params(mode)
+    dt = 50e-6
+    plant = Plant(p, dt)
+    y0 = plant.state.copy()
+    rows = _steps(plant, int(round(RAMP_TIME / dt)))
+    moved = np.flatnonzero(rows[:, 1] != y0[1])
+    assert moved.size, 'the table never broke away'
+    first = moved[0]                        # the first step that ends with the table moved
+    t_lo, t_hi = first * dt, (first + 1) * dt
+    ramp = RAMP_TOP * np.sin(p.torque_fluctuation_frequency * np.array([t_lo, t_hi]))
+    predicted = TABLE_STATIC * p.radius_pinion_1 / p.radius_table
+    print(f'{mode}: table breaks away at t = {t_hi:.5f} s, drive torque {ramp[1]:.5f} N·m, '
+          f'predicted {predicted:.5f} N·m ({ramp[1] / predicted - 1:+.2e})')
+    assert abs(ramp[0] / predicted - 1.0) < 0.005 and abs(ramp[1] / predicted - 1.0) < 0.005
+    # before: not the slightest table motion, the pinion wound up by the elastic deflection
+    before = rows[:first]
+    assert np.all(before[:, 1] == y0[1]) and np.all(before[:, 4] == 0.0)
+    windup = p.radius_pinion_1 * (before[-1, 0] - y0[0])
+    k = p.mesh_stiffness_mean
+    elastic = predicted / p.radius_pinion_1 / k                # F/K at the breakaway, m
+    assert 0.5 * elastic < windup < 2.0 * elastic, (windup, elastic)
+    # after: it slides forward and keeps sliding (the torque keeps growing)
+    after = rows[first:]
+    assert np.all(after[:, 4] > 0.0)
+
+
+@pytest.mark.parametrize('body', ['table', 'pinion 3'])
+def test_coasting_to_a_stop_under_coulomb_friction(body):
+    """A body coasting from ω0 under Coulomb friction alone decelerates at τ_C/I, stops at
+    I·ω0/τ_C (its angle then ω0²·I/(2·τ_C) on), and stays stopped: closed forms, which
+    RK4 integrates exactly (the speed is linear in time) up to rounding, the stop
+    located inside its step. The table coasts with pinion 1 in the middle of a wide
+    backlash gap (conventional, b = 1 cm), pinion 3 is the disengaged one."""
+    dt = 50e-6
+    if body == 'table':
+        p = TableParams(mode='conventional', backlash=1e-2, ste_amplitudes=(), ste_phases=(),
+                        table_coulomb_torque=0.25, table_static_torque=0.25)
+        index, omega0, inertia, coulomb = 1, 0.01, p.inertia_table, 0.25
+        y0 = np.zeros(6)
+    else:
+        p = TableParams(mode='conventional', pinion_coulomb_torque=0.5,
+                        pinion_static_torque=0.5)
+        index, omega0, inertia, coulomb = 2, 2.1, p.inertia_pinion_3, 0.5
+        y0 = Plant(p, dt).state.copy()
+    y0[3 + index] = omega0
+    stop = inertia * omega0 / coulomb
+    plant = Plant(p, dt, initial_state=y0)
+    rows = _steps(plant, int(round(1.5 * stop / dt)))
+    t = np.arange(1, len(rows) + 1) * dt
+    speed, angle = rows[:, 3 + index], rows[:, index]
+    stopped = np.flatnonzero(speed == 0.0)
+    assert stopped.size
+    k = stopped[0]
+    sliding = t < stop - dt
+    assert np.allclose(speed[sliding], omega0 - coulomb / inertia * t[sliding],
+                       rtol=0.0, atol=1e-12 * omega0)
+    assert t[k] - dt - 1e-12 < stop <= t[k] + 1e-12     # stopped inside step k
+    travel = angle[k] - y0[index]
+    measured_stop = 2.0 * travel / omega0
+    print(f'{body}: stop at {measured_stop!r} s, I·ω0/τ_C = {stop!r} s '
+          f'({measured_stop / stop - 1:+.1e})')
+    assert measured_stop == pytest.approx(stop, rel=1e-10)
+    assert np.all(speed[k:] == 0.0) and np.all(angle[k:] == angle[k])
+
+
+# ------------------------------------------------------------------ convergence
+
+#: Stick-slip: both bearings with a Stribeck curve, the drive torque swinging ±60 N·m at
+#: 2 Hz on pinion 1 (zero command, the ideal source's fluctuation): the table (up to
+#: 448 N·m reaching it, τ_S2 = 200 N·m) sticks and breaks away twice a period, the pinions
+#: stick and slip on their own bearings against the preload.
+STICK_SLIP = dict(table_coulomb_torque=150.0, table_static_torque=200.0,
+                  table_stribeck_speed=0.01, pinion_coulomb_torque=1.0,
+                  pinion_static_torque=1.5, pinion_stribeck_speed=0.05, pinion_damping=0.5,
+                  table_damping=50.0, drive_no_load_speed=0.0, ste_amplitudes=(20e-6,),
+                  ste_phases=(0.0,), torque_fluctuation_amplitude=60.0,
+                  torque_fluctuation_frequency=4.0 * math.pi)
+STICK_SLIP_END, STICK_SLIP_SAMPLE = 1.0, 1e-3     # s
+
+
+def _stick_slip_run(dt: float, locate: bool) -> tuple[np.ndarray, int]:
+    """(states every STICK_SLIP_SAMPLE, changes located) of the stick-slip run."""
+    plant = Plant(TableParams(**STICK_SLIP), dt, contact_location=locate)
+    stride = int(round(STICK_SLIP_SAMPLE / dt))
+    ticks = int(round(STICK_SLIP_END / STICK_SLIP_SAMPLE))
+    rows = np.empty((ticks, OBSERVED))
+    assert plant.advance_ticks(ticks, stride, rows) == ticks and plant.fault is None
+    return rows[:, :6].copy(), plant.contact_changes
+
+
+def _orders(runs: list[np.ndarray]) -> np.ndarray:
+    """Per state component, the order by Richardson differences of runs at dt, dt/2, dt/4."""
+    coarse = np.max(np.abs(runs[0] - runs[1]), axis=0)
+    fine = np.max(np.abs(runs[1] - runs[2]), axis=0)
+    return np.log2(coarse / fine)
+
+
+def test_rk4_keeps_fourth_order_through_stick_slip():
+    """Halving dt 200 → 100 → 50 µs: order ≥ 3.5 on every state component with the
+    transitions located; with location off (the plain law: a body coming to rest
+    chatters about zero) the order drops."""
+    dts = (200e-6, 100e-6, 50e-6)
+    located = [_stick_slip_run(dt, True) for dt in dts]
+    fixed = [_stick_slip_run(dt, False)[0] for dt in dts]
+    runs = [run for run, _ in located]
+    table = runs[-1][:, 1]
+    order, order_fixed = _orders(runs), _orders(fixed)
+    stuck_samples = int(np.sum(runs[-1][:, 4] == 0.0))
+    print(f'stick-slip: {[n for _, n in located]} changes located at {dts} s; table stuck '
+          f'at {stuck_samples} of {len(table)} samples, travels {table[-1] - table[0]:.4g} rad')
+    print(f'  order located θ1 θ2 θ3 ω1 ω2 ω3: {np.round(order, 2)}')
+    print(f'  order fixed step:                {np.round(order_fixed, 2)}')
+    changes = [n for _, n in located]
+    assert stuck_samples > 20 and np.ptp(table) > 1e-3       # it does stick and slip
+    assert changes[0] == changes[1] == changes[2] > 10      # the same events at every dt
+    assert np.all(order >= 3.5)
+    assert np.min(order_fixed) < 2.5
+
+
+# ------------------------------------------------------------------ against the reference
+
+def test_a_recorded_run_with_friction_checks_against_the_reference(tmp_path):
+    """A run recorded as the node records it, with stick-slip on every bearing (the drive
+    torque swinging on the table, then a reversal and a stop under friction), passes
+    check_run: the DOP853 reference with its own friction events agrees with RK4 within
+    RK4's own error estimate."""
+    dt = 50e-6
+    params = TableParams(**{**STICK_SLIP, 'drive_no_load_speed': 8.0 * math.pi})
+    settings = SimSettings(dt=dt, publish_rate=1000.0, command_timeout=0.0)
+    at = lambda seconds: int(round(seconds / dt))     # noqa: E731
+    schedule = Schedule(params, settings, [
+        Command('cmd_torque', 30.0, at(0.2)), Command('cmd_direction', -1, at(0.6)),
+        Command('cmd_torque', 0.0, at(1.0))], end_step=at(1.4))
+    record_session(tmp_path / 'friction', schedule)
+    run = read_run(tmp_path / 'friction')
+    table_speed = run.joint_states.values[:, 4]
+    stuck = int(np.sum(table_speed == 0.0))
+    result = installed_check_run(tmp_path / 'friction')
+    print(f'table stuck at {stuck} of {len(table_speed)} samples')
+    print(result.stdout)
+    assert stuck > 20
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert 'RESULT: PASS' in result.stdout

@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ..commands import load_limit
+from ..friction import FrictionPiece
 from ..model import (NEWTON_ITERATIONS, ContactBranch, DrivePiece, active_path, active_speed,
                      drive_on, drive_piece, drive_torques, equilibrium_state, mesh_motion,
                      motion, pack)
@@ -423,7 +424,9 @@ def _static_warnings(params: TableParams, contact: list[ContactBranch], piece: D
 def _derivative(x: np.ndarray, u: np.ndarray, point: OperatingPoint, model) -> np.ndarray:
     accelerations = motion(0.0, x[0], x[1], x[2], x[3], x[4], x[5], model.p, model.ste_amp,
                            model.ste_phase, u[0], float(point.direction), u[1],
-                           point.contact[0], point.contact[1], point.drive_piece)[:3]
+                           point.contact[0], point.contact[1], point.drive_piece,
+                           FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE,
+                           FrictionPiece.FROM_STATE)[:3]
     return np.concatenate([x[3:], accelerations])
 
 
