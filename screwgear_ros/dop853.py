@@ -58,6 +58,8 @@ B = np.ascontiguousarray(_tableau.B, dtype=np.float64)
 C = np.ascontiguousarray(_tableau.C[:N_STAGES], dtype=np.float64)
 E3 = np.ascontiguousarray(_tableau.E3, dtype=np.float64)
 E5 = np.ascontiguousarray(_tableau.E5, dtype=np.float64)
+#: The tableau as :func:`integrate` takes it.
+TABLEAU = (A, B, C, E3, E5)
 
 #: Error exponent: 1/(order of the error estimator + 1), Hairer's choice for DOP853.
 ERROR_EXPONENT = -1.0 / 8.0
@@ -74,10 +76,9 @@ N = 6
 
 
 @kernel
-def _f(t, y, out, k, p, ste_amp, ste_phase, torque, direction, load):
+def _f(t, y, out, k, model, drive):
     """out[k, :] = f(t, y) through the model's compiled rhs."""
-    d = rhs(t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase,
-            torque, direction, load)
+    d = rhs(t, (y[0], y[1], y[2], y[3], y[4], y[5]), model, drive)
     out[k, 0] = d[0]
     out[k, 1] = d[1]
     out[k, 2] = d[2]
@@ -93,8 +94,7 @@ def _spacing(t):
 
 
 @kernel
-def _initial_step(t0, y0, k, t_span, p, ste_amp, ste_phase, torque, direction, load,
-                  rtol, atol, y1):
+def _initial_step(t0, y0, k, t_span, model, drive, rtol, atol, y1):
     """Hairer's starting step (Solving ODEs I, §II.4), k[0] = f(t0, y0) given; uses
     k[1] and y1 as scratch."""
     d0 = 0.0
@@ -109,7 +109,7 @@ def _initial_step(t0, y0, k, t_span, p, ste_amp, ste_phase, torque, direction, l
     h0 = min(h0, t_span)
     for i in range(N):
         y1[i] = y0[i] + h0 * k[0, i]
-    _f(t0 + h0, y1, k, 1, p, ste_amp, ste_phase, torque, direction, load)
+    _f(t0 + h0, y1, k, 1, model, drive)
     d2 = 0.0
     for i in range(N):
         sc = atol + rtol * abs(y0[i])
@@ -127,15 +127,17 @@ def _initial_step(t0, y0, k, t_span, p, ste_amp, ste_phase, torque, direction, l
 
 
 @allocating_kernel
-def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load,
-              rtol, atol, a, b, c, e3, e5, max_steps):
-    """Integrate y' = rhs(t, y) from (t0, y0) through the sorted times ``t_out``
-    (all ≥ t0), writing the state at each into ``out[j]``.
+def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
+    """Integrate y' = rhs(t, y) of the model (a :class:`~screwgear_ros.model.PackedModel`)
+    under the input ``drive`` (a :class:`~screwgear_ros.model.Drive`) from (t0, y0)
+    through the sorted times ``t_out`` (all ≥ t0), writing the state at each into
+    ``out[j]``, with the method ``tableau`` (:data:`TABLEAU`).
 
     Returns (status, t, h, accepted, rejected, done): status OK or the failure code,
     the time reached (where it failed), the last step size, step counts, and how
     many rows of ``out`` were written.
     """
+    a, b, c, e3, e5 = tableau
     n_stages = b.shape[0]
     k = np.empty((n_stages + 1, N))
     y = np.empty(N)
@@ -153,12 +155,11 @@ def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load
     if done == n_out:
         return OK, t, 0.0, 0, 0, done
     t_end = t_out[n_out - 1]
-    _f(t, y, k, 0, p, ste_amp, ste_phase, torque, direction, load)
+    _f(t, y, k, 0, model, drive)
     for i in range(N):
         if not (math.isfinite(y[i]) and math.isfinite(k[0, i])):
             return NON_FINITE, t, 0.0, 0, 0, done
-    h = _initial_step(t, y, k, t_end - t, p, ste_amp, ste_phase, torque, direction, load,
-                      rtol, atol, y_stage)
+    h = _initial_step(t, y, k, t_end - t, model, drive, rtol, atol, y_stage)
     accepted = 0
     rejected = 0
     last_rejected = False
@@ -181,8 +182,7 @@ def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load
                 for j in range(s):
                     acc += a[s, j] * k[j, i]
                 y_stage[i] = y[i] + h_step * acc
-            _f(t + c[s] * h_step, y_stage, k, s, p, ste_amp, ste_phase, torque, direction,
-               load)
+            _f(t + c[s] * h_step, y_stage, k, s, model, drive)
         finite = True
         for i in range(N):
             acc = 0.0
@@ -193,7 +193,7 @@ def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load
                 finite = False
         t_new = target if lands else t + h_step
         if finite:
-            _f(t_new, y_new, k, n_stages, p, ste_amp, ste_phase, torque, direction, load)
+            _f(t_new, y_new, k, n_stages, model, drive)
             for i in range(N):
                 if not math.isfinite(k[n_stages, i]):
                     finite = False
@@ -249,13 +249,12 @@ def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load
 
 def warm() -> None:
     """Compile (or load) the kernel for the types the reference uses."""
-    from .model import pack
+    from .model import Drive, pack
     from .params import TableParams
-    model = pack(TableParams())
     out = np.empty((2, N))
-    integrate(0.0, np.zeros(N), np.array([1e-4, 2e-4]), out, model.p, model.ste_amp,
-              model.ste_phase, 10.0, 1.0, 0.0, 1e-11, 1e-13, A, B, C, E3, E5, MAX_STEPS)
+    integrate(0.0, np.zeros(N), np.array([1e-4, 2e-4]), out, pack(TableParams()),
+              Drive(10.0, 1.0, 0.0), 1e-11, 1e-13, TABLEAU, MAX_STEPS)
 
 
-__all__ = ['A', 'B', 'C', 'E3', 'E5', 'OK', 'STEP_COLLAPSED', 'NON_FINITE', 'BUDGET',
+__all__ = ['A', 'B', 'C', 'E3', 'E5', 'TABLEAU', 'OK', 'STEP_COLLAPSED', 'NON_FINITE', 'BUDGET',
            'MAX_STEPS', 'integrate', 'warm']

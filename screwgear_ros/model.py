@@ -7,8 +7,13 @@ Input u = (torque, direction, load): drive torque magnitude T ≥ 0 in N·m on t
 active pinion, direction d = ±1, external table load T_load in N·m.
 
 The functions are scalar and compiled with numba (``NUMBA_DISABLE_JIT=1`` runs the
-same source as plain Python). Parameters travel as one packed float array built by
-:func:`pack` so the compiled code sees no Python objects.
+same source as plain Python). What the equations of motion take travels as named tuples,
+each declared once here and passed whole through the integrators, so a new parameter
+array, input or held piece is one field of one tuple rather than a parameter of every
+kernel: the model (:class:`PackedModel`, from :func:`pack`: one packed float array and the
+STE harmonics, so the compiled code sees no Python objects), the drive input
+(:class:`Drive`) and the pieces of the law a step holds (:class:`Pieces`). The state y
+is a tuple of six floats.
 
 Why one module of this length: the mesh law, the drive line and the equations of motion
 are one set of equations over one packed parameter layout and one set of contact
@@ -18,8 +23,8 @@ branches; the integrators and the reference all take their right-hand side from 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from enum import IntEnum
+from typing import NamedTuple
 
 import numpy as np
 
@@ -78,13 +83,35 @@ class DrivePiece(IntEnum):
     FROM_STATE = -1       # not a piece: picked from the speed
 
 
-@dataclass(frozen=True)
-class PackedModel:
-    """What the compiled code needs: packed scalars and the STE harmonic arrays."""
+class Pieces(NamedTuple):
+    """The pieces of the law the equations of motion are on (:func:`motion`): what a step
+    holds while it integrates one smooth piece (:mod:`screwgear_ros.integrator`)."""
+
+    branch_1: ContactBranch     # of mesh 1
+    branch_3: ContactBranch     # of mesh 3
+    drive: DrivePiece           # of the drive's torque–speed line
+
+
+#: Pieces meaning "the ones the law picks at the state".
+BY_LAW = Pieces(ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE)
+
+
+class PackedModel(NamedTuple):
+    """What the compiled code needs: packed scalars and the STE harmonic arrays. A tuple,
+    so the kernels take it whole."""
 
     p: np.ndarray          # float64[N_PACKED]
     ste_amp: np.ndarray    # ε_n, m
     ste_phase: np.ndarray  # ϕ_n, rad
+
+
+class Drive(NamedTuple):
+    """The input as the compiled code takes it: drive torque T ≥ 0 (N·m), direction ±1,
+    table load T_load (N·m), all floats."""
+
+    torque: float
+    direction: float
+    load: float
 
 
 def pack(params: TableParams) -> PackedModel:
@@ -178,12 +205,13 @@ def mesh_force(delta: float, delta_dot: float, stiffness: float, damping: float,
 
 @kernel
 def mesh_motion(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,
-                theta2: float, omega2: float, t: float, p: np.ndarray, ste_amp: np.ndarray,
-                ste_phase: np.ndarray) -> tuple[float, float, float, float, float]:
+                theta2: float, omega2: float, t: float, model: PackedModel
+                ) -> tuple[float, float, float, float, float]:
     """Mesh phase φ (rad), STE slope dε/dφ (m/rad), δ (m), δ̇ (m/s) and stiffness K
     (N/m) of one mesh: what its force depends on."""
+    p = model.p
     phi, phi_dot = mesh_phase(theta_pinion, omega_pinion, teeth, t, p)
-    eps, deps = static_transmission_error(phi, ste_amp, ste_phase)
+    eps, deps = static_transmission_error(phi, model.ste_amp, model.ste_phase)
     delta = radius_pinion * theta_pinion - p[R2] * theta2 - eps
     delta_dot = radius_pinion * omega_pinion - p[R2] * omega2 - deps * phi_dot
     return phi, deps, delta, delta_dot, mesh_stiffness(phi, p)
@@ -210,8 +238,7 @@ def mesh_stiffness_slope(phi: float, p: np.ndarray) -> float:
 
 @kernel
 def mesh_load_on(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,
-                 theta2: float, omega2: float, t: float, p: np.ndarray, ste_amp: np.ndarray,
-                 ste_phase: np.ndarray,
+                 theta2: float, omega2: float, t: float, model: PackedModel,
                  branch: ContactBranch) -> tuple[float, float, ContactBranch]:
     """Mesh force F (N, on the table: r2·F) and the torque Q (N·m) the mesh exerts
     against its pinion (I·θ̈ = T − Q), per ``mesh_formulation``, on contact ``branch``
@@ -222,9 +249,9 @@ def mesh_load_on(theta_pinion: float, omega_pinion: float, radius_pinion: float,
     (docs/model_notes.md §9): Q = (r − z·ε'(φ))·F + ½·z·K'(φ)·f(δ)², F the contact
     force of :func:`mesh_force` (spring and contact damping) acting along ∂δ/∂θ.
     """
+    p = model.p
     phi, deps, delta, delta_dot, stiffness = mesh_motion(
-        theta_pinion, omega_pinion, radius_pinion, teeth, theta2, omega2, t, p, ste_amp,
-        ste_phase)
+        theta_pinion, omega_pinion, radius_pinion, teeth, theta2, omega2, t, model)
     if branch == ContactBranch.FROM_STATE:
         branch = contact_branch(delta, delta_dot, stiffness, p[C], p[B])
     force = branch_force(branch, delta, delta_dot, stiffness, p[C], p[B])
@@ -302,63 +329,67 @@ def drive_torques(t: float, torque: float, direction: float,
 
 
 @kernel
-def motion(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
-           p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
-           direction: float, load: float, branch_1: ContactBranch, branch_3: ContactBranch,
-           drive: DrivePiece) -> tuple[float, float, float, float, float, float, float, float,
-                                       ContactBranch, ContactBranch, DrivePiece]:
-    """The 3-DOF equations of motion (model.md §3) at one state, meshes on the given
-    contact branches and the drive on the given piece of its line (FROM_STATE: the ones
-    the contact law and the drive line pick at this state).
+def motion(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
+           ) -> tuple[float, float, float, float, float, float, float, float, Pieces]:
+    """The 3-DOF equations of motion (model.md §3) at state y, the meshes on the contact
+    branches and the drive on the piece of its line ``held`` names (FROM_STATE: the ones
+    the contact law and the drive line pick at this state; :data:`BY_LAW` all of them).
 
     I1·θ̈1 = T1 − Q1;  I3·θ̈3 = T3 − Q3;  I2·θ̈2 = r2·(F1 + F3) − T_load − c_t·θ̇2,
     Q = r·F (`paper`) or the energy-consistent pinion load (:func:`mesh_load_on`); T1, T3
     through the drive's torque–speed line (:func:`applied_torques`). In `conventional`
     mode pinion 3 is disengaged (F3 = Q3 = 0).
 
-    Returns (θ̈1, θ̈2, θ̈3 in rad/s², T1, net table torque, T3 in N·m, F1, F3 in N,
-    branch of mesh 1, branch of mesh 3, drive piece).
+    Returns (θ̈1, θ̈2, θ̈3 in rad/s², T1, net table torque, T3 in N·m, F1, F3 in N, the
+    pieces the law was on).
     """
-    t1, t3, drive = applied_torques_on(drive, t, w1, w3, torque, direction, p)
-    f1, q1, branch_1 = mesh_load_on(th1, w1, p[R1], p[Z1], th2, w2, t, p, ste_amp, ste_phase,
-                                    branch_1)
+    p = model.p
+    th1, th2, th3, w1, w2, w3 = y[0], y[1], y[2], y[3], y[4], y[5]
+    t1, t3, piece = applied_torques_on(held.drive, t, w1, w3, drive.torque, drive.direction,
+                                       p)
+    f1, q1, branch_1 = mesh_load_on(th1, w1, p[R1], p[Z1], th2, w2, t, model, held.branch_1)
     if p[MODE] == MODE_CONVENTIONAL:
         f3, q3, branch_3 = 0.0, 0.0, ContactBranch.DISENGAGED
     else:
-        f3, q3, branch_3 = mesh_load_on(th3, w3, p[R3], p[Z3], th2, w2, t, p, ste_amp,
-                                        ste_phase, branch_3)
-    table = p[R2] * (f1 + f3) - load - p[CT] * w2
+        f3, q3, branch_3 = mesh_load_on(th3, w3, p[R3], p[Z3], th2, w2, t, model,
+                                        held.branch_3)
+    table = p[R2] * (f1 + f3) - drive.load - p[CT] * w2
     return ((t1 - q1) / p[I1], table / p[I2], (t3 - q3) / p[I3], t1, table, t3, f1, f3,
-            branch_1, branch_3, drive)
+            Pieces(branch_1, branch_3, piece))
 
 
 @kernel
-def rhs(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
-        p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
-        direction: float, load: float) -> tuple[float, float, float, float, float, float]:
+def rhs(t: float, y: tuple, model: PackedModel,
+        drive: Drive) -> tuple[float, float, float, float, float, float]:
     """dy/dt of the 3-DOF equations of motion (:func:`motion`), rad/s and rad/s²."""
-    a1, a2, a3 = motion(t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque,
-                        direction, load, ContactBranch.FROM_STATE, ContactBranch.FROM_STATE,
-                        DrivePiece.FROM_STATE)[:3]
-    return w1, w2, w3, a1, a2, a3
+    a1, a2, a3 = motion(t, y, model, drive, BY_LAW)[:3]
+    return y[3], y[4], y[5], a1, a2, a3
 
 
 @kernel
-def contact_branches(t: float, th1: float, th2: float, th3: float, w1: float, w2: float,
-                     w3: float, p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray
+def contact_branches(t: float, y: tuple, model: PackedModel
                      ) -> tuple[ContactBranch, ContactBranch]:
-    """The branches of the contact law mesh 1 and mesh 3 are on at this state."""
-    _, _, d1, dd1, k1 = mesh_motion(th1, w1, p[R1], p[Z1], th2, w2, t, p, ste_amp, ste_phase)
+    """The branches of the contact law mesh 1 and mesh 3 are on at state y."""
+    p = model.p
+    th1, th2, th3, w1, w2, w3 = y[0], y[1], y[2], y[3], y[4], y[5]
+    _, _, d1, dd1, k1 = mesh_motion(th1, w1, p[R1], p[Z1], th2, w2, t, model)
     if p[MODE] == MODE_CONVENTIONAL:
         return contact_branch(d1, dd1, k1, p[C], p[B]), ContactBranch.DISENGAGED
-    _, _, d3, dd3, k3 = mesh_motion(th3, w3, p[R3], p[Z3], th2, w2, t, p, ste_amp, ste_phase)
+    _, _, d3, dd3, k3 = mesh_motion(th3, w3, p[R3], p[Z3], th2, w2, t, model)
     return contact_branch(d1, dd1, k1, p[C], p[B]), contact_branch(d3, dd3, k3, p[C], p[B])
 
 
 @kernel
-def outputs(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
-            p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
-            direction: float, load: float
+def pieces(t: float, y: tuple, model: PackedModel, drive: Drive) -> Pieces:
+    """The pieces the law is on at state y (what :func:`motion` returns last), without
+    the slope."""
+    branch_1, branch_3 = contact_branches(t, y, model)
+    return Pieces(branch_1, branch_3, drive_piece(
+        drive.torque, active_speed(y[3], y[5], drive.direction, model.p), model.p))
+
+
+@kernel
+def outputs(t: float, y: tuple, model: PackedModel, drive: Drive
             ) -> tuple[float, float, float, float, float, float, float, float, float]:
     """What the node publishes about a state besides the state itself: the torques
     applied to pinion 1, the table (net, = I2·θ̈2) and pinion 3 (N·m; on the pinions the
@@ -366,19 +397,17 @@ def outputs(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, 
     :func:`applied_torques`: the command itself below the line), then δ (m), δ̇ (m/s) and
     the mesh force F (N) of mesh 1 and of mesh 3 (δ3 and δ̇3 also when pinion 3 is
     disengaged, with F3 = 0)."""
-    _, _, _, t1, table, t3, f1, f3, _, _, _ = motion(
-        t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque, direction, load,
-        ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE)
-    _, _, d1, dd1, _ = mesh_motion(th1, w1, p[R1], p[Z1], th2, w2, t, p, ste_amp, ste_phase)
-    _, _, d3, dd3, _ = mesh_motion(th3, w3, p[R3], p[Z3], th2, w2, t, p, ste_amp, ste_phase)
+    p = model.p
+    th1, th2, th3, w1, w2, w3 = y[0], y[1], y[2], y[3], y[4], y[5]
+    _, _, _, t1, table, t3, f1, f3, _ = motion(t, y, model, drive, BY_LAW)
+    _, _, d1, dd1, _ = mesh_motion(th1, w1, p[R1], p[Z1], th2, w2, t, model)
+    _, _, d3, dd3, _ = mesh_motion(th3, w3, p[R3], p[Z3], th2, w2, t, model)
     return t1, table, t3, d1, dd1, f1, d3, dd3, f3
 
 
-def rhs_vector(t: float, y: np.ndarray, model: PackedModel, torque: float, direction: float,
-               load: float) -> np.ndarray:
+def rhs_vector(t: float, y: np.ndarray, model: PackedModel, drive: Drive) -> np.ndarray:
     """The same right-hand side on a state vector, for SciPy solvers."""
-    return np.array(rhs(t, y[0], y[1], y[2], y[3], y[4], y[5], model.p, model.ste_amp,
-                        model.ste_phase, torque, direction, load))
+    return np.array(rhs(t, (y[0], y[1], y[2], y[3], y[4], y[5]), model, drive))
 
 
 def stiffest_linearization(params: TableParams) -> np.ndarray:
@@ -573,7 +602,8 @@ def equilibrium_state(params: TableParams) -> np.ndarray:
 
 
 __all__ = [
-    'PackedModel', 'pack', 'mesh_phase', 'static_transmission_error', 'mesh_stiffness',
+    'PackedModel', 'Drive', 'Pieces', 'BY_LAW', 'pack', 'pieces', 'mesh_phase',
+    'static_transmission_error', 'mesh_stiffness',
     'mesh_force', 'mesh_stiffness_slope', 'mesh_load_on', 'active_speed', 'applied_torques', 'drive_torques', 'rhs', 'rhs_vector',
     'DrivePiece', 'drive_piece', 'drive_on', 'applied_torques_on',
     'active_path', 'ContactBranch', 'contact_branch', 'branch_force', 'mesh_motion',
