@@ -5,7 +5,7 @@ and 3 (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.10), adaptive step size
 tableau is data: the published coefficients, taken at run time from SciPy's
 ``scipy.integrate._ivp.dop853_coefficients`` (A, B, C, E3, E5), so this module holds
 the algorithm only. The kernel calls the compiled model right-hand side
-:func:`screwgear_ros.model.rhs_on` directly and allocates nothing per step (one stage
+:func:`screwgear_ros.model.motion` directly and allocates nothing per step (one stage
 array per call).
 
 Output: the kernel steps *exactly* onto every requested time (the step is cut to end
@@ -42,7 +42,7 @@ import scipy
 
 from .friction import FrictionPiece
 from .jit import allocating_kernel, kernel
-from .model import friction_law, rhs_on
+from .model import BY_LAW, Pieces, motion, pieces
 
 #: SciPy's private module of the tableau, and the names taken from it.
 TABLEAU_MODULE = 'scipy.integrate._ivp.dop853_coefficients'
@@ -68,6 +68,8 @@ B = np.ascontiguousarray(_tableau.B, dtype=np.float64)
 C = np.ascontiguousarray(_tableau.C[:N_STAGES], dtype=np.float64)
 E3 = np.ascontiguousarray(_tableau.E3, dtype=np.float64)
 E5 = np.ascontiguousarray(_tableau.E5, dtype=np.float64)
+#: The tableau as :func:`integrate` takes it.
+TABLEAU = (A, B, C, E3, E5)
 
 #: Error exponent: 1/(order of the error estimator + 1), Hairer's choice for DOP853.
 ERROR_EXPONENT = -1.0 / 8.0
@@ -87,17 +89,17 @@ EVENT_BISECTIONS = 60
 
 
 @kernel
-def _f(t, y, out, k, p, ste_amp, ste_phase, torque, direction, load, fp):
-    """out[k, :] = f(t, y) through the model's compiled rhs, each body's bearing friction
-    held on its piece in ``fp`` (pinion 1, table, pinion 3)."""
-    d = rhs_on(t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase,
-               torque, direction, load, fp[0], fp[1], fp[2])
-    out[k, 0] = d[0]
-    out[k, 1] = d[1]
-    out[k, 2] = d[2]
-    out[k, 3] = d[3]
-    out[k, 4] = d[4]
-    out[k, 5] = d[5]
+def _f(t, y, out, k, model, drive, held):
+    """out[k, :] = f(t, y) through the model's compiled equations of motion, each body's
+    bearing friction on the piece ``held`` names (the contact law and the drive line
+    pick theirs from the state, as in the model's rhs)."""
+    a1, a2, a3 = motion(t, (y[0], y[1], y[2], y[3], y[4], y[5]), model, drive, held)[:3]
+    out[k, 0] = y[3]
+    out[k, 1] = y[4]
+    out[k, 2] = y[5]
+    out[k, 3] = a1
+    out[k, 4] = a2
+    out[k, 5] = a3
 
 
 @kernel
@@ -107,8 +109,7 @@ def _spacing(t):
 
 
 @kernel
-def _initial_step(t0, y0, k, t_span, p, ste_amp, ste_phase, torque, direction, load,
-                  rtol, atol, y1, fp):
+def _initial_step(t0, y0, k, t_span, model, drive, rtol, atol, y1, held):
     """Hairer's starting step (Solving ODEs I, §II.4), k[0] = f(t0, y0) given; uses
     k[1] and y1 as scratch."""
     d0 = 0.0
@@ -123,7 +124,7 @@ def _initial_step(t0, y0, k, t_span, p, ste_amp, ste_phase, torque, direction, l
     h0 = min(h0, t_span)
     for i in range(N):
         y1[i] = y0[i] + h0 * k[0, i]
-    _f(t0 + h0, y1, k, 1, p, ste_amp, ste_phase, torque, direction, load, fp)
+    _f(t0 + h0, y1, k, 1, model, drive, held)
     d2 = 0.0
     for i in range(N):
         sc = atol + rtol * abs(y0[i])
@@ -141,10 +142,10 @@ def _initial_step(t0, y0, k, t_span, p, ste_amp, ste_phase, torque, direction, l
 
 
 @kernel
-def _stages(t, y, h, k, a, b, c, y_stage, y_new, p, ste_amp, ste_phase, torque, direction,
-            load, fp):
+def _stages(t, y, h, k, tableau, y_stage, y_new, model, drive, held):
     """Stages 2..12 of a step of h from (t, y), k[0] = f(t, y) given, into k; the new
     state into y_new. Returns whether it is finite."""
+    a, b, c = tableau[0], tableau[1], tableau[2]
     n_stages = b.shape[0]
     for s in range(1, n_stages):
         for i in range(N):
@@ -152,7 +153,7 @@ def _stages(t, y, h, k, a, b, c, y_stage, y_new, p, ste_amp, ste_phase, torque, 
             for j in range(s):
                 acc += a[s, j] * k[j, i]
             y_stage[i] = y[i] + h * acc
-        _f(t + c[s] * h, y_stage, k, s, p, ste_amp, ste_phase, torque, direction, load, fp)
+        _f(t + c[s] * h, y_stage, k, s, model, drive, held)
     finite = True
     for i in range(N):
         acc = 0.0
@@ -165,51 +166,48 @@ def _stages(t, y, h, k, a, b, c, y_stage, y_new, p, ste_amp, ste_phase, torque, 
 
 
 @kernel
-def _law(t, y, p, ste_amp, ste_phase, torque, direction, load, fp):
-    """The friction pieces at (t, y) coming from ``fp``."""
-    return friction_law(t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase, torque,
-                        direction, load, fp[0], fp[1], fp[2])
+def _law(t, y, model, drive, held):
+    """What a step holds at (t, y) coming from ``held``: each bearing's friction piece
+    (:func:`~screwgear_ros.model.pieces`), the contact law and the drive line by the
+    state (FROM_STATE)."""
+    now = pieces(t, (y[0], y[1], y[2], y[3], y[4], y[5]), model, drive, held)
+    return Pieces(BY_LAW.branch_1, BY_LAW.branch_3, BY_LAW.drive, now.friction_1,
+                  now.friction_2, now.friction_3)
 
 
 @kernel
-def _same(u, v):
-    return u[0] == v[0] and u[1] == v[1] and u[2] == v[2]
-
-
-@kernel
-def _event(t, y, h, k, a, b, c, y_stage, y_new, p, ste_amp, ste_phase, torque, direction,
-           load, fp, after):
-    """The first instant t + s·h (0 < s ≤ 1) at which a bearing leaves its piece in ``fp``
-    within the accepted step of h from (t, y), by bisection on s, each trial a step of
-    s·h from (t, y) (k[0] = f(t, y) kept): s, with y_new the state there and the pieces
-    there (``after``: those at s = 1)."""
+def _event(t, y, h, k, tableau, y_stage, y_new, model, drive, held, after):
+    """The first instant t + s·h (0 < s ≤ 1) at which a bearing leaves its piece in
+    ``held`` within the accepted step of h from (t, y), by bisection on s, each trial a
+    step of s·h from (t, y) (k[0] = f(t, y) kept): s, with y_new the state there, and the
+    pieces there (``after``: those at s = 1)."""
     lo, hi = 0.0, 1.0
     for _ in range(EVENT_BISECTIONS):
         if hi - lo <= EVENT_TOLERANCE:
             break
         mid = 0.5 * (lo + hi)
-        _stages(t, y, mid * h, k, a, b, c, y_stage, y_new, p, ste_amp, ste_phase, torque,
-                direction, load, fp)
-        now = _law(t + mid * h, y_new, p, ste_amp, ste_phase, torque, direction, load, fp)
-        if _same(now, fp):
+        _stages(t, y, mid * h, k, tableau, y_stage, y_new, model, drive, held)
+        now = _law(t + mid * h, y_new, model, drive, held)
+        if now == held:
             lo = mid
         else:
             hi, after = mid, now
-    _stages(t, y, hi * h, k, a, b, c, y_stage, y_new, p, ste_amp, ste_phase, torque, direction,
-            load, fp)
+    _stages(t, y, hi * h, k, tableau, y_stage, y_new, model, drive, held)
     return hi, after
 
 
 @allocating_kernel
-def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load,
-              rtol, atol, a, b, c, e3, e5, max_steps):
-    """Integrate y' = rhs(t, y) from (t0, y0) through the sorted times ``t_out``
-    (all ≥ t0), writing the state at each into ``out[j]``.
+def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
+    """Integrate y' = rhs(t, y) of the model (a :class:`~screwgear_ros.model.PackedModel`)
+    under the input ``drive`` (a :class:`~screwgear_ros.model.Drive`) from (t0, y0)
+    through the sorted times ``t_out`` (all ≥ t0), writing the state at each into
+    ``out[j]``, with the method ``tableau`` (:data:`TABLEAU`).
 
     Returns (status, t, h, accepted, rejected, done): status OK or the failure code,
     the time reached (where it failed), the last step size, step counts, and how
     many rows of ``out`` were written.
     """
+    a, b, c, e3, e5 = tableau
     n_stages = b.shape[0]
     k = np.empty((n_stages + 1, N))
     y = np.empty(N)
@@ -227,14 +225,12 @@ def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load
     if done == n_out:
         return OK, t, 0.0, 0, 0, done
     t_end = t_out[n_out - 1]
-    none = FrictionPiece.FROM_STATE
-    fp = _law(t, y, p, ste_amp, ste_phase, torque, direction, load, (none, none, none))
-    _f(t, y, k, 0, p, ste_amp, ste_phase, torque, direction, load, fp)
+    held = _law(t, y, model, drive, BY_LAW)
+    _f(t, y, k, 0, model, drive, held)
     for i in range(N):
         if not (math.isfinite(y[i]) and math.isfinite(k[0, i])):
             return NON_FINITE, t, 0.0, 0, 0, done
-    h = _initial_step(t, y, k, t_end - t, p, ste_amp, ste_phase, torque, direction, load,
-                      rtol, atol, y_stage, fp)
+    h = _initial_step(t, y, k, t_end - t, model, drive, rtol, atol, y_stage, held)
     accepted = 0
     rejected = 0
     last_rejected = False
@@ -250,11 +246,10 @@ def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load
         # cut the step to land on the next output time exactly
         lands = t + h >= target - min_step
         h_step = target - t if lands else h
-        finite = _stages(t, y, h_step, k, a, b, c, y_stage, y_new, p, ste_amp, ste_phase,
-                         torque, direction, load, fp)
+        finite = _stages(t, y, h_step, k, tableau, y_stage, y_new, model, drive, held)
         t_new = target if lands else t + h_step
         if finite:
-            _f(t_new, y_new, k, n_stages, p, ste_amp, ste_phase, torque, direction, load, fp)
+            _f(t_new, y_new, k, n_stages, model, drive, held)
             for i in range(N):
                 if not math.isfinite(k[n_stages, i]):
                     finite = False
@@ -278,20 +273,24 @@ def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load
             err = math.inf
         last_non_finite = not finite
         if err <= 1.0:
-            after = _law(t_new, y_new, p, ste_amp, ste_phase, torque, direction, load, fp)
-            if not _same(after, fp):
+            after = _law(t_new, y_new, model, drive, held)
+            if after != held:
                 # a bearing sticks or breaks away inside the step: end the step there,
                 # stop a body that sticks exactly, go on from there on the new pieces
-                s_event, after = _event(t, y, h_step, k, a, b, c, y_stage, y_new, p,
-                                        ste_amp, ste_phase, torque, direction, load, fp, after)
-                for j in range(3):
-                    if after[j] == FrictionPiece.STUCK and fp[j] != FrictionPiece.STUCK:
-                        y_new[3 + j] = 0.0
+                s_event, after = _event(t, y, h_step, k, tableau, y_stage, y_new, model,
+                                        drive, held, after)
+                stuck = FrictionPiece.STUCK
+                if after.friction_1 == stuck and held.friction_1 != stuck:
+                    y_new[3] = 0.0
+                if after.friction_2 == stuck and held.friction_2 != stuck:
+                    y_new[4] = 0.0
+                if after.friction_3 == stuck and held.friction_3 != stuck:
+                    y_new[5] = 0.0
                 t = t + s_event * h_step
                 for i in range(N):
                     y[i] = y_new[i]
-                fp = after
-                _f(t, y, k, 0, p, ste_amp, ste_phase, torque, direction, load, fp)
+                held = after
+                _f(t, y, k, 0, model, drive, held)
                 accepted += 1
                 last_rejected = False
                 while done < n_out and t_out[done] <= t:
@@ -331,13 +330,12 @@ def integrate(t0, y0, t_out, out, p, ste_amp, ste_phase, torque, direction, load
 
 def warm() -> None:
     """Compile (or load) the kernel for the types the reference uses."""
-    from .model import pack
+    from .model import Drive, pack
     from .params import TableParams
-    model = pack(TableParams())
     out = np.empty((2, N))
-    integrate(0.0, np.zeros(N), np.array([1e-4, 2e-4]), out, model.p, model.ste_amp,
-              model.ste_phase, 10.0, 1.0, 0.0, 1e-11, 1e-13, A, B, C, E3, E5, MAX_STEPS)
+    integrate(0.0, np.zeros(N), np.array([1e-4, 2e-4]), out, pack(TableParams()),
+              Drive(10.0, 1.0, 0.0), 1e-11, 1e-13, TABLEAU, MAX_STEPS)
 
 
-__all__ = ['A', 'B', 'C', 'E3', 'E5', 'OK', 'STEP_COLLAPSED', 'NON_FINITE', 'BUDGET',
+__all__ = ['A', 'B', 'C', 'E3', 'E5', 'TABLEAU', 'OK', 'STEP_COLLAPSED', 'NON_FINITE', 'BUDGET',
            'MAX_STEPS', 'integrate', 'warm']

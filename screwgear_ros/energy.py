@@ -53,7 +53,7 @@ from .events import Command, Event
 from .jit import kernel
 from .model import (B, C, MODE_CONVENTIONAL, CT, I1, I2, I3, MODE, PHASE, PHASE_TIME, R1, R3, TP,
                     Z1, Z3, applied_torques, branch_force, branch_penetration, contact_branch,
-                    mesh_motion, mesh_phase, mesh_stiffness_slope, pack)
+                    PackedModel, mesh_motion, mesh_phase, mesh_stiffness_slope, pack)
 from .params import SimSettings, TableParams
 from .plant import DriveInput
 from .session import Session
@@ -207,8 +207,8 @@ def audit(trace: Trace) -> EnergyAudit:
         model = pack(stretch.params)
         power = np.empty((b - a + 1, 6))
         stored = np.empty((b - a + 1, 2))
-        _powers(t[a:b + 1], y[a:b + 1], model.p, model.ste_amp, model.ste_phase,
-                stretch.drive.torque, float(stretch.drive.direction), power, stored)
+        _powers(t[a:b + 1], y[a:b + 1], model, stretch.drive.torque,
+                float(stretch.drive.direction), power, stored)
         if k == 0:
             kinetic[a], potential[a] = stored[0]
         # new parameters (stiffness, inertia, …) change the stored energy at their step
@@ -233,11 +233,11 @@ def audit(trace: Trace) -> EnergyAudit:
 
 
 @kernel
-def _powers(t: np.ndarray, y: np.ndarray, p: np.ndarray, ste_amp: np.ndarray,
-            ste_phase: np.ndarray, torque: float, direction: float, power: np.ndarray,
-            stored: np.ndarray) -> None:
+def _powers(t: np.ndarray, y: np.ndarray, model: PackedModel, torque: float, direction: float,
+            power: np.ndarray, stored: np.ndarray) -> None:
     """Per sample: power[:, 0..3] = drive, mesh damping, table damping, phase power (W);
     stored[:, 0..1] = kinetic energy, mesh potential (J)."""
+    p = model.p
     for k in range(t.shape[0]):
         th1, th2, th3, w1, w2, w3 = y[k, 0], y[k, 1], y[k, 2], y[k, 3], y[k, 4], y[k, 5]
         t1, t3 = applied_torques(t[k], w1, w3, torque, direction, p)
@@ -253,7 +253,7 @@ def _powers(t: np.ndarray, y: np.ndarray, p: np.ndarray, ste_amp: np.ndarray,
             theta, omega = (th1, w1) if i == 0 else (th3, w3)
             radius, teeth = (p[R1], p[Z1]) if i == 0 else (p[R3], p[Z3])
             phi, deps, delta, delta_dot, stiffness = mesh_motion(
-                theta, omega, radius, teeth, th2, w2, t[k], p, ste_amp, ste_phase)
+                theta, omega, radius, teeth, th2, w2, t[k], model)
             phi_dot = mesh_phase(theta, omega, teeth, t[k], p)[1]
             branch = contact_branch(delta, delta_dot, stiffness, p[C], p[B])
             force = branch_force(branch, delta, delta_dot, stiffness, p[C], p[B])

@@ -4,8 +4,10 @@
 scalars, with no allocation per step; every step is :func:`screwgear_ros.rk.step`.
 Time is never accumulated: step k starts at t = (step0 + k)·dt, so long runs do not
 drift and a run is reproducible from the integer step at which each input took effect.
-The input (torque, direction, load) is constant over a call; it changes only at step
-boundaries.
+The kernels take the model, the input and the held pieces as the named tuples of
+:mod:`screwgear_ros.model` (:class:`~screwgear_ros.model.PackedModel`,
+:class:`~screwgear_ros.model.Drive`, :class:`~screwgear_ros.model.Pieces`), whole. The input
+is constant over a call; it changes only at step boundaries.
 
 Contact location (``locate``, the default): the mesh force jumps (a flank is hit with
 δ̇ ≠ 0) or kinks (it lifts off) where a mesh changes its branch of the contact law
@@ -39,7 +41,7 @@ import numpy as np
 from . import rk
 from .friction import FrictionPiece
 from .jit import inline_kernel, kernel
-from .model import ContactBranch, DrivePiece, body_torques, friction_pieces, motion, outputs
+from .model import BY_LAW, Drive, PackedModel, motion, outputs, pieces
 
 #: Changes located within one step before the step is finished by the plain law (a mesh
 #: chattering on its boundary; never reached by a sane run).
@@ -49,68 +51,24 @@ MAX_CHANGES = 16
 THETA_TOLERANCE = 1e-15
 MAX_BISECTIONS = 60
 
-#: Held pieces (branch of mesh 1, branch of mesh 3, drive piece, bearing friction of
-#: pinion 1, the table, pinion 3) meaning "the law's own".
-BY_LAW = (ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE,
-          FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE)
-
 
 @inline_kernel
 def _slope(t, y, args):
-    """dy/dt with the meshes, the drive and the bearings held on the pieces args[6] =
-    (branch of mesh 1, branch of mesh 3, drive piece, friction pieces of the three bodies).
-    A stuck body's speed and acceleration are both 0: its slope is exactly 0."""
-    p, ste_amp, ste_phase, torque, direction, load, held = args
-    a1, a2, a3 = motion(t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase, torque,
-                        direction, load, held[0], held[1], held[2], held[3], held[4],
-                        held[5])[:3]
+    """dy/dt with the meshes, the drive and the bearings held on the pieces args =
+    (model, drive, held) give (a stuck body's slope is exactly 0)."""
+    a1, a2, a3 = motion(t, y, args[0], args[1], args[2])[:3]
     return (y[3], y[4], y[5], a1, a2, a3)
 
 
 @inline_kernel
-def _law(t, y, p, ste_amp, ste_phase, torque, direction, load):
-    """dy/dt by the contact law, drive line and friction law themselves (from the state
-    alone), and the pieces they are on."""
-    a1, a2, a3, _, _, _, _, _, branch_1, branch_3, drive, friction_1, friction_2, friction_3 = \
-        motion(t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase, torque, direction,
-               load, BY_LAW[0], BY_LAW[1], BY_LAW[2], BY_LAW[3], BY_LAW[4], BY_LAW[5])
-    return ((y[3], y[4], y[5], a1, a2, a3),
-            (branch_1, branch_3, drive, friction_1, friction_2, friction_3))
-
-
-@inline_kernel
-def _pieces(t, y, p, ste_amp, ste_phase, torque, direction, load, held):
-    """The pieces the law is on at (t, y), coming from the ``held`` ones, without the
-    slope: contact branches and drive piece from the state, each bearing's friction piece
-    from its held one (a slipping body whose speed has reached zero is judged at rest)."""
-    tau1, tau2, tau3, _, _, _, _, branch_1, branch_3, drive = body_torques(
-        t, y[0], y[1], y[2], y[3], y[4], y[5], p, ste_amp, ste_phase, torque, direction, load,
-        BY_LAW[0], BY_LAW[1], BY_LAW[2])
-    friction_1, friction_2, friction_3 = friction_pieces(y[3], y[4], y[5], tau1, tau2, tau3, p,
-                                                         held[3], held[4], held[5])
-    return branch_1, branch_3, drive, friction_1, friction_2, friction_3
-
-
-@inline_kernel
-def _same(a, b):
-    return (a[0] == b[0] and a[1] == b[1] and a[2] == b[2] and a[3] == b[3] and a[4] == b[4]
-            and a[5] == b[5])
-
-
-@inline_kernel
-def _stick(y, held, after):
-    """``y`` with the speed of each body that sticks (from a slip piece in ``held`` to
-    STUCK in ``after``) set to exactly 0."""
-    stuck = FrictionPiece.STUCK
-    w1 = 0.0 if after[3] == stuck and held[3] != stuck else y[3]
-    w2 = 0.0 if after[4] == stuck and held[4] != stuck else y[4]
-    w3 = 0.0 if after[5] == stuck and held[5] != stuck else y[5]
-    return (y[0], y[1], y[2], w1, w2, w3)
+def _law(t, y, model, drive):
+    """dy/dt by the contact law and drive line themselves, and the pieces they are on."""
+    a1, a2, a3, _, _, _, _, _, held = motion(t, y, model, drive, BY_LAW)
+    return (y[3], y[4], y[5], a1, a2, a3), held
 
 
 @kernel
-def _locate(t, h, y0, f0, y1, f1, p, ste_amp, ste_phase, torque, direction, load, held,
-            after):
+def _locate(t, h, y0, f0, y1, f1, model, drive, held, after):
     """First instant t + θ·h at which the law leaves the ``held`` pieces, on the Hermite
     interpolant of the step (y0, f0) → (y1, f1), by bisection: (θ just past the change,
     the pieces the law gives there, coming from ``held``). The law has left them at θ = 1,
@@ -120,9 +78,8 @@ def _locate(t, h, y0, f0, y1, f1, p, ste_amp, ste_phase, torque, direction, load
         if hi - lo <= THETA_TOLERANCE:
             break
         theta = 0.5 * (lo + hi)
-        now = _pieces(t + theta * h, rk.hermite(y0, f0, y1, f1, h, theta), p, ste_amp,
-                      ste_phase, torque, direction, load, held)
-        if _same(now, held):
+        now = pieces(t + theta * h, rk.hermite(y0, f0, y1, f1, h, theta), model, drive, held)
+        if now == held:
             lo = theta
         else:
             hi, after = theta, now
@@ -130,40 +87,45 @@ def _locate(t, h, y0, f0, y1, f1, p, ste_amp, ste_phase, torque, direction, load
 
 
 @inline_kernel
-def _located_step(t0, t_end, dt, y, slope, held, p, ste_amp, ste_phase, torque, direction,
-                  load):
+def _stick(y, held, after):
+    """``y`` with the speed of each body that sticks (from a slip piece in ``held`` to
+    STUCK in ``after``) set to exactly 0."""
+    stuck = FrictionPiece.STUCK
+    w1 = 0.0 if after.friction_1 == stuck and held.friction_1 != stuck else y[3]
+    w2 = 0.0 if after.friction_2 == stuck and held.friction_2 != stuck else y[4]
+    w3 = 0.0 if after.friction_3 == stuck and held.friction_3 != stuck else y[5]
+    return (y[0], y[1], y[2], w1, w2, w3)
+
+
+@inline_kernel
+def _located_step(t0, t_end, dt, y, slope, held, model, drive):
     """One step from t0 to t_end = t0 + dt with changes located (module docstring).
     ``slope`` and ``held`` are the law's at (t0, y); returns the new state, the law's
     slope and pieces there, and how many changes were located."""
     t, h = t0, dt
     for changes in range(MAX_CHANGES + 1):
-        args = (p, ste_amp, ste_phase, torque, direction, load, held)
+        args = (model, drive, held)
         y_end = rk.step_from(_slope, t, y, h, slope, args)
-        slope_end, end = _law(t_end, y_end, p, ste_amp, ste_phase, torque, direction, load)
-        if _same(end, held) or changes == MAX_CHANGES:
-            if not _same(end, held):                     # chatter: finish by the law
-                y_end = rk.step(_slope, t, y, h, (p, ste_amp, ste_phase, torque, direction,
-                                                  load, BY_LAW))
-                slope_end, end = _law(t_end, y_end, p, ste_amp, ste_phase, torque, direction,
-                                      load)
+        slope_end, end = _law(t_end, y_end, model, drive)
+        if end == held or changes == MAX_CHANGES:
+            if end != held:                     # chatter: finish by the law
+                y_end = rk.step(_slope, t, y, h, (model, drive, BY_LAW))
+                slope_end, end = _law(t_end, y_end, model, drive)
             return y_end, slope_end, end, changes
-        theta, after = _locate(t, h, y, slope, y_end, _slope(t + h, y_end, args), p, ste_amp,
-                               ste_phase, torque, direction, load, held,
-                               _pieces(t_end, y_end, p, ste_amp, ste_phase, torque, direction,
-                                       load, held))
+        theta, after = _locate(t, h, y, slope, y_end, _slope(t + h, y_end, args), model,
+                               drive, held, pieces(t_end, y_end, model, drive, held))
         tau = theta * h
         y = _stick(rk.step_from(_slope, t, y, tau, slope, args), held, after)  # up to the change
         t = t + tau
         h = t_end - t
         held = after
-        slope = _slope(t, y, (p, ste_amp, ste_phase, torque, direction, load, held))
+        slope = _slope(t, y, (model, drive, held))
     return y, slope, held, MAX_CHANGES    # not reached
 
 
 @kernel
-def advance(state: np.ndarray, step0: int, n: int, dt: float, p: np.ndarray,
-            ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float, direction: float,
-            load: float, locate: bool = True) -> int:
+def advance(state: np.ndarray, step0: int, n: int, dt: float, model: PackedModel,
+            drive: Drive, locate: bool = True) -> int:
     """Advance ``state`` (θ1, θ2, θ3 in rad, ω1, ω2, ω3 in rad/s) in place by n RK4 steps.
 
     Step k runs from t = (step0 + k)·dt to (step0 + k + 1)·dt, s. ``locate``: changes of
@@ -173,14 +135,13 @@ def advance(state: np.ndarray, step0: int, n: int, dt: float, p: np.ndarray,
     y = (state[0], state[1], state[2], state[3], state[4], state[5])
     located = 0
     if locate:
-        slope, held = _law(step0 * dt, y, p, ste_amp, ste_phase, torque, direction, load)
+        slope, held = _law(step0 * dt, y, model, drive)
         for k in range(n):
             y, slope, held, changes = _located_step(
-                (step0 + k) * dt, (step0 + k + 1) * dt, dt, y, slope, held, p, ste_amp,
-                ste_phase, torque, direction, load)
+                (step0 + k) * dt, (step0 + k + 1) * dt, dt, y, slope, held, model, drive)
             located += changes
     else:
-        law = (p, ste_amp, ste_phase, torque, direction, load, BY_LAW)
+        law = (model, drive, BY_LAW)
         for k in range(n):
             y = rk.step(_slope, (step0 + k) * dt, y, dt, law)
     state[0], state[1], state[2], state[3], state[4], state[5] = y
@@ -193,12 +154,12 @@ OBSERVED = 15
 
 
 @kernel
-def observe(state: np.ndarray, out: np.ndarray, t: float, p: np.ndarray, ste_amp: np.ndarray,
-            ste_phase: np.ndarray, torque: float, direction: float, load: float) -> None:
+def observe(state: np.ndarray, out: np.ndarray, t: float, model: PackedModel,
+            drive: Drive) -> None:
     """``out`` (float64[OBSERVED]) = the state, then :func:`~screwgear_ros.model.outputs`
     of it at time t (s)."""
     th1, th2, th3, w1, w2, w3 = state[0], state[1], state[2], state[3], state[4], state[5]
-    o = outputs(t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque, direction, load)
+    o = outputs(t, (th1, th2, th3, w1, w2, w3), model, drive)
     out[0], out[1], out[2], out[3], out[4], out[5] = th1, th2, th3, w1, w2, w3
     for k in range(9):
         out[6 + k] = o[k]
@@ -206,8 +167,7 @@ def observe(state: np.ndarray, out: np.ndarray, t: float, p: np.ndarray, ste_amp
 
 @kernel
 def advance_observed(state: np.ndarray, backup: np.ndarray, out: np.ndarray, step0: int,
-                     n: int, dt: float, p: np.ndarray, ste_amp: np.ndarray,
-                     ste_phase: np.ndarray, torque: float, direction: float, load: float,
+                     n: int, dt: float, model: PackedModel, drive: Drive,
                      locate: bool = True) -> int:
     """One tick in one call: :func:`advance` n steps, keep the state finite, observe it.
 
@@ -218,8 +178,7 @@ def advance_observed(state: np.ndarray, backup: np.ndarray, out: np.ndarray, ste
     """
     for i in range(6):
         backup[i] = state[i]
-    located = advance(state, step0, n, dt, p, ste_amp, ste_phase, torque, direction, load,
-                      locate)
+    located = advance(state, step0, n, dt, model, drive, locate)
     end = step0 + n
     for i in range(6):
         if not math.isfinite(state[i]):
@@ -227,14 +186,13 @@ def advance_observed(state: np.ndarray, backup: np.ndarray, out: np.ndarray, ste
                 state[j] = backup[j]
             located, end = -1, step0
             break
-    observe(state, out, end * dt, p, ste_amp, ste_phase, torque, direction, load)
+    observe(state, out, end * dt, model, drive)
     return located
 
 
 @kernel
 def advance_ticks(state: np.ndarray, backup: np.ndarray, rows: np.ndarray, step0: int,
-                  ticks: int, n: int, dt: float, p: np.ndarray, ste_amp: np.ndarray,
-                  ste_phase: np.ndarray, torque: float, direction: float, load: float,
+                  ticks: int, n: int, dt: float, model: PackedModel, drive: Drive,
                   locate: bool = True) -> tuple[int, int, bool]:
     """``ticks`` ticks of n steps in one call: what as many calls of
     :func:`advance_observed` do (the same calls, bit for bit), ``rows[i]`` (float64,
@@ -244,8 +202,7 @@ def advance_ticks(state: np.ndarray, backup: np.ndarray, rows: np.ndarray, step0
     located = 0
     step = step0
     for i in range(ticks):
-        changes = advance_observed(state, backup, rows[i], step, n, dt, p, ste_amp, ste_phase,
-                                   torque, direction, load, locate)
+        changes = advance_observed(state, backup, rows[i], step, n, dt, model, drive, locate)
         if changes < 0:
             return i + 1, located, True
         located += changes
@@ -255,8 +212,7 @@ def advance_ticks(state: np.ndarray, backup: np.ndarray, rows: np.ndarray, step0
 
 @kernel
 def trajectory(state: np.ndarray, step0: int, dt: float, stride: int, out: np.ndarray,
-               p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
-               direction: float, load: float, locate: bool = True) -> int:
+               model: PackedModel, drive: Drive, locate: bool = True) -> int:
     """Advance ``state`` by ``out.shape[0]·stride`` steps, storing it every ``stride`` steps.
 
     ``out[j]`` is the state after (j + 1)·stride steps; ``state`` ends at the last row.
@@ -264,8 +220,7 @@ def trajectory(state: np.ndarray, step0: int, dt: float, stride: int, out: np.nd
     """
     located = 0
     for j in range(out.shape[0]):
-        located += advance(state, step0 + j * stride, stride, dt, p, ste_amp, ste_phase,
-                           torque, direction, load, locate)
+        located += advance(state, step0 + j * stride, stride, dt, model, drive, locate)
         for i in range(6):
             out[j, i] = state[i]
     return located

@@ -7,8 +7,13 @@ Input u = (torque, direction, load): drive torque magnitude T ≥ 0 in N·m on t
 active pinion, direction d = ±1, external table load T_load in N·m.
 
 The functions are scalar and compiled with numba (``NUMBA_DISABLE_JIT=1`` runs the
-same source as plain Python). Parameters travel as one packed float array built by
-:func:`pack` so the compiled code sees no Python objects.
+same source as plain Python). What the equations of motion take travels as named tuples,
+each declared once here and passed whole through the integrators, so a new parameter
+array, input or held piece is one field of one tuple rather than a parameter of every
+kernel: the model (:class:`PackedModel`, from :func:`pack`: one packed float array and the
+STE harmonics, so the compiled code sees no Python objects), the drive input
+(:class:`Drive`) and the pieces of the law a step holds (:class:`Pieces`). The state y
+is a tuple of six floats.
 
 Why one module of this length: the mesh law, the drive line and the equations of motion
 are one set of equations over one packed parameter layout and one set of contact
@@ -18,8 +23,8 @@ branches; the integrators and the reference all take their right-hand side from 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from enum import IntEnum
+from typing import NamedTuple
 
 import numpy as np
 
@@ -83,13 +88,40 @@ class DrivePiece(IntEnum):
     FROM_STATE = -1       # not a piece: picked from the speed
 
 
-@dataclass(frozen=True)
-class PackedModel:
-    """What the compiled code needs: packed scalars and the STE harmonic arrays."""
+class Pieces(NamedTuple):
+    """The pieces of the law the equations of motion are on (:func:`motion`): what a step
+    holds while it integrates one smooth piece (:mod:`screwgear_ros.integrator`)."""
+
+    branch_1: ContactBranch     # of mesh 1
+    branch_3: ContactBranch     # of mesh 3
+    drive: DrivePiece           # of the drive's torque–speed line
+    # of each body's bearing friction law (:mod:`screwgear_ros.friction`)
+    friction_1: FrictionPiece = FrictionPiece.FROM_STATE    # pinion 1
+    friction_2: FrictionPiece = FrictionPiece.FROM_STATE    # the table
+    friction_3: FrictionPiece = FrictionPiece.FROM_STATE    # pinion 3
+
+
+#: Pieces meaning "the ones the law picks at the state".
+BY_LAW = Pieces(ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE,
+                FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE)
+
+
+class PackedModel(NamedTuple):
+    """What the compiled code needs: packed scalars and the STE harmonic arrays. A tuple,
+    so the kernels take it whole."""
 
     p: np.ndarray          # float64[N_PACKED]
     ste_amp: np.ndarray    # ε_n, m
     ste_phase: np.ndarray  # ϕ_n, rad
+
+
+class Drive(NamedTuple):
+    """The input as the compiled code takes it: drive torque T ≥ 0 (N·m), direction ±1,
+    table load T_load (N·m), all floats."""
+
+    torque: float
+    direction: float
+    load: float
 
 
 def pack(params: TableParams) -> PackedModel:
@@ -183,12 +215,13 @@ def mesh_force(delta: float, delta_dot: float, stiffness: float, damping: float,
 
 @kernel
 def mesh_motion(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,
-                theta2: float, omega2: float, t: float, p: np.ndarray, ste_amp: np.ndarray,
-                ste_phase: np.ndarray) -> tuple[float, float, float, float, float]:
+                theta2: float, omega2: float, t: float, model: PackedModel
+                ) -> tuple[float, float, float, float, float]:
     """Mesh phase φ (rad), STE slope dε/dφ (m/rad), δ (m), δ̇ (m/s) and stiffness K
     (N/m) of one mesh: what its force depends on."""
+    p = model.p
     phi, phi_dot = mesh_phase(theta_pinion, omega_pinion, teeth, t, p)
-    eps, deps = static_transmission_error(phi, ste_amp, ste_phase)
+    eps, deps = static_transmission_error(phi, model.ste_amp, model.ste_phase)
     delta = radius_pinion * theta_pinion - p[R2] * theta2 - eps
     delta_dot = radius_pinion * omega_pinion - p[R2] * omega2 - deps * phi_dot
     return phi, deps, delta, delta_dot, mesh_stiffness(phi, p)
@@ -215,8 +248,7 @@ def mesh_stiffness_slope(phi: float, p: np.ndarray) -> float:
 
 @kernel
 def mesh_load_on(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,
-                 theta2: float, omega2: float, t: float, p: np.ndarray, ste_amp: np.ndarray,
-                 ste_phase: np.ndarray,
+                 theta2: float, omega2: float, t: float, model: PackedModel,
                  branch: ContactBranch) -> tuple[float, float, ContactBranch]:
     """Mesh force F (N, on the table: r2·F) and the torque Q (N·m) the mesh exerts
     against its pinion (I·θ̈ = T − Q), per ``mesh_formulation``, on contact ``branch``
@@ -227,9 +259,9 @@ def mesh_load_on(theta_pinion: float, omega_pinion: float, radius_pinion: float,
     (docs/model_notes.md §9): Q = (r − z·ε'(φ))·F + ½·z·K'(φ)·f(δ)², F the contact
     force of :func:`mesh_force` (spring and contact damping) acting along ∂δ/∂θ.
     """
+    p = model.p
     phi, deps, delta, delta_dot, stiffness = mesh_motion(
-        theta_pinion, omega_pinion, radius_pinion, teeth, theta2, omega2, t, p, ste_amp,
-        ste_phase)
+        theta_pinion, omega_pinion, radius_pinion, teeth, theta2, omega2, t, model)
     if branch == ContactBranch.FROM_STATE:
         branch = contact_branch(delta, delta_dot, stiffness, p[C], p[B])
     force = branch_force(branch, delta, delta_dot, stiffness, p[C], p[B])
@@ -307,15 +339,12 @@ def drive_torques(t: float, torque: float, direction: float,
 
 
 @kernel
-def body_torques(t: float, th1: float, th2: float, th3: float, w1: float, w2: float,
-                 w3: float, p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray,
-                 torque: float, direction: float, load: float, branch_1: ContactBranch,
-                 branch_3: ContactBranch, drive: DrivePiece
+def body_torques(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
                  ) -> tuple[float, float, float, float, float, float, float, ContactBranch,
                             ContactBranch, DrivePiece]:
-    """The torque on each body from everything but its bearing friction, meshes on the
-    given contact branches and the drive on the given piece of its line (FROM_STATE: the
-    ones the contact law and the drive line pick at this state):
+    """The torque on each body from everything but its bearing friction at state y, the
+    meshes on the contact branches and the drive on the piece of its line ``held`` names
+    (FROM_STATE: the ones the contact law and the drive line pick at this state):
 
     τ1 = T1 − Q1 − c_p·θ̇1;  τ3 = T3 − Q3 − c_p·θ̇3;  τ2 = r2·(F1 + F3) − T_load − c_t·θ̇2,
 
@@ -326,128 +355,105 @@ def body_torques(t: float, th1: float, th2: float, th3: float, w1: float, w2: fl
     Returns (τ1, τ2, τ3, T1, T3 in N·m, F1, F3 in N, branch of mesh 1, branch of mesh 3,
     drive piece).
     """
-    t1, t3, drive = applied_torques_on(drive, t, w1, w3, torque, direction, p)
-    f1, q1, branch_1 = mesh_load_on(th1, w1, p[R1], p[Z1], th2, w2, t, p, ste_amp, ste_phase,
-                                    branch_1)
+    p = model.p
+    th1, th2, th3, w1, w2, w3 = y[0], y[1], y[2], y[3], y[4], y[5]
+    t1, t3, piece = applied_torques_on(held.drive, t, w1, w3, drive.torque, drive.direction,
+                                       p)
+    f1, q1, branch_1 = mesh_load_on(th1, w1, p[R1], p[Z1], th2, w2, t, model, held.branch_1)
     if p[MODE] == MODE_CONVENTIONAL:
         f3, q3, branch_3 = 0.0, 0.0, ContactBranch.DISENGAGED
     else:
-        f3, q3, branch_3 = mesh_load_on(th3, w3, p[R3], p[Z3], th2, w2, t, p, ste_amp,
-                                        ste_phase, branch_3)
+        f3, q3, branch_3 = mesh_load_on(th3, w3, p[R3], p[Z3], th2, w2, t, model,
+                                        held.branch_3)
     tau1 = t1 - q1
     tau3 = t3 - q3
     if p[CP] != 0.0:
         tau1 -= p[CP] * w1
         tau3 -= p[CP] * w3
-    table = p[R2] * (f1 + f3) - load - p[CT] * w2
-    return tau1, table, tau3, t1, t3, f1, f3, branch_1, branch_3, drive
+    table = p[R2] * (f1 + f3) - drive.load - p[CT] * w2
+    return tau1, table, tau3, t1, t3, f1, f3, branch_1, branch_3, piece
 
 
 @kernel
-def friction_pieces(w1: float, w2: float, w3: float, tau1: float, tau2: float, tau3: float,
-                    p: np.ndarray, held_1: FrictionPiece, held_2: FrictionPiece,
-                    held_3: FrictionPiece) -> tuple[FrictionPiece, FrictionPiece,
-                                                    FrictionPiece]:
+def friction_pieces(y: tuple, tau1: float, tau2: float, tau3: float, p: np.ndarray,
+                    held: Pieces) -> tuple[FrictionPiece, FrictionPiece, FrictionPiece]:
     """The pieces of the bearing friction law (:func:`~screwgear_ros.friction.friction_piece`)
-    of pinion 1, the table and pinion 3, coming from the ``held`` ones (FROM_STATE: from
-    the speeds and torques alone), under the torques τ of :func:`body_torques`."""
-    return (friction_piece(held_1, w1, tau1, p[TSP]), friction_piece(held_2, w2, tau2, p[TS2]),
-            friction_piece(held_3, w3, tau3, p[TSP]))
+    of pinion 1, the table and pinion 3 at state y, coming from the ones ``held`` names
+    (FROM_STATE: from the speeds and torques alone), under the torques τ of
+    :func:`body_torques`."""
+    return (friction_piece(held.friction_1, y[3], tau1, p[TSP]),
+            friction_piece(held.friction_2, y[4], tau2, p[TS2]),
+            friction_piece(held.friction_3, y[5], tau3, p[TSP]))
 
 
 @kernel
-def motion(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
-           p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
-           direction: float, load: float, branch_1: ContactBranch, branch_3: ContactBranch,
-           drive: DrivePiece, friction_1: FrictionPiece, friction_2: FrictionPiece,
-           friction_3: FrictionPiece
-           ) -> tuple[float, float, float, float, float, float, float, float, ContactBranch,
-                      ContactBranch, DrivePiece, FrictionPiece, FrictionPiece, FrictionPiece]:
-    """The 3-DOF equations of motion (model.md §3) at one state, meshes on the given
-    contact branches, the drive on the given piece of its line and each body's bearing
-    friction on the given piece of its law (FROM_STATE: the ones the laws pick at this
-    state).
+def motion(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
+           ) -> tuple[float, float, float, float, float, float, float, float, Pieces]:
+    """The 3-DOF equations of motion (model.md §3) at state y, the meshes on the contact
+    branches, the drive on the piece of its line and each body's bearing friction on the
+    piece of its law ``held`` names (FROM_STATE: the ones the laws pick at this state;
+    :data:`BY_LAW` all of them).
 
     I_j·θ̈_j = τ_j + T_f,j with the torques τ of :func:`body_torques` and the bearing
     friction T_f of :func:`~screwgear_ros.friction.friction_on` (docs/model_notes.md §13:
-    stuck, θ̈_j = 0; none, τ_j/I_j exactly as without friction).
+    stuck, θ̈_j = 0; no friction, τ_j/I_j exactly as the model without it).
 
-    Returns (θ̈1, θ̈2, θ̈3 in rad/s², T1, net table torque (friction included), T3 in
-    N·m, F1, F3 in N, branch of mesh 1, branch of mesh 3, drive piece, friction pieces of
-    pinion 1, the table, pinion 3).
+    Returns (θ̈1, θ̈2, θ̈3 in rad/s², T1, net table torque (its friction included), T3
+    in N·m, F1, F3 in N, the pieces the law was on).
     """
-    tau1, tau2, tau3, t1, t3, f1, f3, branch_1, branch_3, drive = body_torques(
-        t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque, direction, load, branch_1,
-        branch_3, drive)
+    p = model.p
+    tau1, tau2, tau3, t1, t3, f1, f3, branch_1, branch_3, piece = body_torques(
+        t, y, model, drive, held)
+    friction_1, friction_2, friction_3 = held.friction_1, held.friction_2, held.friction_3
     if friction_1 == FrictionPiece.FROM_STATE:
-        friction_1 = friction_piece(friction_1, w1, tau1, p[TSP])
+        friction_1 = friction_piece(friction_1, y[3], tau1, p[TSP])
     if friction_2 == FrictionPiece.FROM_STATE:
-        friction_2 = friction_piece(friction_2, w2, tau2, p[TS2])
+        friction_2 = friction_piece(friction_2, y[4], tau2, p[TS2])
     if friction_3 == FrictionPiece.FROM_STATE:
-        friction_3 = friction_piece(friction_3, w3, tau3, p[TSP])
-    a1 = friction_on(friction_1, w1, tau1, p[I1], p[TCP], p[TSP], p[WSP])[0]
-    a2, table_friction = friction_on(friction_2, w2, tau2, p[I2], p[TC2], p[TS2], p[WS2])
-    a3 = friction_on(friction_3, w3, tau3, p[I3], p[TCP], p[TSP], p[WSP])[0]
+        friction_3 = friction_piece(friction_3, y[5], tau3, p[TSP])
+    a1 = friction_on(friction_1, y[3], tau1, p[I1], p[TCP], p[TSP], p[WSP])[0]
+    a2, table_friction = friction_on(friction_2, y[4], tau2, p[I2], p[TC2], p[TS2], p[WS2])
+    a3 = friction_on(friction_3, y[5], tau3, p[I3], p[TCP], p[TSP], p[WSP])[0]
     table = tau2 if friction_2 == FrictionPiece.NONE else tau2 + table_friction
-    return (a1, a2, a3, t1, table, t3, f1, f3, branch_1, branch_3, drive, friction_1,
-            friction_2, friction_3)
+    return (a1, a2, a3, t1, table, t3, f1, f3,
+            Pieces(branch_1, branch_3, piece, friction_1, friction_2, friction_3))
 
 
 @kernel
-def rhs(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
-        p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
-        direction: float, load: float) -> tuple[float, float, float, float, float, float]:
+def rhs(t: float, y: tuple, model: PackedModel,
+        drive: Drive) -> tuple[float, float, float, float, float, float]:
     """dy/dt of the 3-DOF equations of motion (:func:`motion`), rad/s and rad/s²."""
-    a1, a2, a3 = motion(t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque,
-                        direction, load, ContactBranch.FROM_STATE, ContactBranch.FROM_STATE,
-                        DrivePiece.FROM_STATE, FrictionPiece.FROM_STATE,
-                        FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE)[:3]
-    return w1, w2, w3, a1, a2, a3
+    a1, a2, a3 = motion(t, y, model, drive, BY_LAW)[:3]
+    return y[3], y[4], y[5], a1, a2, a3
 
 
 @kernel
-def rhs_on(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
-           p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
-           direction: float, load: float, friction_1: FrictionPiece, friction_2: FrictionPiece,
-           friction_3: FrictionPiece) -> tuple[float, float, float, float, float, float]:
-    """:func:`rhs` with each body's bearing friction held on the given piece (the
-    reference solver's right-hand side between friction events)."""
-    a1, a2, a3 = motion(t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque,
-                        direction, load, ContactBranch.FROM_STATE, ContactBranch.FROM_STATE,
-                        DrivePiece.FROM_STATE, friction_1, friction_2, friction_3)[:3]
-    return w1, w2, w3, a1, a2, a3
-
-
-@kernel
-def friction_law(t: float, th1: float, th2: float, th3: float, w1: float, w2: float,
-                 w3: float, p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray,
-                 torque: float, direction: float, load: float, held_1: FrictionPiece,
-                 held_2: FrictionPiece, held_3: FrictionPiece
-                 ) -> tuple[FrictionPiece, FrictionPiece, FrictionPiece]:
-    """The friction pieces of pinion 1, the table and pinion 3 at this state, coming from
-    the ``held`` ones (:func:`friction_pieces`; FROM_STATE: from the state alone)."""
-    tau1, tau2, tau3 = body_torques(t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque,
-                                    direction, load, ContactBranch.FROM_STATE,
-                                    ContactBranch.FROM_STATE, DrivePiece.FROM_STATE)[:3]
-    return friction_pieces(w1, w2, w3, tau1, tau2, tau3, p, held_1, held_2, held_3)
-
-
-@kernel
-def contact_branches(t: float, th1: float, th2: float, th3: float, w1: float, w2: float,
-                     w3: float, p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray
+def contact_branches(t: float, y: tuple, model: PackedModel
                      ) -> tuple[ContactBranch, ContactBranch]:
-    """The branches of the contact law mesh 1 and mesh 3 are on at this state."""
-    _, _, d1, dd1, k1 = mesh_motion(th1, w1, p[R1], p[Z1], th2, w2, t, p, ste_amp, ste_phase)
+    """The branches of the contact law mesh 1 and mesh 3 are on at state y."""
+    p = model.p
+    th1, th2, th3, w1, w2, w3 = y[0], y[1], y[2], y[3], y[4], y[5]
+    _, _, d1, dd1, k1 = mesh_motion(th1, w1, p[R1], p[Z1], th2, w2, t, model)
     if p[MODE] == MODE_CONVENTIONAL:
         return contact_branch(d1, dd1, k1, p[C], p[B]), ContactBranch.DISENGAGED
-    _, _, d3, dd3, k3 = mesh_motion(th3, w3, p[R3], p[Z3], th2, w2, t, p, ste_amp, ste_phase)
+    _, _, d3, dd3, k3 = mesh_motion(th3, w3, p[R3], p[Z3], th2, w2, t, model)
     return contact_branch(d1, dd1, k1, p[C], p[B]), contact_branch(d3, dd3, k3, p[C], p[B])
 
 
 @kernel
-def outputs(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, w3: float,
-            p: np.ndarray, ste_amp: np.ndarray, ste_phase: np.ndarray, torque: float,
-            direction: float, load: float
+def pieces(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces) -> Pieces:
+    """The pieces the law is on at state y, without the slope: the contact branches and
+    the drive piece the state picks, each bearing's friction piece coming from the one
+    ``held`` names (:func:`friction_pieces`: a slipping body whose speed has reached zero
+    is judged at rest; FROM_STATE, as in :data:`BY_LAW`: what :func:`motion` picks)."""
+    tau1, tau2, tau3, _, _, _, _, branch_1, branch_3, piece = body_torques(
+        t, y, model, drive, BY_LAW)
+    friction_1, friction_2, friction_3 = friction_pieces(y, tau1, tau2, tau3, model.p, held)
+    return Pieces(branch_1, branch_3, piece, friction_1, friction_2, friction_3)
+
+
+@kernel
+def outputs(t: float, y: tuple, model: PackedModel, drive: Drive
             ) -> tuple[float, float, float, float, float, float, float, float, float]:
     """What the node publishes about a state besides the state itself: the torques
     applied to pinion 1, the table (net, = I2·θ̈2) and pinion 3 (N·m; on the pinions the
@@ -455,20 +461,17 @@ def outputs(t: float, th1: float, th2: float, th3: float, w1: float, w2: float, 
     :func:`applied_torques`: the command itself below the line), then δ (m), δ̇ (m/s) and
     the mesh force F (N) of mesh 1 and of mesh 3 (δ3 and δ̇3 also when pinion 3 is
     disengaged, with F3 = 0)."""
-    _, _, _, t1, table, t3, f1, f3, _, _, _, _, _, _ = motion(
-        t, th1, th2, th3, w1, w2, w3, p, ste_amp, ste_phase, torque, direction, load,
-        ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE,
-        FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE)
-    _, _, d1, dd1, _ = mesh_motion(th1, w1, p[R1], p[Z1], th2, w2, t, p, ste_amp, ste_phase)
-    _, _, d3, dd3, _ = mesh_motion(th3, w3, p[R3], p[Z3], th2, w2, t, p, ste_amp, ste_phase)
+    p = model.p
+    th1, th2, th3, w1, w2, w3 = y[0], y[1], y[2], y[3], y[4], y[5]
+    _, _, _, t1, table, t3, f1, f3, _ = motion(t, y, model, drive, BY_LAW)
+    _, _, d1, dd1, _ = mesh_motion(th1, w1, p[R1], p[Z1], th2, w2, t, model)
+    _, _, d3, dd3, _ = mesh_motion(th3, w3, p[R3], p[Z3], th2, w2, t, model)
     return t1, table, t3, d1, dd1, f1, d3, dd3, f3
 
 
-def rhs_vector(t: float, y: np.ndarray, model: PackedModel, torque: float, direction: float,
-               load: float) -> np.ndarray:
+def rhs_vector(t: float, y: np.ndarray, model: PackedModel, drive: Drive) -> np.ndarray:
     """The same right-hand side on a state vector, for SciPy solvers."""
-    return np.array(rhs(t, y[0], y[1], y[2], y[3], y[4], y[5], model.p, model.ste_amp,
-                        model.ste_phase, torque, direction, load))
+    return np.array(rhs(t, (y[0], y[1], y[2], y[3], y[4], y[5]), model, drive))
 
 
 def stiffest_linearization(params: TableParams) -> np.ndarray:
@@ -664,12 +667,12 @@ def equilibrium_state(params: TableParams) -> np.ndarray:
 
 
 __all__ = [
-    'PackedModel', 'pack', 'mesh_phase', 'static_transmission_error', 'mesh_stiffness',
+    'PackedModel', 'Drive', 'Pieces', 'BY_LAW', 'pack', 'pieces', 'mesh_phase',
+    'static_transmission_error', 'mesh_stiffness',
     'mesh_force', 'mesh_stiffness_slope', 'mesh_load_on', 'active_speed', 'applied_torques', 'drive_torques', 'rhs', 'rhs_vector',
     'DrivePiece', 'drive_piece', 'drive_on', 'applied_torques_on',
     'active_path', 'ContactBranch', 'contact_branch', 'branch_force', 'mesh_motion',
-    'branch_penetration', 'body_torques', 'friction_pieces', 'friction_law', 'rhs_on',
-    'motion', 'contact_branches', 'outputs',
+    'branch_penetration', 'body_torques', 'friction_pieces', 'motion', 'contact_branches', 'outputs',
     'stiffest_linearization', 'EquilibriumNotFound', 'NEWTON_ITERATIONS',
     'equilibrium_state', 'MODE_ANTI_BACKLASH', 'MODE_CONVENTIONAL', 'PHASE_ANGLE', 'PHASE_TIME',
     'N_PACKED', 'I1', 'I2', 'I3', 'R1', 'R2', 'R3', 'Z1', 'Z3', 'K_EFF', 'K_A', 'PHI_K', 'C', 'B',

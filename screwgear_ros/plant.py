@@ -18,7 +18,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .integrator import OBSERVED, advance_observed, advance_ticks, observe
-from .model import PackedModel, active_path, equilibrium_state, pack
+from .model import Drive, PackedModel, active_path, equilibrium_state, pack
 from .params import TableParams
 from .stability import check_step
 
@@ -39,6 +39,11 @@ class DriveInput:
         drive = object.__new__(cls)
         drive.__dict__.update(torque=torque, direction=direction, load=load)
         return drive
+
+    @property
+    def kernel(self) -> Drive:
+        """The input as the compiled calls take it (all floats)."""
+        return Drive(float(self.torque), float(self.direction), float(self.load))
 
 
 @dataclass(slots=True)
@@ -88,7 +93,7 @@ class Plant:
         self.step = 0
         self._input = DriveInput()
         self._path = active_path(params.mode, self._input.direction)   # of both
-        self._drive = _kernel_drive(self._input)
+        self._drive = self._input.kernel
         self.state = (equilibrium_state(params) if initial_state is None
                       else np.array(initial_state, dtype=np.float64))
         self.fault: str | None = None
@@ -148,7 +153,7 @@ class Plant:
         if drive.direction != self._input.direction:
             self._path = active_path(self._params.mode, drive.direction)
         self._input = drive
-        self._drive = _kernel_drive(drive)
+        self._drive = drive.kernel      # made once per input rather than at each call
 
     def reset(self) -> None:
         """Back to the preload equilibrium at rest, keeping the simulation time."""
@@ -159,15 +164,11 @@ class Plant:
         """Integrate n steps; False (state kept at the last finite one) on a fault."""
         if self.fault is not None:
             return False
-        m = self._model
-        torque, direction, load = self._drive
-        changes = (self._advance or advance_observed)(
-            self._state, self._backup, self._observed, self.step, n, self.dt, m.p,
-            m.ste_amp, m.ste_phase, torque, direction, load, self.contact_location)
+        args = (self._state, self._backup, self._observed, self.step, n, self.dt, self._model,
+                self._drive, self.contact_location)
+        changes = (self._advance or advance_observed)(*args)
         if self._advance is None:       # after the dispatcher's call: it has the code now
-            self._advance = compiled_entry(advance_observed, (
-                self._state, self._backup, self._observed, self.step, n, self.dt, m.p,
-                m.ste_amp, m.ste_phase, torque, direction, load, self.contact_location))
+            self._advance = compiled_entry(advance_observed, args)
         if changes < 0:
             self.fault = self._fault(n)
             return False
@@ -191,11 +192,9 @@ class Plant:
         stands still."""
         if self.fault is not None or ticks <= 0:
             return 0
-        m = self._model
-        torque, direction, load = self._drive
         done, changes, faulted = advance_ticks(
-            self._state, self._backup, rows, self.step, ticks, n, self.dt, m.p, m.ste_amp,
-            m.ste_phase, torque, direction, load, self.contact_location)
+            self._state, self._backup, rows, self.step, ticks, n, self.dt, self._model,
+            self._drive, self.contact_location)
         self.step += (done - faulted) * n       # a faulted tick's time stands still
         if faulted:
             self.fault = self._fault(n)
@@ -213,10 +212,7 @@ class Plant:
 
     def outputs(self) -> Outputs:
         """Joint and mesh quantities of the current state (and input)."""
-        m = self._model
-        torque, direction, load = self._drive
-        observe(self._state, self._observed, self.time, m.p, m.ste_amp, m.ste_phase, torque,
-                direction, load)
+        observe(self._state, self._observed, self.time, self._model, self._drive)
         return self.last_outputs()
 
     @property
@@ -236,12 +232,6 @@ class Plant:
         step = self.step
         return Outputs(step * self.dt, step, (th1, th2, th3), (w1, w2, w3), (t1, table, t3),
                        (d1, d3), (dd1, dd3), (f1, f3), self._path)
-
-
-def _kernel_drive(drive: DriveInput) -> tuple[float, float, float]:
-    """The input as the compiled calls take it (torque, direction, load as floats), made
-    once per input rather than at each call."""
-    return float(drive.torque), float(drive.direction), float(drive.load)
 
 
 def compiled_entry(dispatcher: Any, args: tuple[Any, ...]) -> Callable[..., Any]:

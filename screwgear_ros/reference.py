@@ -143,9 +143,8 @@ def _segment(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray, dt: 
     steps = samples if ends_on_sample else np.append(samples, step_b)  # always see the end
     states = np.empty((len(steps), 6))
     status, t, h, accepted, rejected, _ = dop853.integrate(
-        step_a * dt, y0, steps * dt, states, model.p, model.ste_amp, model.ste_phase,
-        float(drive.torque), float(drive.direction), float(drive.load), rtol, atol,
-        dop853.A, dop853.B, dop853.C, dop853.E3, dop853.E5, dop853.MAX_STEPS)
+        step_a * dt, y0, steps * dt, states, model, drive.kernel, rtol, atol,
+        dop853.TABLEAU, dop853.MAX_STEPS)
     if status != dop853.OK:
         reason = _REASONS[status].format(h=h, steps=accepted + rejected)
         raise ReferenceFailure(reason, float(t), 0, 1, step_a * dt, step_b * dt, drive)
@@ -160,8 +159,8 @@ def _segment_scipy(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray
     drive = seg.drive
     ends_on_sample = len(samples) > 0 and samples[-1] == step_b
     steps = samples if ends_on_sample else np.append(samples, step_b)
-    sol = solve_ivp(lambda t, y: rhs_vector(t, y, model, drive.torque,
-                                            float(drive.direction), drive.load),
+    kernel_drive = drive.kernel
+    sol = solve_ivp(lambda t, y: rhs_vector(t, y, model, kernel_drive),
                     (step_a * dt, step_b * dt), y0, method='DOP853', rtol=rtol, atol=atol,
                     t_eval=steps * dt)
     if not sol.success:

@@ -80,9 +80,8 @@ class Contact(StrEnum):
 def contact_states(params: TableParams, outputs: Outputs) -> tuple[Contact, Contact]:
     """Contact of mesh 1 and mesh 3 at ``outputs``: the branches the model's contact law
     is on there (:func:`screwgear_ros.model.contact_branches`)."""
-    m = _packed(params)
-    branch_1, branch_3 = contact_branches(outputs.time, *outputs.position, *outputs.velocity,
-                                          m.p, m.ste_amp, m.ste_phase)
+    branch_1, branch_3 = contact_branches(outputs.time, (*outputs.position, *outputs.velocity),
+                                          _packed(params))
     return Contact.of(branch_1), Contact.of(branch_3)
 
 

@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 
 from screwgear_ros.integrator import trajectory
-from screwgear_ros.model import equilibrium_state, pack
+from screwgear_ros.model import Drive, equilibrium_state, pack
 from screwgear_ros.params import TableParams
 
 TORQUE = 400.0              # N·m, the paper's drive torque
@@ -47,8 +47,8 @@ def _reversal_run(p: TableParams) -> np.ndarray:
     y = equilibrium_state(p)
     fwd = np.empty((REVERSAL, 6))
     rev = np.empty((END - REVERSAL, 6))
-    trajectory(y, 0, DT, 1, fwd, m.p, m.ste_amp, m.ste_phase, TORQUE, 1.0, 0.0)
-    trajectory(y, REVERSAL, DT, 1, rev, m.p, m.ste_amp, m.ste_phase, TORQUE, -1.0, 0.0)
+    trajectory(y, 0, DT, 1, fwd, m, Drive(TORQUE, 1.0, 0.0))
+    trajectory(y, REVERSAL, DT, 1, rev, m, Drive(TORQUE, -1.0, 0.0))
     return np.vstack([fwd, rev])
 
 

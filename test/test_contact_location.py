@@ -22,10 +22,9 @@ from scipy.integrate import solve_ivp
 
 from bag_runs import reversal_run
 from screwgear_ros import run_parameters
-from screwgear_ros.model import (B, C, R1, R3, TS, WNL, Z1, Z3, ContactBranch, DrivePiece,
-                                 active_speed, contact_branches, drive_piece, equilibrium_state,
-                                 mesh_motion, motion, pack, rhs_vector)
-from screwgear_ros.friction import FrictionPiece
+from screwgear_ros.model import (B, C, R1, R3, TS, WNL, Z1, Z3, ContactBranch, Drive,
+                                 DrivePiece, Pieces, active_speed, contact_branches, drive_piece,
+                                 equilibrium_state, mesh_motion, motion, pack, rhs_vector)
 from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.session import Session
 
@@ -36,8 +35,6 @@ TABLE_DAMPING = 8867.0                      # N·m·s/rad: the paper's speed at 
 #: free flight through the gap would otherwise be crossed in steps long enough to hide a
 #: whole bounce on a flank (the shortest contact episode here lasts 76 µs).
 MAX_STEP = 20e-6
-#: These runs have no bearing friction.
-NO_FRICTION = (FrictionPiece.NONE,) * 3
 
 SCENARIOS = {
     # the flank of mesh 1 lifts off, crosses the gap, bounces on the reverse flank
@@ -105,8 +102,7 @@ def reference(p: TableParams, y0: np.ndarray, rtol: float = 1e-12,
 
     def held(direction, pieces):
         def f(tt, yy):
-            a = motion(tt, *yy, m.p, m.ste_amp, m.ste_phase, TORQUE, direction, 0.0,
-                       *pieces, *NO_FRICTION)[:3]
+            a = motion(tt, tuple(yy), m, Drive(TORQUE, direction, 0.0), Pieces(*pieces))[:3]
             return np.array([yy[3], yy[4], yy[5], *a])
         return f
 
@@ -115,14 +111,13 @@ def reference(p: TableParams, y0: np.ndarray, rtol: float = 1e-12,
                                 active_speed(yy[3], yy[5], direction, m.p), m.p)]
         for branch, th, w, r, z in ((pieces[0], yy[0], yy[3], m.p[R1], m.p[Z1]),
                                     (pieces[1], yy[2], yy[5], m.p[R3], m.p[Z3])):
-            _, _, delta, rate, k = mesh_motion(th, w, r, z, yy[1], yy[4], tt, m.p, m.ste_amp,
-                                               m.ste_phase)
+            _, _, delta, rate, k = mesh_motion(th, w, r, z, yy[1], yy[4], tt, m)
             values.append(_inside(ContactBranch(branch), delta, rate, k, m.p[C], m.p[B]))
         return min(values)
 
     def pieces_at(tt, yy, direction):
         """Branches of the contact law and piece of the drive line at (tt, yy)."""
-        return (*contact_branches(tt, *yy, m.p, m.ste_amp, m.ste_phase),
+        return (*contact_branches(tt, tuple(yy), m),
                 drive_piece(TORQUE, active_speed(yy[3], yy[5], direction, m.p), m.p))
 
     for start, stop, direction in ((0.0, REVERSAL, 1.0), (REVERSAL, END, -1.0)):
@@ -240,7 +235,7 @@ def test_fixed_step_path_is_the_textbook_rk4():
         direction = 1.0 if k < reversal else -1.0
 
         def f(t, state):
-            return rhs_vector(t, state, m, TORQUE, direction, 0.0)
+            return rhs_vector(t, state, m, Drive(TORQUE, direction, 0.0))
         t, h = k * dt, 0.5 * dt
         k1 = f(t, y)
         k2 = f(t + h, y + h * k1)

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from screwgear_ros.integrator import advance, trajectory
-from screwgear_ros.model import equilibrium_state, pack
+from screwgear_ros.model import Drive, equilibrium_state, pack
 from screwgear_ros.params import TableParams
 from screwgear_ros.quantities import equivalent_mass
 from screwgear_ros.plant import DriveInput
@@ -59,7 +59,7 @@ def test_closed_form_damped_oscillator():
     y = np.array([(delta0 + r2 * th2_0) / r1, th2_0, 0.0, (rate0 + r2 * w2_0) / r1, w2_0, 0.0])
     dt, stride, n = 5e-6, 20, 1000                       # 0.1 s, ~20 periods of 4.5 ms
     out = np.empty((n, 6))
-    trajectory(y, 0, dt, stride, out, m.p, m.ste_amp, m.ste_phase, torque, 1.0, load)
+    trajectory(y, 0, dt, stride, out, m, Drive(torque, 1.0, load))
     t = (np.arange(n) + 1) * stride * dt
     ds = (torque / r1) / k
     a = delta0 - ds
@@ -102,8 +102,7 @@ def test_rk4_convergence_order_on_the_3dof_model():
     for dt in (200e-6, 100e-6, 50e-6):
         y = y0.copy()
         out = np.empty((n, 6))
-        trajectory(y, 0, dt, int(round(sample / dt)), out, m.p, m.ste_amp, m.ste_phase,
-                   torque, 1.0, 0.0)
+        trajectory(y, 0, dt, int(round(sample / dt)), out, m, Drive(torque, 1.0, 0.0))
         runs.append(out)
     err = [np.max(np.abs(r - ref), axis=0) for r in runs]
     order_ref = [np.log2(err[i] / err[i + 1]) for i in range(2)]
@@ -134,8 +133,8 @@ def test_same_inputs_same_steps_give_bit_identical_states(mode, locate):
             assert start == step
             while step < stop:
                 n = min(chunk, stop - step)
-                changes += advance(y, step, n, 50e-6, m.p, m.ste_amp, m.ste_phase, torque,
-                                   direction, 0.0, locate)
+                changes += advance(y, step, n, 50e-6, m, Drive(torque, direction, 0.0),
+                                   locate)
                 step += n
         return y, changes
 
@@ -150,15 +149,15 @@ NO_JIT_SCRIPT = r'''
 import json, sys
 import numba
 from screwgear_ros.integrator import advance
-from screwgear_ros.model import equilibrium_state, pack
+from screwgear_ros.model import Drive, equilibrium_state, pack
 from screwgear_ros.params import TableParams
 assert numba.config.DISABLE_JIT and not hasattr(advance, 'py_func'), 'JIT still on'
 mode, locate = sys.argv[1], sys.argv[2] == 'located'
 p = TableParams(table_damping=8867.0, ste_phases=(0.4,), mode=mode)
 m = pack(p)
 y = equilibrium_state(p)
-changes = advance(y, 0, 600, 50e-6, m.p, m.ste_amp, m.ste_phase, 400.0, 1.0, 0.0, locate)
-changes += advance(y, 600, 600, 50e-6, m.p, m.ste_amp, m.ste_phase, 400.0, -1.0, 5.0, locate)
+changes = advance(y, 0, 600, 50e-6, m, Drive(400.0, 1.0, 0.0), locate)
+changes += advance(y, 600, 600, 50e-6, m, Drive(400.0, -1.0, 5.0), locate)
 json.dump([[float(v) for v in y], changes], sys.stdout)
 '''
 
@@ -177,10 +176,8 @@ def test_no_jit_runs_the_same_source_with_the_same_results(mode, locate):
     p = TableParams(table_damping=PAPER_TABLE_DAMPING, ste_phases=(0.4,), mode=mode)
     m = pack(p)
     y = equilibrium_state(p)
-    changes = advance(y, 0, 600, 50e-6, m.p, m.ste_amp, m.ste_phase, 400.0, 1.0, 0.0,
-                      locate == 'located')
-    changes += advance(y, 600, 600, 50e-6, m.p, m.ste_amp, m.ste_phase, 400.0, -1.0, 5.0,
-                       locate == 'located')
+    changes = advance(y, 0, 600, 50e-6, m, Drive(400.0, 1.0, 0.0), locate == 'located')
+    changes += advance(y, 600, 600, 50e-6, m, Drive(400.0, -1.0, 5.0), locate == 'located')
     print(f'{mode}, {locate}: compiled vs plain Python, max |difference|:',
           np.max(np.abs(np.array(plain) - y)), f'({changes} contact changes located)')
     assert np.allclose(plain, y, rtol=1e-12, atol=1e-12)

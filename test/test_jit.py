@@ -19,7 +19,7 @@ from numba.core.errors import TypingError
 
 from screwgear_ros import jit
 from screwgear_ros.integrator import advance
-from screwgear_ros.model import equilibrium_state, pack
+from screwgear_ros.model import Drive, equilibrium_state, pack
 from screwgear_ros.params import TableParams
 
 #: A run through reversals (conventional: backlash impacts, contact changes located)
@@ -28,7 +28,7 @@ RUN = '''
 import json, sys
 import numpy as np
 from screwgear_ros.integrator import OBSERVED, advance_observed
-from screwgear_ros.model import equilibrium_state, pack
+from screwgear_ros.model import Drive, equilibrium_state, pack
 from screwgear_ros.params import TableParams
 
 def run(mode):
@@ -39,8 +39,8 @@ def run(mode):
     rows, changes, step = [], 0, 0
     for torque, direction, load in [(400.0, 1.0, 0.0), (400.0, -1.0, 5.0), (800.0, 1.0, -50.0)]:
         for _ in range(40):
-            changes += advance_observed(y, backup, out, step, 20, 50e-6, m.p, m.ste_amp,
-                                        m.ste_phase, torque, direction, load, True)
+            changes += advance_observed(y, backup, out, step, 20, 50e-6, m,
+                                        Drive(torque, direction, load), True)
             step += 20
             rows.append(out.tobytes().hex())
     return rows, changes
@@ -84,8 +84,7 @@ def test_the_rk4_kernel_is_compiled_without_reference_counts():
 
     p = TableParams()
     m = pack(p)
-    args = (equilibrium_state(p), 0, 20, 50e-6, m.p, m.ste_amp, m.ste_phase, 1.0, 1.0, 0.0,
-            True)
+    args = (equilibrium_state(p), 0, 20, 50e-6, m, Drive(1.0, 1.0, 0.0), True)
 
     def llvm(options: dict) -> str:
         fresh = njit(**{**options, 'cache': False})(advance.py_func)

@@ -16,7 +16,8 @@ import pytest
 from bag_runs import installed
 from screwgear_ros.design.linearize import (INPUTS, OUTPUTS, STATES, OperatingPointError,
                                             linearize, operating_point)
-from screwgear_ros.model import ContactBranch, DrivePiece, pack, rhs, stiffest_linearization
+from screwgear_ros.model import (ContactBranch, Drive, DrivePiece, pack, rhs,
+                                 stiffest_linearization)
 from screwgear_ros.params import MeshPhase, Mode, TableParams
 from screwgear_ros.simulation import Simulation
 
@@ -68,8 +69,7 @@ def _jacobian(params: TableParams, t: float, x: np.ndarray, torque: float, direc
     packed = pack(params)
 
     def f(y, u):
-        return np.array(rhs(t, *y, packed.p, packed.ste_amp, packed.ste_phase, u[0],
-                            float(direction), u[1]))
+        return np.array(rhs(t, tuple(y), packed, Drive(u[0], float(direction), u[1])))
 
     u = np.array([torque, load])
     scale_x = np.array([1e-9, 1e-9, 1e-9, 1e-6, 1e-6, 1e-6])

@@ -14,7 +14,7 @@ import pytest
 
 from model_laws import drive_line, mesh_load, mesh_state
 from screwgear_ros.integrator import advance
-from screwgear_ros.model import (R1, Z1, active_path, applied_torques, drive_torques,
+from screwgear_ros.model import (R1, Z1, Drive, active_path, applied_torques, drive_torques,
                                  equilibrium_state, mesh_force, mesh_stiffness, pack, rhs,
                                  static_transmission_error)
 from screwgear_ros.params import TableParams
@@ -103,11 +103,11 @@ def test_transmission_error_rate_is_the_time_derivative(mesh_phase):
 
     def delta(s: float) -> float:
         return mesh_state(th1 + w1 * s, w1, m.p[R1], m.p[Z1], th2 + w2 * s, w2, t + s,
-                          m.p, m.ste_amp, m.ste_phase)[0]
+                          m)[0]
 
     h = 1e-6
     fd = (delta(h) - delta(-h)) / (2 * h)
-    rate = mesh_state(th1, w1, m.p[R1], m.p[Z1], th2, w2, t, m.p, m.ste_amp, m.ste_phase)[1]
+    rate = mesh_state(th1, w1, m.p[R1], m.p[Z1], th2, w2, t, m)[1]
     assert rate == pytest.approx(fd, rel=1e-7)
     # and δ itself is r1·θ1 − r2·θ2 − ε(φ), φ = z1·θ1 (angle) or ω_e·t (time)
     phi = 24 * th1 if mesh_phase == 'angle' else p.mesh_frequency * t
@@ -159,7 +159,7 @@ def test_rhs_is_newtons_equations(mode):
     m = pack(p)
     y = (0.013, 0.0004, -0.009, 2.1, 0.27, 1.9)
     t, torque, direction, load = 0.017, 250.0, -1.0, 33.0
-    out = rhs(t, *y, m.p, m.ste_amp, m.ste_phase, torque, direction, load)
+    out = rhs(t, y, m, Drive(torque, direction, load))
 
     def force(theta, omega, r):
         eps = 1.5384e-3 * math.sin(24 * theta + 0.5)
@@ -221,10 +221,10 @@ def test_equilibrium_under_preload_does_not_move(changes):
     assert d3 == pytest.approx(-p.backlash - tp / (0.078 * k3), rel=1e-12, abs=1e-18)
     # no command for 1 s at the default step: nothing moves
     y = y0.copy()
-    advance(y, 0, 20000, 50e-6, m.p, m.ste_amp, m.ste_phase, 0.0, 1.0, 0.0)
+    advance(y, 0, 20000, 50e-6, m, Drive(0.0, 1.0, 0.0))
     assert np.max(np.abs(y - y0)) <= 1e-12
     # also after a step count that is not zero (`time` phase sees t = step·dt)
-    advance(y, 10**7, 2000, 50e-6, m.p, m.ste_amp, m.ste_phase, 0.0, -1.0, 0.0)
+    advance(y, 10**7, 2000, 50e-6, m, Drive(0.0, -1.0, 0.0))
     assert np.max(np.abs(y - y0)) <= 1e-12
 
 
@@ -251,8 +251,7 @@ def test_energy_consistent_mesh_forces_are_the_gradient_of_the_mesh_potential(th
                     mesh_stiffness_phase=0.7)
     m = pack(p)
     theta2 = -0.0004
-    force, load = mesh_load(theta1, 2.0, 0.078, 24.0, theta2, 0.3, 0.0, m.p, m.ste_amp,
-                            m.ste_phase)
+    force, load = mesh_load(theta1, 2.0, 0.078, 24.0, theta2, 0.3, 0.0, m)
     h = 1e-7
     dv1 = (_potential(p, theta1 + h, theta2, 0.078)
            - _potential(p, theta1 - h, theta2, 0.078)) / (2 * h)
@@ -262,8 +261,7 @@ def test_energy_consistent_mesh_forces_are_the_gradient_of_the_mesh_potential(th
     assert -0.582 * force == pytest.approx(dv2, rel=1e-7)
     # the paper's pinion load is r·F, which is not the gradient of V
     paper = pack(p.replace(mesh_formulation='paper'))
-    _, paper_load = mesh_load(theta1, 2.0, 0.078, 24.0, theta2, 0.3, 0.0, paper.p,
-                              paper.ste_amp, paper.ste_phase)
+    _, paper_load = mesh_load(theta1, 2.0, 0.078, 24.0, theta2, 0.3, 0.0, paper)
     assert paper_load == pytest.approx(0.078 * force, rel=1e-15)
     assert abs(paper_load - dv1) > 1e-3 * abs(dv1)
 
@@ -274,9 +272,9 @@ def test_energy_consistent_damping_acts_along_the_lever():
     undamped = pack(p.replace(mesh_damping=0.0))
     m = pack(p)
     args = (0.021, 2.4, 0.078, 24.0, 0.001, 0.31, 0.0)
-    f0, q0 = mesh_load(*args, undamped.p, undamped.ste_amp, undamped.ste_phase)
-    f, q = mesh_load(*args, m.p, m.ste_amp, m.ste_phase)
-    rate = mesh_state(*args, m.p, m.ste_amp, m.ste_phase)[1]
+    f0, q0 = mesh_load(*args, undamped)
+    f, q = mesh_load(*args, m)
+    rate = mesh_state(*args, m)[1]
     lever = 0.078 - 24 * 1.5384e-3 * math.cos(24 * 0.021)
     assert f - f0 == pytest.approx(p.mesh_damping * rate, rel=1e-9)
     assert q - q0 == pytest.approx(lever * p.mesh_damping * rate, rel=1e-9)
@@ -289,7 +287,7 @@ def test_both_formulations_are_the_same_equations_in_time_phase(mode):
     for form in ('paper', 'energy_consistent'):
         m = pack(TableParams(mode=mode, mesh_phase='time', mesh_formulation=form,
                              preload_torque=0.0 if mode == 'conventional' else 350.0))
-        out.append(rhs(0.017, *y, m.p, m.ste_amp, m.ste_phase, 250.0, 1.0, 33.0))
+        out.append(rhs(0.017, y, m, Drive(250.0, 1.0, 33.0)))
     assert out[0] == out[1]
 
 
@@ -313,12 +311,12 @@ def test_energy_consistent_equilibrium_is_a_stable_rest(changes):
     m = pack(p)
     y0 = equilibrium_state(p)
     assert np.all(y0[3:] == 0.0)
-    f1, q1 = mesh_load(y0[0], 0.0, 0.078, 24.0, y0[1], 0.0, 0.0, m.p, m.ste_amp, m.ste_phase)
-    f3, q3 = mesh_load(y0[2], 0.0, 0.078, 24.0, y0[1], 0.0, 0.0, m.p, m.ste_amp, m.ste_phase)
+    f1, q1 = mesh_load(y0[0], 0.0, 0.078, 24.0, y0[1], 0.0, 0.0, m)
+    f3, q3 = mesh_load(y0[2], 0.0, 0.078, 24.0, y0[1], 0.0, 0.0, m)
     assert q1 == pytest.approx(350.0, rel=1e-12) and q3 == pytest.approx(-350.0, rel=1e-12)
     assert abs(f1 + f3) < 1e-9 * abs(f1)
     y = y0.copy()
-    advance(y, 0, 20000, 50e-6, m.p, m.ste_amp, m.ste_phase, 0.0, 1.0, 0.0)
+    advance(y, 0, 20000, 50e-6, m, Drive(0.0, 1.0, 0.0))
     assert np.max(np.abs(y - y0)) <= 1e-12
     # restoring: shift the table by ±1 µrad and solve the pinions again (static, by
     # bisection on each pinion's own balance, independent of the model's Newton)
@@ -328,11 +326,9 @@ def test_energy_consistent_equilibrium_is_a_stable_rest(changes):
             lo, hi = y0[index] - 2e-3, y0[index] + 2e-3
             for _ in range(200):
                 mid = 0.5 * (lo + hi)
-                q = mesh_load(mid, 0.0, 0.078, 24.0, theta2, 0.0, 0.0, m.p, m.ste_amp,
-                              m.ste_phase)[1]
+                q = mesh_load(mid, 0.0, 0.078, 24.0, theta2, 0.0, 0.0, m)[1]
                 lo, hi = (mid, hi) if q < sign * 350.0 else (lo, mid)
-            total += mesh_load(lo, 0.0, 0.078, 24.0, theta2, 0.0, 0.0, m.p, m.ste_amp,
-                               m.ste_phase)[0]
+            total += mesh_load(lo, 0.0, 0.078, 24.0, theta2, 0.0, 0.0, m)[0]
         return total
     assert table_force(y0[1] + 1e-6) < 0.0 < table_force(y0[1] - 1e-6)
 

@@ -16,7 +16,7 @@ import pytest
 
 from screwgear_ros import normalized as nz
 from screwgear_ros.integrator import trajectory
-from screwgear_ros.model import pack
+from screwgear_ros.model import Drive, pack
 from screwgear_ros.params import ParameterError, TableParams
 from screwgear_ros.quantities import natural_frequency
 
@@ -35,8 +35,7 @@ def _three_dof_in_x(p: TableParams, torque: float, x0: float, v0: float, dt: flo
     y = np.array([(LENGTH * x0 + eps0) / r1, 0.0, 0.0, (LENGTH * w0 * v0 + deps0) / r1, 0.0, 0.0])
     count = int(round(t_end / (stride * dt)))
     out = np.empty((count, 6))
-    trajectory(y, 0, dt, stride, out, m.p, m.ste_amp, m.ste_phase, torque, 1.0,
-               torque * r2 / r1)
+    trajectory(y, 0, dt, stride, out, m, Drive(torque, 1.0, torque * r2 / r1))
     t = (np.arange(count) + 1) * stride * dt
     eps = np.sum(amp[:, None] * np.sin(n[:, None] * we * t + ph[:, None]), axis=0)
     return (r1 * out[:, 0] - r2 * out[:, 1] - eps) / LENGTH

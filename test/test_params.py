@@ -19,7 +19,7 @@ from screwgear_ros import parameter_sets as PS
 from screwgear_ros import params as P
 from screwgear_ros import quantities as Q
 from screwgear_ros import stability as S
-from screwgear_ros.model import equilibrium_state, pack
+from screwgear_ros.model import Drive, equilibrium_state, pack
 from screwgear_ros.integrator import advance
 from screwgear_ros.declare import excerpt
 from screwgear_ros.params import ParameterError, SimSettings, TableParams
@@ -247,7 +247,7 @@ def test_max_stable_dt_with_damping_matches_the_integrator(mode, drive):
         for kick in (0.0, 1e-3):
             y = equilibrium_state(p)
             y[3] += kick                                   # kick pinion 1
-            advance(y, 0, 2000, dt, m.p, m.ste_amp, m.ste_phase, torque, direction, 0.0)
+            advance(y, 0, 2000, dt, m, Drive(torque, direction, 0.0))
             runs.append(y)
         return float(np.max(np.abs(runs[1][3:] - runs[0][3:])))
     directions = (1.0, -1.0) if mode == 'anti_backlash' else (1.0,)

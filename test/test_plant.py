@@ -166,9 +166,8 @@ def test_one_call_ticks_equal_advance_then_outputs_and_the_model_itself():
                 b = split.outputs()
                 assert a == b
             m = fused._model
-            expected = model_outputs(fused.time, *(float(v) for v in fused.state), m.p,
-                                     m.ste_amp, m.ste_phase, drive.torque,
-                                     float(drive.direction), drive.load)
+            expected = model_outputs(fused.time, tuple(float(v) for v in fused.state), m,
+                                     drive.kernel)
             assert (*a.effort, a.delta[0], a.delta_rate[0], a.mesh_force[0], a.delta[1],
                     a.delta_rate[1], a.mesh_force[1]) == tuple(expected)
             assert a.position == tuple(fused.state[:3]) and a.velocity == tuple(fused.state[3:])

@@ -39,10 +39,9 @@ from pathlib import Path
 import numpy as np
 
 from ..commands import load_limit
-from ..friction import FrictionPiece
-from ..model import (NEWTON_ITERATIONS, ContactBranch, DrivePiece, active_path, active_speed,
-                     drive_on, drive_piece, drive_torques, equilibrium_state, mesh_motion,
-                     motion, pack)
+from ..model import (NEWTON_ITERATIONS, ContactBranch, Drive, DrivePiece, Pieces, active_path,
+                     active_speed, drive_on, drive_piece, drive_torques, equilibrium_state,
+                     mesh_motion, motion, pack)
 from ..params import MeshPhase, Mode, TableParams, effective_stiffness
 from ..quantities import terminal_speed
 
@@ -422,11 +421,9 @@ def _static_warnings(params: TableParams, contact: list[ContactBranch], piece: D
 
 
 def _derivative(x: np.ndarray, u: np.ndarray, point: OperatingPoint, model) -> np.ndarray:
-    accelerations = motion(0.0, x[0], x[1], x[2], x[3], x[4], x[5], model.p, model.ste_amp,
-                           model.ste_phase, u[0], float(point.direction), u[1],
-                           point.contact[0], point.contact[1], point.drive_piece,
-                           FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE,
-                           FrictionPiece.FROM_STATE)[:3]
+    accelerations = motion(0.0, (x[0], x[1], x[2], x[3], x[4], x[5]), model,
+                           Drive(u[0], float(point.direction), u[1]),
+                           Pieces(point.contact[0], point.contact[1], point.drive_piece))[:3]
     return np.concatenate([x[3:], accelerations])
 
 
@@ -508,7 +505,7 @@ def linearize(params: TableParams, torque: float = 0.0, load: float = 0.0,
                 teeth = params.teeth_pinion_1 if pinion == 0 else params.teeth_pinion_3
                 packed = pack(params)
                 slope = mesh_motion(point.state[pinion], 0.0, radius, teeth, point.state[1],
-                                    0.0, 0.0, packed.p, packed.ste_amp, packed.ste_phase)[1]
+                                    0.0, 0.0, packed)[1]
                 radius -= teeth * slope
             c[i, pinion] = radius
             c[i, 1] = -params.radius_table

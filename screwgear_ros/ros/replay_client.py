@@ -46,6 +46,10 @@ REPLY_TIMEOUT = 30.0     # s for a service reply
 STALL_TIMEOUT = 60.0     # s without a new tick (lockstep) or an advancing /clock
 POLL = 0.1               # s between checks for a signal or an ended node while waiting
 GRAPH_PERIOD = 1.0       # s of wall time between checks for other publishers
+#: s from this client's start before the graph counts as known: Fast DDS repeats a
+#: participant's announcement every 3 s once its first burst is over, so a node whose
+#: first announcements were lost on a busy machine is named within this window.
+DISCOVERY_WINDOW = 3.5
 RELIABLE = QoSProfile(depth=10, history=HistoryPolicy.KEEP_LAST,
                       reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
@@ -93,6 +97,7 @@ class ReplayClient:
         self._clock_moved = time.monotonic()  # when /clock last advanced
         self._clock_sub = None
         self._graph_checked = 0.0
+        self._started = time.monotonic()
         # Publishers first: the node learns our endpoints in the order we create them,
         # so once it has served a request it has matched these (see connect()).
         self.inputs = {topic: self.node.create_publisher(kind, topic, RELIABLE)
@@ -234,6 +239,9 @@ class ReplayClient:
         # request's writer was created after them).
         self.confirm('connecting')
         self.check_graph()
+        # Before the first event: a second node of the target's name that discovery has not
+        # named yet would receive the replayed commands too.
+        self.settle_graph(self._started + DISCOVERY_WINDOW - time.monotonic())
         if self.record is not None:
             found = self.node_parameters(['record'])['record']
             if found != str(self.record):
