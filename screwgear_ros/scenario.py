@@ -25,7 +25,7 @@ from typing import Any, Callable
 import yaml
 
 from .commands import INPUT_TOPICS, InputRejected, apply_command
-from .control import DemoController, DemoGains
+from .control import TABLE_JOINT, DemoController, DemoGains
 from .events import Command, Event, ParameterChange, Reset
 from .parameter_sets import default_values, split_parameters
 from .params import ParameterError
@@ -338,8 +338,11 @@ class Scenario:
         simulation = simulation or self.simulation()
         controller = (None if self.controller is None
                       else self.controller.make(simulation, self.setpoint))
+        table = simulation.settings.joint_names[TABLE_JOINT]
         return simulation.run(controller, self.duration, record,
-                              events=self.events(simulation))
+                              events=self.events(simulation),
+                              setpoint=self.setpoint if self.setpoint is not None
+                              and self.setpoint.joint == table else None)
 
     def schedule(self) -> Any:
         """What ``replay_run --script`` plays into a node: the start values and the
