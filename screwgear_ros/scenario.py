@@ -338,11 +338,21 @@ class Scenario:
         simulation = simulation or self.simulation()
         controller = (None if self.controller is None
                       else self.controller.make(simulation, self.setpoint))
-        table = simulation.settings.joint_names[TABLE_JOINT]
         return simulation.run(controller, self.duration, record,
                               events=self.events(simulation),
-                              setpoint=self.setpoint if self.setpoint is not None
-                              and self.setpoint.joint == table else None)
+                              setpoint=self._table_target(simulation, controller))
+
+    def _table_target(self, simulation: Simulation,
+                      controller: Controller | None) -> Callable[[float], float] | None:
+        """What a recorded run records as the controller's setpoint: the scenario's
+        profile, or the demo controller's own targets (its profile starts at the run's
+        first tick, t = 0), when it is the table joint's; else None."""
+        table = simulation.settings.joint_names[TABLE_JOINT]
+        if self.setpoint is not None:
+            return self.setpoint if self.setpoint.joint == table else None
+        if isinstance(controller, DemoController) and controller.law.gains.joint == table:
+            return controller.law.target
+        return None
 
     def schedule(self) -> Any:
         """What ``replay_run --script`` plays into a node: the start values and the

@@ -230,6 +230,19 @@ def test_an_in_process_scenario_records_its_setpoint_and_it_changes_nothing(tmp_
     assert len(read_run(bag).setpoint) == len(setpoints)
 
 
+def test_a_demo_scenario_without_a_profile_records_the_demos_own_targets(tmp_path):
+    """The demo controller's targets and dwell are its setpoint when the scenario gives
+    no profile: recorded at t = 0 and at every dwell."""
+    path = tmp_path / 'demo.yaml'
+    path.write_text('parameters: {command_timeout: 0.0}\nduration: 1.0\n'
+                    'controller: {use: demo, parameters: {targets: [0.02, -0.01], '
+                    'dwell: 0.4}}\n', encoding='utf-8')
+    bag = tmp_path / 'bag'
+    load_scenario(path).run(record=bag)
+    assert [(t, m.data) for t, m in mcap_topic(bag, '/setpoint')] == [
+        (0, 0.02), (400_000_000, -0.01), (800_000_000, 0.02)]
+
+
 def bits(outputs) -> bytes:
     return np.array([*row_of(outputs), *outputs.delta, *outputs.delta_rate,
                      *outputs.mesh_force, outputs.active_path]).tobytes()
