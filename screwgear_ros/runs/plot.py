@@ -353,7 +353,7 @@ def _draw_tracking(a: Axes, run: RecordedRun) -> None:
     times, error = tracking_error(run)
     rms = float(np.sqrt(np.mean(error ** 2))) if len(error) else 0.0
     a.plot(times, error * 1e3, color=COLORS[0], gid=Mark.TRACKING_ERROR,
-           label=f'setpoint − θ2\n(RMS {rms * 1e3:.3g} mrad)')
+           label=f'setpoint − θ2\n(RMS {rms * 1e3:.3g} mrad over the run)')
     a.axhline(0.0, color='0.5', linewidth=0.6)
     a.set_ylabel('tracking error [mrad]')
     _legend(a)
