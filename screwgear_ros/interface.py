@@ -15,6 +15,7 @@ from enum import StrEnum
 
 class Direction(StrEnum):
     IN = 'in'                   # the node subscribes
+    INFO = 'in, recorded only'  # the node subscribes and records it; nothing else uses it
     OUT = 'out'                 # the node publishes (and records)
     RECORDED = 'recorded'       # only in a recording, under the node's private namespace
     SERVICE = 'service'         # the node serves
@@ -52,7 +53,7 @@ class Topic:
         return self.name.startswith('/')
 
 
-IN, OUT, RECORDED, SERVICE = Direction
+IN, INFO, OUT, RECORDED, SERVICE = Direction
 TOPICS = (
     Topic('cmd_torque', 'cmd_torque', 'std_msgs/msg/Float64', IN, Delivery.AS_SENT,
           'drive torque magnitude on the active pinion, N·m, 0 ≤ T ≤ `max_torque`',
@@ -71,6 +72,10 @@ TOPICS = (
           "ros2_control's `JointStateTopicSystem`: every URDF joint named, `pinion_1`'s one "
           'effort value = signed drive torque as `cmd_effort`; all-NaN = no command yet '
           '(silent)', answer=True, contract=True),
+    Topic('setpoint', 'setpoint', 'std_msgs/msg/Float64', INFO, Delivery.AS_SENT,
+          "the controller's target for the `table` joint, rad, finite: recorded at the "
+          'next tick\'s first step for plots of the tracking error; never applied, '
+          'answers nothing, not replayed', contract=True),
     Topic('joint_states', 'joint_states', 'sensor_msgs/msg/JointState', OUT,
           Delivery.PER_TICK, '`pinion_1`, `table`, `pinion_3`: rad, rad/s, applied torque N·m',
           contract=True),
@@ -113,6 +118,8 @@ def _select(direction: Direction, private: bool = False) -> dict[str, str]:
 
 #: The command inputs: key (= relative topic name) → message type name.
 COMMAND_TOPICS = _select(IN)
+#: Inputs the node only records (the controller's setpoint): key → message type name.
+INFO_TOPICS = _select(INFO)
 #: What the node publishes: key → message type name.
 OUTPUT_TOPICS = _select(OUT)
 #: What only a recording holds, under the node's private namespace: key → type name.
@@ -136,13 +143,14 @@ ANSWERS = f"{', '.join(ANSWER_TOPICS)} or ~/{TICK_TOPIC}"
 def topic_names(namespace: str = '', node_name: str = 'table_sim',
                 clock: bool = True) -> dict[str, str]:
     """Key → resolved topic name of every topic a table in ``namespace`` publishes or
-    records (outputs, inputs, the private run_parameters and reset)."""
+    records (outputs, inputs, the setpoint, the private run_parameters and reset)."""
     ns = namespace.rstrip('/')
     names = {key: BY_KEY[key].name if BY_KEY[key].absolute else f'{ns}/{BY_KEY[key].name}'
              for key in OUTPUT_TOPICS}
     if not clock:
         del names['clock']
     names.update({topic: f'{ns}/{topic}' for topic in COMMAND_TOPICS})
+    names.update({topic: f'{ns}/{topic}' for topic in INFO_TOPICS})
     names.update({key: f'{ns}/{node_name}/{key}' for key in RECORDED_TOPICS})
     return names
 
@@ -157,7 +165,7 @@ def topic_table() -> str:
                       '|---|---|---|---|---|', *map(row, TOPICS)]) + '\n'
 
 
-__all__ = ['Direction', 'Delivery', 'Topic', 'TOPICS', 'BY_KEY', 'COMMAND_TOPICS',
+__all__ = ['Direction', 'Delivery', 'Topic', 'TOPICS', 'BY_KEY', 'COMMAND_TOPICS', 'INFO_TOPICS',
            'OUTPUT_TOPICS', 'RECORDED_TOPICS', 'LATCHED_OUTPUTS', 'CONTRACT', 'ANSWER_TOPICS',
            'TICK_TOPIC', 'ANSWERS', 'topic_names', 'topic_table']
 

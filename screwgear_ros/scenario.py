@@ -25,7 +25,7 @@ from typing import Any, Callable
 import yaml
 
 from .commands import INPUT_TOPICS, InputRejected, apply_command
-from .control import DemoController, DemoGains
+from .control import TABLE_JOINT, DemoController, DemoGains
 from .events import Command, Event, ParameterChange, Reset
 from .parameter_sets import default_values, split_parameters
 from .params import ParameterError
@@ -339,7 +339,20 @@ class Scenario:
         controller = (None if self.controller is None
                       else self.controller.make(simulation, self.setpoint))
         return simulation.run(controller, self.duration, record,
-                              events=self.events(simulation))
+                              events=self.events(simulation),
+                              setpoint=self._table_target(simulation, controller))
+
+    def _table_target(self, simulation: Simulation,
+                      controller: Controller | None) -> Callable[[float], float] | None:
+        """What a recorded run records as the controller's setpoint: the scenario's
+        profile, or the demo controller's own targets (its profile starts at the run's
+        first tick, t = 0), when it is the table joint's; else None."""
+        table = simulation.settings.joint_names[TABLE_JOINT]
+        if self.setpoint is not None:
+            return self.setpoint if self.setpoint.joint == table else None
+        if isinstance(controller, DemoController) and controller.law.gains.joint == table:
+            return controller.law.target
+        return None
 
     def schedule(self) -> Any:
         """What ``replay_run --script`` plays into a node: the start values and the

@@ -7,8 +7,8 @@ in-process replays, ``check_run``, the benchmarks and the tests tick it too.
 A tick is what the node does between two publications:
 
 1. every event submitted since the last tick (:mod:`screwgear_ros.events`: a
-   command, a parameter change, a reset) takes effect, in submission order, at the
-   tick's first step; each comes back with that step set;
+   command, a parameter change, a reset, a setpoint to record) takes effect, in
+   submission order, at the tick's first step; each comes back with that step set;
 2. the plant integrates ``settings.steps_per_publish`` RK4 steps in one compiled
    call (none once the model has diverged: the plant then stands still, state and
    time, until a reset);
@@ -33,13 +33,15 @@ that guards the queue, and nothing else). Everything else (``tick``, ``plant``,
 
 from __future__ import annotations
 
+import math
 import threading
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .commands import INPUT_TOPICS, InputRejected, apply_command, limit_input
-from .events import Command, Event, ParameterChange, Reset
+from .events import Command, Event, ParameterChange, Reset, Setpoint
+from .interface import INFO_TOPICS
 from .params import SimSettings, TableParams
 from .integrator import OBSERVED
 from .plant import OBSERVED_DELTA, OBSERVED_JOINTS, DriveInput, Outputs, Plant
@@ -96,7 +98,7 @@ class Session:
         self._use(settings)
         self.start_step = int(start_step)
         self.initial_state = tuple(float(v) for v in self.plant.state)
-        self.rejected = {topic: 0 for topic in INPUT_TOPICS}
+        self.rejected = {topic: 0 for topic in (*INPUT_TOPICS, *INFO_TOPICS)}
         self.timed_out = False                 # command_timeout zeroed the input
         self._last_command = self.start_step   # step of the last accepted command
         self._lock = threading.Lock()          # guards _pending only
@@ -183,6 +185,11 @@ class Session:
                     notices.append(notice)
             elif isinstance(event, Reset):
                 plant.reset()
+            elif isinstance(event, Setpoint):
+                error = self._setpoint(event)
+                if error is not None:
+                    rejected.append(error)
+                    continue
             else:
                 raise TypeError(f'not a session event: {event!r}')
             applied.append(event.at(start))
@@ -198,6 +205,16 @@ class Session:
         except InputRejected as error:
             self.rejected[command.topic] += 1
             return error
+        return None
+
+    def _setpoint(self, setpoint: Setpoint) -> InputRejected | None:
+        """The refusal (counted) of a setpoint that is no finite angle; it is only
+        recorded, so nothing else is checked."""
+        value = setpoint.value
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not math.isfinite(value):
+            self.rejected['setpoint'] += 1
+            return InputRejected('setpoint', value, 'a setpoint must be a finite angle, rad')
         return None
 
     def _time_out(self, start: int) -> str | None:

@@ -30,7 +30,8 @@ import numpy as np
 import yaml
 
 from .commands import InputRejected, apply_command
-from .events import Command, Event, ParameterChange
+from .control import SetpointNotes
+from .events import Command, Event, ParameterChange, Setpoint
 from .parameter_sets import default_values, split_parameters
 from .params import ParameterError, SimSettings, TableParams
 from .pacing import sim_time_ns
@@ -298,7 +299,8 @@ class Simulation:
 
     def run(self, controller: Controller | None, duration: float,
             record: str | os.PathLike[str] | None = None, *,
-            events: Sequence[Event] = ()) -> Run:
+            events: Sequence[Event] = (),
+            setpoint: Callable[[float], float] | None = None) -> Run:
         """A new run of ``duration`` s of simulation time (rounded to whole ticks), closed
         by ``controller(observation) -> effort`` at every tick: the effort it returns
         for the observation of tick k (cmd_effort's signed drive torque, N·m; None: no
@@ -313,6 +315,12 @@ class Simulation:
         the run: the session validated it when it was to take effect, as the node does,
         and ran that tick with the last valid command, as the node does; the recording
         holds the run up to there, that tick included, closed and readable.
+
+        ``setpoint``: the controller's target for the table joint, t (s of simulation
+        time) → rad, when it is known (a scenario's profile). A recorded run records it
+        as table_sim records demo_controller's ``setpoint`` (before the answer, sent as
+        :class:`~screwgear_ros.control.SetpointNotes` says), so ``plot_run`` shows the
+        tracking error; it changes nothing else, and an unrecorded run ignores it.
         """
         if isinstance(duration, bool) or not (isinstance(duration, (int, float))
                                               and math.isfinite(duration) and duration >= 0.0):
@@ -336,7 +344,8 @@ class Simulation:
                 from .ros.session_record import SessionRecording   # rclpy messages: to record
                 recording = SessionRecording(record, session)
             _loop(session, controller, first, ticks, observed, command, columns,
-                  sorted(events, key=lambda e: e.step), recording, rejected)
+                  sorted(events, key=lambda e: e.step), recording, rejected,
+                  setpoint if recording is not None else None)
         finally:
             if recording is not None:
                 recording.close()
@@ -352,11 +361,12 @@ class Simulation:
 def _loop(session: Session, controller: Controller | None, first: Observation, ticks: int,
           observed: np.ndarray, command: list[Any],
           columns: tuple[list[int], list[int], list[int]], events: list[Event],
-          recording: Any, rejected: list[tuple[int, str]]) -> None:
+          recording: Any, rejected: list[tuple[int, str]],
+          setpoint: Callable[[float], float] | None = None) -> None:
     """The closed loop of :meth:`Simulation.run`: every sample's observed vector into
     ``observed``, its step, path and direction appended to ``columns``, the answers
     into ``command`` (each tick's outputs kept as one array copy: no object per tick
-    outlives the tick)."""
+    outlives the tick), the ``setpoint`` submitted before them when due."""
     plant = session.plant
     submit, tick_once = session.submit, session.tick
     record = recording.tick if recording is not None else None
@@ -369,9 +379,16 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
     observation = first
     due = events[0].step if events else None
     pending = 0
+    notes, dt = SetpointNotes(), session.settings.dt
     for i in range(1, ticks + 1):
         if due is not None and due <= observation.step:
             pending, due = _submit_due(session, events, pending, recording)
+        if setpoint is not None:
+            # t as the controllers take it: from the integer ns stamp of the sample
+            stamp = sim_time_ns(observation.step, dt)
+            target = float(setpoint(stamp * 1e-9))
+            if notes.due(stamp, target):
+                submit(Setpoint(target))
         effort = None if controller is None else controller(observation)
         if effort is not None:
             if isinstance(effort, np.generic):

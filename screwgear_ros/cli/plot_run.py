@@ -34,7 +34,8 @@ def _span(text: str) -> tuple[float, float]:
 @interruptible('plot_run', 'no figure was written; the bag is untouched')
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog='plot_run', description='Draw a run recorded by table_sim: table angle and '
+        prog='plot_run', description='Draw a run recorded by table_sim: table angle (with '
+        'the controller\'s setpoint and the tracking error, when the bag recorded one) and '
         'speed, commanded torque and load, pinion speeds, transmission error, mesh forces '
         'with contact, active path with reversals; parameter changes and resets as '
         'vertical lines.')

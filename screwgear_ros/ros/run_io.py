@@ -44,7 +44,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 
 from .. import cdr, run_parameters
-from ..events import Command, ParameterChange
+from ..events import Command, ParameterChange, Setpoint
 from ..pacing import sim_time_ns
 from ..params import SimSettings, TableParams
 from ..plant import Outputs
@@ -53,7 +53,7 @@ from . import messages
 from .markers import MarkerEncoder
 from ..interface import LATCHED_OUTPUTS
 from ..cdr import type_name
-from .messages import INPUT_TYPES, OUTPUT_TYPES, PRIVATE_TYPES
+from .messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES, PRIVATE_TYPES
 from .urdf import robot_description
 
 if TYPE_CHECKING:
@@ -70,7 +70,7 @@ LISTENER_RECOUNT = 1.0
 def _message_class(key: str) -> type:
     if key in OUTPUT_TYPES:
         return OUTPUT_TYPES[key][1]
-    return INPUT_TYPES.get(key) or PRIVATE_TYPES[key]
+    return INPUT_TYPES.get(key) or INFO_TYPES.get(key) or PRIVATE_TYPES[key]
 
 
 def serialize(msg: Any) -> bytes:
@@ -208,6 +208,8 @@ class RunIO:
             elif isinstance(event, Command):
                 self.record(event.topic, t_ns, messages.input_message(event.topic,
                                                                       event.value, t_ns))
+            elif isinstance(event, Setpoint):
+                self.record('setpoint', t_ns, messages.setpoint(event.value))
             else:
                 self.record('reset', t_ns, Empty())
         if tick.outputs.active_path != self._path:

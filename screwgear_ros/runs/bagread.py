@@ -49,6 +49,7 @@ OUTPUT_TOPICS = {key: name for key, name in CONTRACT.items()
                  if BY_KEY[key].direction is Direction.OUT}
 RUN_PARAMETERS = 'run_parameters'
 RESET = 'reset'
+SETPOINT = 'setpoint'
 
 
 class BagError(Exception):
@@ -103,6 +104,9 @@ class RecordedRun:
     names: dict[str, str] = field(default_factory=dict)  # relative → resolved name
     #: (log time, header stamp) of every joint_states whose stamp is not its log time, ns
     stamp_mismatches: list[tuple[int, int]] = field(default_factory=list)
+    #: the controller's setpoint for the table joint, rad, where it was recorded (only
+    #: recorded, never an event; empty in a bag from before the topic, or without one)
+    setpoint: Signal = field(default_factory=lambda: _Collector().signal())
 
     @property
     def dt(self) -> float:
@@ -528,6 +532,7 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
 
     events: list[tuple[int, Event]] = []
     active_path = _Collector()
+    setpoint = _Collector()
     for order, topic, msgtype, log_time, data in one_by_one:
         rel = _relative(topic)
         if order == first_order:
@@ -554,6 +559,8 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
             events.append((order, ParameterChange(params.params, params.settings, step)))
         elif rel == RESET:
             events.append((order, Reset(step)))
+        elif rel == SETPOINT:
+            setpoint.add(step, order, decode(data, msgtype, topic).data)
 
     def sized(msg: Any, topic: str, n: int) -> None:
         if not len(msg.position) == len(msg.velocity) == len(msg.effort) == n:
@@ -617,7 +624,8 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
     return RecordedRun(bag_dir, mcap_path, first, events, signals['joint_states'],
                        signals['transmission_error'], signals['mesh_state'],
                        active_path.signal(), signals['clock'], topics, found.count,
-                       status['truncated'], status['summary'], names, stamp_mismatches)
+                       status['truncated'], status['summary'], names, stamp_mismatches,
+                       setpoint.signal())
 
 
 
