@@ -60,12 +60,12 @@ class BagError(Exception):
         self.kind = kind
         super().__init__(message)
 
-    def report(self, tool: str, verb: str, path: object) -> str:
-        """The one line a command-line tool prints: '<tool>: cannot <verb> <path>: why',
+    def report(self, verb: str, path: object) -> str:
+        """What a command-line tool says after its name: 'cannot <verb> <path>: why',
         with the way out for a truncated bag."""
         hint = (f' (use --allow-truncated to {verb} the readable part)'
                 if self.kind == 'truncated' else '')
-        return f'{tool}: cannot {verb} {path}: {self}{hint}'
+        return f'cannot {verb} {path}: {self}{hint}'
 
 
 
