@@ -7,6 +7,10 @@ of everything it depends on. Every run is validated before any starts, by the no
 own rules (:func:`~screwgear_ros.params.split_parameters`: ranges, the cross-parameter
 rules, the RK4 stability limit); an error is a :class:`SweepError` naming the file,
 the line and the entry. No Dask here: this module runs anywhere the package does.
+
+Why one module of this length: it is the one reader of the sweep format, and each of its
+checks must name the file's line (and, for a refused run, the run), so the format's rules
+stay together.
 """
 
 from __future__ import annotations
