@@ -79,6 +79,12 @@ BLOCK_SECONDS = 0.25
 #: is judged against the tighter solution, whose own error is taken to be their
 #: difference / (REFERENCE_REFINE − 1) (a global error proportional to the tolerance).
 REFERENCE_REFINE = 10.0
+#: Bits of the table encoder the table angle's error is stated against: a 26-bit encoder,
+#: what a precision rotary table carries (the realistic preset's). The simulation's own
+#: error should stay below one of its counts, or a controller would see the integrator.
+TABLE_ENCODER_BITS = 26
+#: One count of that encoder, rad.
+TABLE_ENCODER_COUNT = 2.0 * math.pi / 2**TABLE_ENCODER_BITS
 
 
 @dataclass(frozen=True)
@@ -143,6 +149,11 @@ class CheckReport:
     def ok(self) -> bool:
         return (self.samples > 0 and all(s.ok for s in self.signals)
                 and not self.stamp_mismatches and self.path_mismatch is None)
+
+    @property
+    def table_angle(self) -> SignalError | None:
+        """The table position's error (the second joint of :func:`signal_names`)."""
+        return self.signals[1] if len(self.signals) > 1 else None
 
     @property
     def undecided(self) -> list[SignalError]:
@@ -512,6 +523,12 @@ def format_report(report: CheckReport) -> str:
                      f'{s.at_time:>11.4f}{s.estimate:>12.3e}{s.reference_error:>12.3e}'
                      f'{s.tolerance:>12.3e}  '
                      + ('ok' if s.ok else 'undecided' if s.undecided else 'FAIL'))
+    table = report.table_angle
+    if table is not None:
+        lines.append(f'  table angle error {table.max_error:.2e} rad = '
+                     f'{table.max_error / TABLE_ENCODER_COUNT:.3g} counts of a '
+                     f'{TABLE_ENCODER_BITS}-bit table encoder ({TABLE_ENCODER_COUNT:.2e} rad '
+                     'a count)')
     lines.append('  in-process RK4 replay of the recorded inputs: '
                  + ('identical to the recording, bit for bit' if report.replay_identical
                     else f'differs from the recording by up to {report.replay_max_diff:.3e}'))
@@ -548,5 +565,6 @@ def format_report(report: CheckReport) -> str:
 
 
 __all__ = ['SAFETY', 'SAFETY_FIXED_STEP', 'FLOOR_REL', 'FLOOR_ABS', 'SignalError', 'signal_error', 'CheckReport',
-           'REFERENCE_REFINE', 'signal_names', 'MESH_SIGNALS', 'NothingToCompare', 'require_samples',
+           'REFERENCE_REFINE', 'TABLE_ENCODER_BITS', 'TABLE_ENCODER_COUNT',
+           'signal_names', 'MESH_SIGNALS', 'NothingToCompare', 'require_samples',
            'path_changes', 'reference_outputs', 'mesh_of', 'check_run', 'format_report']
