@@ -121,7 +121,8 @@ class TableSim(Node):
         publishers = {key: self.create_publisher(
             kind, topic, LATCHED if key in LATCHED_OUTPUTS else 10)
             for key, (topic, kind) in OUTPUT_TYPES.items()
-            if key != 'clock' or settings.publish_clock}
+            if (key != 'clock' or settings.publish_clock)
+            and (key != 'true_joint_states' or not settings.sensors.ideal)}
         # Answers last: rclpy's executor serves the ready subscriptions of one wait in
         # creation order, so a command that arrived with an answer is applied with it.
         ordered = sorted(INPUT_TYPES, key=lambda topic: topic in ANSWER_TOPICS)

@@ -89,7 +89,10 @@ class RecordedRun:
     mcap_path: Path
     parameters: RunParameters               # the first run_parameters: start of the run
     events: list[tuple[int, Event]]         # (file position, event), in file order
-    joint_states: Signal                    # values: θ(3) rad, ω(3) rad/s, effort(3) N·m
+    #: The exact joint states: values θ(3) rad, ω(3) rad/s, effort(3) N·m. The bag's
+    #: ~/true_joint_states when it has them (its sensors were not all ideal), else its
+    #: joint_states (which then are exact).
+    joint_states: Signal
     transmission_error: Signal              # values: δ of the active path (1), m
     mesh_state: Signal                      # values: δ1, δ3 m, δ̇1, δ̇3 m/s, F1, F3 N
     active_path: Signal                     # values: 1 or 3
@@ -103,6 +106,9 @@ class RecordedRun:
     names: dict[str, str] = field(default_factory=dict)  # relative → resolved name
     #: (log time, header stamp) of every joint_states whose stamp is not its log time, ns
     stamp_mismatches: list[tuple[int, int]] = field(default_factory=list)
+    #: The recorded joint_states when the bag also holds ~/true_joint_states: what the
+    #: sensors measured of :attr:`joint_states` (None: joint_states are the exact ones).
+    measured: Signal | None = None
 
     @property
     def dt(self) -> float:
@@ -186,7 +192,8 @@ _LENGTH_AT = struct.calcsize('<B')
 _CHANNEL_AT = MCAP_RECORD.size
 _LOG_TIME_AT = struct.calcsize('<BQHI')
 #: Output topics of fixed layout, read in bulk (clock: log times only, nothing decoded).
-BULK_TOPICS = ('joint_states', 'transmission_error', 'mesh_state', 'clock')
+BULK_TOPICS = ('joint_states', 'transmission_error', 'mesh_state', 'clock',
+               'true_joint_states')
 
 
 def _wanted(rel: str, msgtype: str) -> str | None:
@@ -561,9 +568,9 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
                            f'positions, {len(msg.velocity)} velocities and {len(msg.effort)} '
                            f'efforts for {n} names')
 
-    def joint_state(raw: bytes) -> tuple[np.ndarray, int]:
-        topic = names['joint_states']
-        msg = decode(raw, OUTPUT_TOPICS['joint_states'], topic)
+    def joint_state(raw: bytes, rel: str = 'joint_states') -> tuple[np.ndarray, int]:
+        topic = names[rel]
+        msg = decode(raw, OUTPUT_TOPICS[rel], topic)
         try:
             idx = [list(msg.name).index(n) for n in joints]
         except ValueError:
@@ -593,7 +600,9 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
 
     layouts = {'joint_states': (lambda parts: joint_state_template(joints), 9, joint_state),
                'transmission_error': (lambda parts: float64_template(), 1, float64),
-               'mesh_state': (mesh_template, 6, mesh_state)}
+               'mesh_state': (mesh_template, 6, mesh_state),
+               'true_joint_states': (lambda parts: joint_state_template(joints), 9,
+                                     lambda raw: joint_state(raw, 'true_joint_states'))}
     signals: dict[str, Signal] = {}
     stamp_mismatches: list[tuple[int, int]] = []
     for rel in BULK_TOPICS:
@@ -609,15 +618,19 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
         parts = [p[2] for p in pieces]
         values, stamps = _bulk(parts, make(parts), width, one)
         signals[rel] = Signal(steps, order[sort], values[sort])
-        if rel == 'joint_states':
+        if rel in ('joint_states', 'true_joint_states'):
             off = np.flatnonzero(stamps[sort] != log_time[sort])
-            stamp_mismatches = list(zip(log_time[sort][off].tolist(), stamps[sort][off].tolist()))
+            stamp_mismatches += zip(log_time[sort][off].tolist(), stamps[sort][off].tolist())
     if status['truncated'] and not allow_truncated:
         raise BagError('truncated', f'{path}: {status["truncated"]}')
-    return RecordedRun(bag_dir, mcap_path, first, events, signals['joint_states'],
+    exact, measured = signals['joint_states'], None
+    if len(signals['true_joint_states']):
+        exact, measured = signals['true_joint_states'], exact
+    return RecordedRun(bag_dir, mcap_path, first, events, exact,
                        signals['transmission_error'], signals['mesh_state'],
                        active_path.signal(), signals['clock'], topics, found.count,
-                       status['truncated'], status['summary'], names, stamp_mismatches)
+                       status['truncated'], status['summary'], names,
+                       sorted(stamp_mismatches), measured)
 
 
 
