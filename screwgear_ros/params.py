@@ -75,8 +75,8 @@ HARMONICS_WHY = ('each harmonic is summed in every RK4 stage of both meshes, so 
                  'costs in proportion; 32 describe any tooth profile error and keep the '
                  'default step within real time')
 
-#: Most encoder counts per revolution (2^40).
-MAX_COUNTS = 2 ** 40
+#: Most encoder counts per revolution (2^30: a 30-bit encoder resolves 5.9e-9 rad).
+MAX_COUNTS = 2 ** 30
 
 #: Pinion speed of the paper's example, 24 r/min, in rad/s.
 PAPER_PINION_SPEED = 24.0 * 2.0 * math.pi / 60.0
@@ -267,7 +267,7 @@ class SimSettings:
         0, 'N1', 'counts/rev', 'encoder counts per revolution of pinion 1: joint_states '
         'reports its angle in whole counts and its speed as their backward difference over '
         'the tick; 0 = ideal (the exact angle and speed)', low=1, high=MAX_COUNTS, zero=True,
-        read_only=True, why='a 40-bit encoder resolves 5.7e-12 rad, beyond any real one')
+        read_only=True, why='a 30-bit encoder, finer than any table encoder sold')
     position_noise_pinion_1: float = parameter(
         0.0, 'σ_θ1', 'rad', 'white noise (standard deviation) on the angle of pinion 1 '
         'before it is counted', low=0.0, high=1.0, read_only=True)
@@ -286,7 +286,7 @@ class SimSettings:
         0, 'N2', 'counts/rev', 'encoder counts per revolution of the table: joint_states '
         'reports its angle in whole counts and its speed as their backward difference over '
         'the tick; 0 = ideal (the exact angle and speed)', low=1, high=MAX_COUNTS, zero=True,
-        read_only=True, why='a 40-bit encoder resolves 5.7e-12 rad, beyond any real one')
+        read_only=True, why='a 30-bit encoder, finer than any table encoder sold')
     position_noise_table: float = parameter(
         0.0, 'σ_θ2', 'rad', 'white noise (standard deviation) on the angle of the table '
         'before it is counted', low=0.0, high=1.0, read_only=True)
@@ -305,7 +305,7 @@ class SimSettings:
         0, 'N3', 'counts/rev', 'encoder counts per revolution of pinion 3: joint_states '
         'reports its angle in whole counts and its speed as their backward difference over '
         'the tick; 0 = ideal (the exact angle and speed)', low=1, high=MAX_COUNTS, zero=True,
-        read_only=True, why='a 40-bit encoder resolves 5.7e-12 rad, beyond any real one')
+        read_only=True, why='a 30-bit encoder, finer than any table encoder sold')
     position_noise_pinion_3: float = parameter(
         0.0, 'σ_θ3', 'rad', 'white noise (standard deviation) on the angle of pinion 3 '
         'before it is counted', low=0.0, high=1.0, read_only=True)
@@ -324,7 +324,7 @@ class SimSettings:
         0, '', '', 'seed of the sensor noise: the noise of a sample is a function of the '
         'seed, the joint and the sample\'s integration step only (screwgear_ros/sensors.py), '
         'so a replay and check_run reproduce it', low=0, high=MAX_SEED,
-        read_only=True, why='every integer up to 2^53 is exact in a double')
+        read_only=True)
 
     def __post_init__(self) -> None:
         validate(self)

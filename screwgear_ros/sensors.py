@@ -65,8 +65,8 @@ import numpy as np
 JOINTS = ('pinion_1', 'table', 'pinion_3')
 #: Longest measurement delay, ticks: the delay line is kept per joint.
 MAX_DELAY = 1000
-#: Largest seed: every integer up to it is exact in a double (YAML and ROS round-trip it).
-MAX_SEED = 2 ** 53
+#: Largest seed (the largest value of the node's integer parameter ranges).
+MAX_SEED = 2 ** 31 - 1
 _TWO_PI = 2.0 * math.pi
 _UNIT = 2.0 ** -53
 
