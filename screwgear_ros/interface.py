@@ -144,10 +144,11 @@ def _resolved(t: Topic, ns: str, node_name: str) -> str:
 
 
 def topic_names(namespace: str = '', node_name: str = 'table_sim',
-                clock: bool = True, true_states: bool = True) -> dict[str, str]:
+                clock: bool = True, true_states: bool = False) -> dict[str, str]:
     """Key → resolved topic name of every topic a table in ``namespace`` publishes or
     records (outputs, inputs, the private run_parameters and reset); without /clock
-    unless ``clock``, without ~/true_joint_states unless ``true_states``."""
+    unless ``clock``, without ~/true_joint_states unless ``true_states`` (a table
+    publishes it only when its sensors are not ideal: not by default)."""
     ns = namespace.rstrip('/')
     names = {key: _resolved(BY_KEY[key], ns, node_name) for key in OUTPUT_TOPICS}
     if not clock:

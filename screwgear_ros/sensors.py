@@ -27,18 +27,20 @@ all 0 publishes θ and ω untouched, so with every sensor ideal the measured joi
 are the exact ones, bit for bit.
 
 **Noise, reproducibly.** (z₁, z₂) of joint j at step s is a pure function of
-(``sensor_seed``, s, j): Philox4×64-10 (NumPy's bit generator, a counter-based generator:
-its output is a fixed function of key and counter, integer arithmetic only) keyed by the
-seed, with its counter set to (0, s, 0, 0), gives six 64-bit words, two per joint; each
-is made a uniform u = (⌊w/2¹¹⌋ + ½)·2⁻⁵³ ∈ (0, 1) (exact in double), and the pair a
-Box–Muller normal pair (√(−2 ln u₁)·cos 2πu₂, √(−2 ln u₁)·sin 2πu₂) computed with
-Python's scalar ``math`` (the C library, one value at a time: never NumPy's vector
-loops, which pick code per CPU). Nothing depends on what was drawn before, on how many
+(``sensor_seed``, s, j). Philox4×64-10 (NumPy's bit generator, counter-based: block c
+of its stream is a fixed function of the key and c, integer arithmetic only) keyed by the
+seed is one stream of 64-bit words; step s owns words 8s … 8s+7 (blocks 2s and 2s+1,
+reached by setting the counter, never by drawing up to them) and uses the first six, two
+per joint. The words of ``NOISE_BLOCK`` consecutive steps are drawn in one call and kept,
+which gives the same words as drawing each step's own. Each word is made a uniform
+u = (⌊w/2¹¹⌋ + ½)·2⁻⁵³ ∈ (0, 1) (exact in double), and the pair a Box–Muller normal
+pair (√(−2 ln u₁)·cos 2πu₂, √(−2 ln u₁)·sin 2πu₂) computed with Python's scalar
+``math`` (the C library, one value at a time: never NumPy's vector loops, which pick
+code per CPU). Nothing depends on what was drawn before, on how many
 ticks ran, on a restart of the process or on where a replay began: the noise of a sample
 is that of its step, the integer the bag's log time records. So a replay, ``check_run``
 and a process on another CPU reproduce it bit for bit, as they reproduce the kernel's
-own sin and cos from the same C library. Steps keep their counters apart (the counter
-moves in its first word only, by two per sample).
+own sin and cos from the same C library.
 
 **State.** A :class:`SensorChain` keeps, per joint, the previous read angle (step 3),
 the filter output (step 4) and the delay line (step 5). :meth:`SensorChain.restart`
@@ -65,10 +67,13 @@ import numpy as np
 JOINTS = ('pinion_1', 'table', 'pinion_3')
 #: Longest measurement delay, ticks: the delay line is kept per joint.
 MAX_DELAY = 1000
+#: Steps whose noise words are drawn in one call (32 768 words, 256 KiB).
+NOISE_BLOCK = 4096
 #: Largest seed (the largest value of the node's integer parameter ranges).
 MAX_SEED = 2 ** 31 - 1
 _TWO_PI = 2.0 * math.pi
 _UNIT = 2.0 ** -53
+_WORD = 2 ** 64 - 1
 
 
 @dataclass(frozen=True)
@@ -116,8 +121,9 @@ class SensorConfig:
 
 class NoiseSource:
     """The standard normal pairs of (seed, step), three joints at a time (module
-    docstring). One Philox generator whose state is set per step: the counter, not the
-    history, fixes what it gives."""
+    docstring): the words of ``NOISE_BLOCK`` steps from the first one asked for, drawn
+    again from wherever a step outside them is asked for. The counter set, not the
+    history, fixes what the generator gives."""
 
     def __init__(self, seed: int) -> None:
         self.seed = int(seed)
@@ -125,16 +131,26 @@ class NoiseSource:
         state = self._bits.state
         self._key = state['state']['key']
         self._buffer = state['buffer']
-        self._counter = np.zeros(4, dtype=np.uint64)
+        self._first = -1                 # the step of self._words[0] (-1: none drawn)
+        self._words = np.empty((0, 8), dtype=np.uint64)
 
-    def pairs(self, step: int) -> list[tuple[float, float]]:
-        """(z₁, z₂) of each joint at ``step``."""
-        self._counter[1] = step
+    def _draw(self, step: int) -> None:
+        block = 2 * step                 # blocks 2s and 2s + 1 are step s's
+        counter = np.array([block & _WORD, block >> 64, 0, 0], dtype=np.uint64)
         self._bits.state = {'bit_generator': 'Philox',
-                            'state': {'counter': self._counter, 'key': self._key},
+                            'state': {'counter': counter, 'key': self._key},
                             'buffer': self._buffer, 'buffer_pos': 4, 'has_uint32': 0,
                             'uinteger': 0}
-        words = self._bits.random_raw(2 * len(JOINTS)).tolist()
+        self._words = self._bits.random_raw(8 * NOISE_BLOCK).reshape(NOISE_BLOCK, 8)
+        self._first = step
+
+    def pairs(self, step: int) -> list[tuple[float, float]]:
+        """(z₁, z₂) of each joint at ``step`` (>= 0)."""
+        k = step - self._first
+        if self._first < 0 or not 0 <= k < NOISE_BLOCK:
+            self._draw(step)
+            k = 0
+        words = self._words[k, :2 * len(JOINTS)].tolist()
         out = []
         for k in range(0, len(words), 2):
             u1 = ((words[k] >> 11) + 0.5) * _UNIT
@@ -249,5 +265,5 @@ class SensorChain:
                              outputs.active_path)
 
 
-__all__ = ['JOINTS', 'MAX_DELAY', 'MAX_SEED', 'JointSensor', 'SensorConfig', 'NoiseSource',
-           'SensorChain']
+__all__ = ['JOINTS', 'MAX_DELAY', 'MAX_SEED', 'NOISE_BLOCK', 'JointSensor', 'SensorConfig',
+           'NoiseSource', 'SensorChain']

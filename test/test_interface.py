@@ -43,3 +43,6 @@ def test_the_derived_tables_agree():
     assert names['clock'] == '/clock' and names['joint_states'] == '/ns/joint_states'
     assert names['run_parameters'] == '/ns/sim/run_parameters'
     assert 'clock' not in interface.topic_names(clock=False)
+    assert 'true_joint_states' not in interface.topic_names()       # ideal sensors
+    assert interface.topic_names('/ns', 'sim', true_states=True)['true_joint_states'] == \
+        '/ns/sim/true_joint_states'

@@ -6,11 +6,11 @@ changes and resets are re-integrated with the DOP853 reference solver
 restarted at every change, and the recorded joint states (θ, ω, effort of every joint),
 transmission error and mesh_state (δ, δ̇, F of both meshes, the plant's outputs of the
 reference state) are compared with it at every recorded sample; the recorded
-active_path must change where the in-process replay changes it. A run whose joint sensors are not all ideal records
-the exact state on ``~/true_joint_states``: the physics is judged on it, and the
-recorded joint_states must then follow from it by the recorded sensor model
-(:mod:`screwgear_ros.sensors`, its noise included) bit for bit. A run the
-reference cannot follow raises :class:`~screwgear_ros.reference.ReferenceFailure`
+active_path must change where the in-process replay changes it. A run whose joint
+sensors are not all ideal records the exact state on ``~/true_joint_states``: the
+physics is judged on it, and the recorded joint_states must then follow from it by the
+recorded sensor model (:mod:`screwgear_ros.sensors`, its noise included) bit for bit.
+A run the reference cannot follow raises :class:`~screwgear_ros.reference.ReferenceFailure`
 (why, at what simulation time, in which segment of the run); one with nothing to
 compare raises :class:`NothingToCompare`.
 
@@ -498,9 +498,9 @@ def sensor_mismatch(run: RecordedRun) -> tuple[int, str | None]:
     name, unit = signal_names(run)[c]
     return n, (f'{topic} differs from what the recorded sensor model measures of '
                f'true_joint_states from tick {i} on (step {int(steps[i])}, '
-               f't = {steps[i] * run.dt:.6f} s): {name} recorded {measured.values[i, c]!r} '
-               f'{unit}, the model gives {expected[i, c]!r} ({len(differs)} of {n} samples '
-               'differ)')
+               f't = {steps[i] * run.dt:.6f} s): {name} recorded '
+               f'{float(measured.values[i, c])!r} {unit}, the model gives '
+               f'{float(expected[i, c])!r} ({len(differs)} of {n} samples differ)')
 
 
 def check_run(run: RecordedRun, progress: Callable[[float], None] | None = None,
