@@ -9,6 +9,7 @@
   one (and against the undelayed measurement, noise included); the physics is untouched;
 - with every sensor ideal joint_states is the exact state and no ~/true_joint_states
   is recorded; an ideal joint beside non-ideal ones publishes its exact state;
+- a reset restarts the sensors' chain (no speed across it, the delay line refilled);
 - the same seed gives a bit-identical bag (wall-clock paced topics aside), another seed
   other joint_states only;
 - check_run passes a sensor run with a reset, and refuses (FAIL, naming the topic and
@@ -249,3 +250,17 @@ def test_a_lockstep_node_replays_the_sensor_noise_bit_for_bit(tmp_path):
         replayed = [(t, tuple(m.position), tuple(m.velocity))
                     for t, m in messages(tmp_path / 'again', suffix)]
         assert len(original) == 101 and replayed[:len(original)] == original, suffix
+
+
+def test_a_reset_restarts_the_sensors():
+    """A reset moves the table without its encoders turning: the chain starts again at the
+    reset tick's sample (speed 0 from the counts, the delay line refilled from it)."""
+    sim = Simulation.from_values(encoder_counts_pinion_1=4096, measurement_delay_table=3)
+    at = 60
+    run = sim.run(drive, 0.1, events=[Reset(step=at * sim.settings.steps_per_publish)])
+    assert run.step[at + 1] > run.step[at]                 # sample at + 1: the reset tick's
+    assert run.measured[at + 1, 3] == 0.0                  # no difference across the reset
+    assert run.measured[at, 3] != 0.0 and run.measured[at + 2, 3] != 0.0
+    # the table's delay line starts again: its first 3 samples repeat the reset tick's
+    assert np.all(run.measured[at + 1:at + 4, 1] == run.observed[at + 1, 1])
+    assert np.array_equal(run.measured[at + 4:, 1], run.observed[at + 1:-3, 1])
