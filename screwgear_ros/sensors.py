@@ -164,7 +164,8 @@ class NoiseSource:
 class _Joint:
     """One joint's chain state: previous step and read angle, filter output, delay line."""
 
-    __slots__ = ('sensor', 'step', 'angle', 'filtered', 'line', 'alpha')
+    __slots__ = ('sensor', 'step', 'angle', 'filtered', 'line', 'alpha', 'per_rad',
+                 'increment')
 
     def __init__(self, sensor: JointSensor) -> None:
         self.sensor = sensor
@@ -173,6 +174,12 @@ class _Joint:
         self.filtered = 0.0
         self.line: deque[tuple[float, float]] = deque(maxlen=sensor.delay + 1)
         self.alpha: dict[int, float] = {}       # filter α by steps between samples
+        self._counting(sensor)
+
+    def _counting(self, sensor: JointSensor) -> None:
+        """Counts per radian and radians per count, once per sensor, not per sample."""
+        self.per_rad = sensor.counts / _TWO_PI if sensor.counts else 0.0
+        self.increment = _TWO_PI / sensor.counts if sensor.counts else 0.0
 
     def use(self, sensor: JointSensor) -> None:
         if sensor.delay != self.sensor.delay:
@@ -180,14 +187,14 @@ class _Joint:
         if sensor.cutoff != self.sensor.cutoff:
             self.alpha = {}
         self.sensor = sensor
+        self._counting(sensor)
 
     def measure(self, step: int, dt: float, theta: float, omega: float,
                 noise: tuple[float, float] | None) -> tuple[float, float]:
         s = self.sensor
         angle = theta + s.position_noise * noise[0] if s.position_noise else theta
         if s.counts:
-            per_rad = s.counts / _TWO_PI
-            increment = _TWO_PI / s.counts
+            per_rad, increment = self.per_rad, self.increment
             position = math.floor(angle * per_rad) * increment
             if self.step is None:
                 speed = 0.0
