@@ -14,6 +14,7 @@
   other joint_states only;
 - check_run passes a sensor run with a reset, and refuses (FAIL, naming the topic and
   the tick) a copy, written with the mcap library, whose one measured value was altered;
+- plot_run draws the measurement over the exact state;
 - over DDS, a lockstep node replays a sensor run (replay_run --record --compare) and
   reproduces its noise bit for bit.
 """
@@ -264,3 +265,32 @@ def test_a_reset_restarts_the_sensors():
     # the table's delay line starts again: its first 3 samples repeat the reset tick's
     assert np.all(run.measured[at + 1:at + 4, 1] == run.observed[at + 1, 1])
     assert np.array_equal(run.measured[at + 4:, 1], run.observed[at + 1:-3, 1])
+
+
+def test_plot_run_draws_the_measurement_over_the_exact_state(tmp_path):
+    from screwgear_ros.runs.bagread import read_run
+    from screwgear_ros.runs.plot import Mark, Panel, plt, run_figure
+    Simulation.from_values(NOISY).run(drive, 0.05, record=tmp_path / 'bag')
+    Simulation.from_values().run(drive, 0.05, record=tmp_path / 'ideal')
+    published = messages(tmp_path / 'bag', '/joint_states')
+    true = messages(tmp_path / 'bag', 'true_joint_states')
+    fig = run_figure(read_run(tmp_path / 'bag'))
+    try:
+        axes = {ax.get_label(): ax for ax in fig.axes}
+        for panel, column, field in ((Panel.TABLE_ANGLE, 1, 'position'),
+                                     (Panel.TABLE_SPEED, 1, 'velocity')):
+            lines = [a for a in axes[panel].get_children() if a.get_gid() == Mark.MEASURED]
+            exact = [a for a in axes[panel].get_lines() if a.get_gid() != Mark.MEASURED]
+            assert len(lines) == 1, panel
+            assert np.array_equal(lines[0].get_ydata(),
+                                  [getattr(m, field)[column] for _, m in published])
+            assert np.array_equal(exact[0].get_ydata(),
+                                  [getattr(m, field)[column] for _, m in true])
+    finally:
+        plt.close(fig)
+    fig = run_figure(read_run(tmp_path / 'ideal'))
+    try:
+        assert not [a for ax in fig.axes for a in ax.get_children()
+                    if a.get_gid() == Mark.MEASURED]
+    finally:
+        plt.close(fig)
