@@ -12,7 +12,10 @@ A tick is what the node does between two publications:
 2. the plant integrates ``settings.steps_per_publish`` RK4 steps in one compiled
    call (none once the model has diverged: the plant then stands still, state and
    time, until a reset);
-3. the outputs of the tick's last step are computed.
+3. the outputs of the tick's last step are computed, and what the joint sensors
+   measure of them (:mod:`screwgear_ros.sensors`: the outputs themselves when every
+   sensor is ideal). A reset restarts the sensors' chain; a parameter change hands them
+   its settings.
 
 Commands are validated when they take effect, against the parameters in force at
 that step (:func:`screwgear_ros.commands.apply_command`); a refused command changes
@@ -45,6 +48,7 @@ from .interface import INFO_TOPICS
 from .params import SimSettings, TableParams
 from .integrator import OBSERVED
 from .plant import OBSERVED_DELTA, OBSERVED_JOINTS, DriveInput, Outputs, Plant
+from .sensors import SensorChain
 
 
 #: Ticks per compiled call of :meth:`Session.tick_quietly` (its scratch rows: 0.5 MB).
@@ -77,6 +81,8 @@ class Tick:
     previous_direction: int             # commanded direction before the tick's events
     fault: str | None                   # why the plant stands still, if it does
     new_fault: bool                     # the model diverged during this tick
+    measured: Outputs | None = None     # what the sensors measure of ``outputs`` (None:
+    #                                     ``outputs`` itself, every sensor ideal)
 
     @property
     def reversal(self) -> bool:
@@ -105,6 +111,10 @@ class Session:
         self._pending: list[Event] = []
         self._observed: np.ndarray | None = None   # tick_quietly's rows, made on first use
         self.outputs: Outputs = self.plant.outputs()
+        self.sensors = SensorChain(settings.sensors, settings.dt)
+        #: What joint_states publishes of :attr:`outputs` (the same object when every
+        #: sensor is ideal). :meth:`tick_quietly` leaves it and the sensors' chain alone.
+        self.measured: Outputs = self.sensors.measure(self.outputs)
 
     def _use(self, settings: SimSettings) -> None:
         """Settings in force from now on, and what ``tick`` derives from them (once per
@@ -148,9 +158,11 @@ class Session:
                 notices = (*notices, notice)
         fault = plant.fault
         self.outputs = outputs = plant.advance_outputs(self._steps)
+        self.measured = measured = self.sensors.measure(outputs)
         return Tick(start, applied, rejected, notices, plant.input, plant.params, outputs,
                     previous_path, previous_direction, plant.fault,
-                    fault is None and plant.fault is not None)
+                    fault is None and plant.fault is not None,
+                    None if measured is outputs else measured)
 
     def _apply(self, events: list[Event], start: int) -> tuple[
             tuple[Event, ...], tuple[InputRejected, ...], tuple[str, ...], bool]:
@@ -179,12 +191,14 @@ class Session:
             elif isinstance(event, ParameterChange):
                 plant.set_params(event.params)
                 self._use(event.settings)
+                self.sensors.configure(event.settings.sensors)
                 drive, notice = limit_input(plant.input, event.params)
                 if notice is not None:
                     plant.set_input(drive)
                     notices.append(notice)
             elif isinstance(event, Reset):
                 plant.reset()
+                self.sensors.restart()
             elif isinstance(event, Setpoint):
                 error = self._setpoint(event)
                 if error is not None:
@@ -240,6 +254,9 @@ class Session:
         (float64, at least n × ROW) gets tick i's outputs: θ(3) rad, ω(3) rad/s,
         effort(3) N·m, transmission error m, and the step they are at (exact in float64;
         a faulted plant's time stands still); :attr:`outputs` is the last one's.
+
+        The exact outputs only: the sensors (:attr:`measured`) do not follow these
+        ticks (replays compare the exact state; ``check_run`` measures it afresh).
 
         Stops before a tick that would do more than integrate: events are queued, or
         ``command_timeout`` comes due at its first step (:meth:`tick` does that one); and

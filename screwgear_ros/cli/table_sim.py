@@ -123,7 +123,8 @@ class TableSim(Node):
         publishers = {key: self.create_publisher(
             kind, topic, LATCHED if key in LATCHED_OUTPUTS else 10)
             for key, (topic, kind) in OUTPUT_TYPES.items()
-            if key != 'clock' or settings.publish_clock}
+            if (key != 'clock' or settings.publish_clock)
+            and (key != 'true_joint_states' or not settings.sensors.ideal)}
         # The setpoint first and answers last: rclpy's executor serves the ready
         # subscriptions of one wait in creation order, so a setpoint or a command that
         # arrived with an answer is applied with it.

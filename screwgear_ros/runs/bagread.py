@@ -90,7 +90,10 @@ class RecordedRun:
     mcap_path: Path
     parameters: RunParameters               # the first run_parameters: start of the run
     events: list[tuple[int, Event]]         # (file position, event), in file order
-    joint_states: Signal                    # values: θ(3) rad, ω(3) rad/s, effort(3) N·m
+    #: The exact joint states: values θ(3) rad, ω(3) rad/s, effort(3) N·m. The bag's
+    #: ~/true_joint_states when it has them (its sensors were not all ideal), else its
+    #: joint_states (which then are exact).
+    joint_states: Signal
     transmission_error: Signal              # values: δ of the active path (1), m
     mesh_state: Signal                      # values: δ1, δ3 m, δ̇1, δ̇3 m/s, F1, F3 N
     active_path: Signal                     # values: 1 or 3
@@ -107,6 +110,9 @@ class RecordedRun:
     #: the controller's setpoint for the table joint, rad, where it was recorded (only
     #: recorded, never an event; empty in a bag from before the topic, or without one)
     setpoint: Signal = field(default_factory=lambda: _Collector().signal())
+    #: The recorded joint_states when the bag also holds ~/true_joint_states: what the
+    #: sensors measured of :attr:`joint_states` (None: joint_states are the exact ones).
+    measured: Signal | None = None
 
     @property
     def dt(self) -> float:
@@ -190,7 +196,8 @@ _LENGTH_AT = struct.calcsize('<B')
 _CHANNEL_AT = MCAP_RECORD.size
 _LOG_TIME_AT = struct.calcsize('<BQHI')
 #: Output topics of fixed layout, read in bulk (clock: log times only, nothing decoded).
-BULK_TOPICS = ('joint_states', 'transmission_error', 'mesh_state', 'clock')
+BULK_TOPICS = ('joint_states', 'transmission_error', 'mesh_state', 'clock',
+               'true_joint_states')
 
 
 def _wanted(rel: str, msgtype: str) -> str | None:
@@ -484,11 +491,14 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
     signals, stamp_mismatches = _signals(reader, bulk)
     if status['truncated'] and not allow_truncated:
         raise BagError('truncated', f'{path}: {status["truncated"]}')
-    return RecordedRun(bag_dir, mcap_path, first, events, signals['joint_states'],
+    exact, measured = signals['joint_states'], None
+    if len(signals['true_joint_states']):
+        exact, measured = signals['true_joint_states'], exact
+    return RecordedRun(bag_dir, mcap_path, first, events, exact,
                        signals['transmission_error'], signals['mesh_state'],
                        active_path.signal(), signals['clock'], topics, found.count,
                        status['truncated'], status['summary'], names, stamp_mismatches,
-                       setpoint.signal())
+                       setpoint.signal(), measured)
 
 
 def _topics(path: str | Path, found: Any) -> tuple[dict[str, str], dict[str, str]]:
@@ -566,11 +576,11 @@ class _Decoder:
                            f'{len(msg.position)} positions, {len(msg.velocity)} velocities '
                            f'and {len(msg.effort)} efforts for {n} names')
 
-    def joint_state(self, raw: bytes) -> tuple[np.ndarray, int]:
-        """One joint_states message the bulk decoder could not take: its values in the
-        recorded joints' order, and its stamp (ns)."""
-        topic = self.names['joint_states']
-        msg = self.decode(raw, OUTPUT_TOPICS['joint_states'], topic)
+    def joint_state(self, raw: bytes, rel: str = 'joint_states') -> tuple[np.ndarray, int]:
+        """One joint_states (or true_joint_states) message the bulk decoder could not
+        take: its values in the recorded joints' order, and its stamp (ns)."""
+        topic = self.names[rel]
+        msg = self.decode(raw, OUTPUT_TOPICS[rel], topic)
         try:
             idx = [list(msg.name).index(n) for n in self.joints]
         except ValueError:
@@ -603,6 +613,9 @@ class _Decoder:
         of one message the template does not fit)."""
         if rel == 'joint_states':
             return lambda parts: joint_state_template(self.joints), 9, self.joint_state
+        if rel == 'true_joint_states':
+            return (lambda parts: joint_state_template(self.joints), 9,
+                    lambda raw: self.joint_state(raw, rel))
         if rel == 'transmission_error':
             return lambda parts: float64_template(), 1, self.float64
         return self.mesh_template, 6, self.mesh_state
@@ -683,10 +696,10 @@ def _signals(reader: _Decoder, bulk: dict[str, _Pieces]
         parts = [p[2] for p in pieces]
         values, stamps = _bulk(parts, make(parts), width, one)
         signals[rel] = Signal(steps, order[sort], values[sort])
-        if rel == 'joint_states':
+        if rel in ('joint_states', 'true_joint_states'):
             off = np.flatnonzero(stamps[sort] != log_time[sort])
-            stamp_mismatches = list(zip(log_time[sort][off].tolist(), stamps[sort][off].tolist()))
-    return signals, stamp_mismatches
+            stamp_mismatches += zip(log_time[sort][off].tolist(), stamps[sort][off].tolist())
+    return signals, sorted(stamp_mismatches)
 
 
 def _parse(text: str, topic: str) -> RunParameters:
