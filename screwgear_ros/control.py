@@ -41,6 +41,33 @@ from .pacing import sim_time_ns
 
 #: s: a longer gap between two joint states (lost samples) is not integrated.
 MAX_GAP = 0.01
+#: ns of simulation time after which an unchanged setpoint is sent again: a node or
+#: recorder that came late gets it within that (a changed one is sent at once).
+SETPOINT_REPEAT = 1_000_000_000
+#: Index in joint_states of the table joint, the one the ``setpoint`` topic is about.
+TABLE_JOINT = 1
+
+
+class SetpointNotes:
+    """When a controller sends its setpoint (table_sim's ``setpoint`` topic, only
+    recorded): at its first answer, whenever the value changes, and unchanged every
+    ``SETPOINT_REPEAT`` of simulation time; not with every answer, which would double
+    the node's per-tick input work for a value that mostly stands still."""
+
+    def __init__(self) -> None:
+        self.restart()
+
+    def restart(self) -> None:
+        self.value: float | None = None
+        self.stamp = 0
+
+    def due(self, stamp: int, value: float) -> bool:
+        """Whether to send ``value`` with the answer to the joint state stamped
+        ``stamp`` (ns); True notes it as sent."""
+        if value == self.value and 0 <= stamp - self.stamp < SETPOINT_REPEAT:
+            return False
+        self.value, self.stamp = value, stamp
+        return True
 
 
 @dataclass(frozen=True)
@@ -170,4 +197,5 @@ class DemoController:
         return self.law.answer(stamp, observation.position[i], observation.velocity[i])[0]
 
 
-__all__ = ['MAX_GAP', 'DemoGains', 'DemoLaw', 'DemoController']
+__all__ = ['MAX_GAP', 'SETPOINT_REPEAT', 'TABLE_JOINT', 'SetpointNotes', 'DemoGains', 'DemoLaw',
+           'DemoController']

@@ -18,7 +18,7 @@ err = |h|·‖e5‖² / sqrt(‖e5‖² + 0.01·‖e3‖²) · 1/sqrt(n); a step
 and the next step is h·min(10, max(0.2, 0.9·err^(−1/8))), never growing right after a
 rejection.
 
-Bearing friction (docs/model_notes.md §13): each body's friction is held on its piece
+Bearing friction (docs/model_notes.md §14): each body's friction is held on its piece
 (slipping forward or backward, stuck) through a step. When an accepted step ends with a
 body on another piece (its speed through zero, or its holding torque past the static
 torque), the event is located by bisection on the step's length, each trial a full

@@ -51,6 +51,20 @@ class ParameterChange:
 
 
 @dataclass(frozen=True)
+class Setpoint:
+    """The controller's target for the table joint, rad (the ``setpoint`` topic): only
+    recorded, at the step it would have taken effect at, so that a plot can show the
+    tracking error. It changes neither the plant nor the input in force, is no command
+    (``command_timeout`` does not count it) and is not replayed."""
+
+    value: float
+    step: int | None = None
+
+    def at(self, step: int) -> 'Setpoint':
+        return _stamped(self, step)
+
+
+@dataclass(frozen=True)
 class Reset:
     """Back to the preload equilibrium at rest; simulation time keeps running."""
 
@@ -60,7 +74,7 @@ class Reset:
         return _stamped(self, step)
 
 
-Event = Command | ParameterChange | Reset
+Event = Command | ParameterChange | Reset | Setpoint
 
 
 def _stamped(event: Any, step: int) -> Any:
@@ -78,7 +92,9 @@ def describe(event: Event) -> str:
         return f'{event.topic} {event.value}'
     if isinstance(event, ParameterChange):
         return 'parameter change'
+    if isinstance(event, Setpoint):
+        return f'setpoint {event.value}'
     return 'reset'
 
 
-__all__ = ['Command', 'ParameterChange', 'Reset', 'Event', 'describe']
+__all__ = ['Command', 'ParameterChange', 'Reset', 'Setpoint', 'Event', 'describe']

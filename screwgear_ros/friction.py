@@ -1,4 +1,4 @@
-"""Bearing friction of one body with exact sticking (docs/model_notes.md §13).
+"""Bearing friction of one body with exact sticking (docs/model_notes.md §14).
 
 A body (pinion 1, the table, pinion 3) of inertia I turns at speed ω under the torque τ
 of everything else that acts on it (drive, mesh, load, viscous loss). Its bearing adds

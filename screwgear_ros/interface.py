@@ -15,6 +15,7 @@ from enum import StrEnum
 
 class Direction(StrEnum):
     IN = 'in'                   # the node subscribes
+    INFO = 'in, recorded only'  # the node subscribes and records it; nothing else uses it
     OUT = 'out'                 # the node publishes (and records)
     RECORDED = 'recorded'       # only in a recording, under the node's private namespace
     SERVICE = 'service'         # the node serves
@@ -52,7 +53,7 @@ class Topic:
         return self.name.startswith('/')
 
 
-IN, OUT, RECORDED, SERVICE = Direction
+IN, INFO, OUT, RECORDED, SERVICE = Direction
 TOPICS = (
     Topic('cmd_torque', 'cmd_torque', 'std_msgs/msg/Float64', IN, Delivery.AS_SENT,
           'drive torque magnitude on the active pinion, N·m, 0 ≤ T ≤ `max_torque`',
@@ -71,9 +72,17 @@ TOPICS = (
           "ros2_control's `JointStateTopicSystem`: every URDF joint named, `pinion_1`'s one "
           'effort value = signed drive torque as `cmd_effort`; all-NaN = no command yet '
           '(silent)', answer=True, contract=True),
+    Topic('setpoint', 'setpoint', 'std_msgs/msg/Float64', INFO, Delivery.AS_SENT,
+          "the controller's target for the `table` joint, rad, finite: recorded at the "
+          'next tick\'s first step for plots of the tracking error; never applied, '
+          'answers nothing, not replayed', contract=True),
     Topic('joint_states', 'joint_states', 'sensor_msgs/msg/JointState', OUT,
-          Delivery.PER_TICK, '`pinion_1`, `table`, `pinion_3`: rad, rad/s, applied torque N·m',
+          Delivery.PER_TICK, '`pinion_1`, `table`, `pinion_3`: rad, rad/s (as the joint '
+          'sensors measure them: encoder_counts_*, …), applied torque N·m',
           contract=True),
+    Topic('true_joint_states', '~/true_joint_states', 'sensor_msgs/msg/JointState', OUT,
+          Delivery.PER_TICK, 'the exact state joint_states measures (as joint_states); only '
+          'when a joint sensor is not ideal (else joint_states is exact)', contract=True),
     Topic('mesh_state', 'mesh_state', 'sensor_msgs/msg/JointState', OUT, Delivery.PER_TICK,
           '`mesh_1`, `mesh_3`: δ (m), δ̇ (m/s), mesh force F (N)', contract=True),
     Topic('transmission_error', 'transmission_error', 'std_msgs/msg/Float64', OUT,
@@ -113,8 +122,10 @@ def _select(direction: Direction, private: bool = False) -> dict[str, str]:
 
 #: The command inputs: key (= relative topic name) → message type name.
 COMMAND_TOPICS = _select(IN)
-#: What the node publishes: key → message type name.
-OUTPUT_TOPICS = _select(OUT)
+#: Inputs the node only records (the controller's setpoint): key → message type name.
+INFO_TOPICS = _select(INFO)
+#: What the node publishes (under its namespace, or its private one): key → type name.
+OUTPUT_TOPICS = {**_select(OUT), **_select(OUT, private=True)}
 #: What only a recording holds, under the node's private namespace: key → type name.
 RECORDED_TOPICS = _select(RECORDED, private=True)
 #: Outputs published (and recorded) transient local: a late subscriber gets the last one
@@ -133,16 +144,26 @@ TICK_TOPIC = next(t.name[2:] for t in TOPICS if t.answer and t.private)
 ANSWERS = f"{', '.join(ANSWER_TOPICS)} or ~/{TICK_TOPIC}"
 
 
+def _resolved(t: Topic, ns: str, node_name: str) -> str:
+    if t.private:
+        return f'{ns}/{node_name}/{t.name[2:]}'
+    return t.name if t.absolute else f'{ns}/{t.name}'
+
+
 def topic_names(namespace: str = '', node_name: str = 'table_sim',
-                clock: bool = True) -> dict[str, str]:
+                clock: bool = True, true_states: bool = False) -> dict[str, str]:
     """Key → resolved topic name of every topic a table in ``namespace`` publishes or
-    records (outputs, inputs, the private run_parameters and reset)."""
+    records (outputs, inputs, the setpoint, the private run_parameters and reset);
+    without /clock unless ``clock``, without ~/true_joint_states unless ``true_states``
+    (a table publishes it only when its sensors are not ideal: not by default)."""
     ns = namespace.rstrip('/')
-    names = {key: BY_KEY[key].name if BY_KEY[key].absolute else f'{ns}/{BY_KEY[key].name}'
-             for key in OUTPUT_TOPICS}
+    names = {key: _resolved(BY_KEY[key], ns, node_name) for key in OUTPUT_TOPICS}
     if not clock:
         del names['clock']
+    if not true_states:
+        del names['true_joint_states']
     names.update({topic: f'{ns}/{topic}' for topic in COMMAND_TOPICS})
+    names.update({topic: f'{ns}/{topic}' for topic in INFO_TOPICS})
     names.update({key: f'{ns}/{node_name}/{key}' for key in RECORDED_TOPICS})
     return names
 
@@ -157,7 +178,7 @@ def topic_table() -> str:
                       '|---|---|---|---|---|', *map(row, TOPICS)]) + '\n'
 
 
-__all__ = ['Direction', 'Delivery', 'Topic', 'TOPICS', 'BY_KEY', 'COMMAND_TOPICS',
+__all__ = ['Direction', 'Delivery', 'Topic', 'TOPICS', 'BY_KEY', 'COMMAND_TOPICS', 'INFO_TOPICS',
            'OUTPUT_TOPICS', 'RECORDED_TOPICS', 'LATCHED_OUTPUTS', 'CONTRACT', 'ANSWER_TOPICS',
            'TICK_TOPIC', 'ANSWERS', 'topic_names', 'topic_table']
 

@@ -395,7 +395,7 @@ def motion(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
     :data:`BY_LAW` all of them).
 
     I_j·θ̈_j = τ_j + T_f,j with the torques τ of :func:`body_torques` and the bearing
-    friction T_f of :func:`~screwgear_ros.friction.friction_on` (docs/model_notes.md §13:
+    friction T_f of :func:`~screwgear_ros.friction.friction_on` (docs/model_notes.md §14:
     stuck, θ̈_j = 0; no friction, τ_j/I_j exactly as the model without it).
 
     Returns (θ̈1, θ̈2, θ̈3 in rad/s², T1, net table torque (its friction included), T3
@@ -481,7 +481,7 @@ def stiffest_linearization(params: TableParams) -> np.ndarray:
     :func:`~screwgear_ros.params.ste_slope`), mesh and table damping included, and the
     drive's torque–speed line on every pinion it can drive (its slope −T_s/ω_nl acts as
     a damper on the driven pinion; :func:`drive_piece`) with the pinions' viscous bearing
-    loss c_p. Bearing friction's Stribeck slope is left out (docs/model_notes.md §13).
+    loss c_p. Bearing friction's Stribeck slope is left out (docs/model_notes.md §14).
     Generalized mesh directions: δ1 = r1·θ1 − r2·θ2, δ3 = r3·θ3 − r2·θ2 (mesh 3 only
     in `anti_backlash`). Its eigenvalues bound the step an explicit method can take."""
     k = effective_stiffness(params) + params.mesh_stiffness_amplitude

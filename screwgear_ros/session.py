@@ -7,12 +7,15 @@ in-process replays, ``check_run``, the benchmarks and the tests tick it too.
 A tick is what the node does between two publications:
 
 1. every event submitted since the last tick (:mod:`screwgear_ros.events`: a
-   command, a parameter change, a reset) takes effect, in submission order, at the
-   tick's first step; each comes back with that step set;
+   command, a parameter change, a reset, a setpoint to record) takes effect, in
+   submission order, at the tick's first step; each comes back with that step set;
 2. the plant integrates ``settings.steps_per_publish`` RK4 steps in one compiled
    call (none once the model has diverged: the plant then stands still, state and
    time, until a reset);
-3. the outputs of the tick's last step are computed.
+3. the outputs of the tick's last step are computed, and what the joint sensors
+   measure of them (:mod:`screwgear_ros.sensors`: the outputs themselves when every
+   sensor is ideal). A reset restarts the sensors' chain; a parameter change hands them
+   its settings.
 
 Commands are validated when they take effect, against the parameters in force at
 that step (:func:`screwgear_ros.commands.apply_command`); a refused command changes
@@ -33,16 +36,19 @@ that guards the queue, and nothing else). Everything else (``tick``, ``plant``,
 
 from __future__ import annotations
 
+import math
 import threading
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .commands import INPUT_TOPICS, InputRejected, apply_command, limit_input
-from .events import Command, Event, ParameterChange, Reset
+from .events import Command, Event, ParameterChange, Reset, Setpoint
+from .interface import INFO_TOPICS
 from .params import SimSettings, TableParams
 from .integrator import OBSERVED
 from .plant import OBSERVED_DELTA, OBSERVED_JOINTS, DriveInput, Outputs, Plant
+from .sensors import SensorChain
 
 
 #: Ticks per compiled call of :meth:`Session.tick_quietly` (its scratch rows: 0.5 MB).
@@ -75,6 +81,8 @@ class Tick:
     previous_direction: int             # commanded direction before the tick's events
     fault: str | None                   # why the plant stands still, if it does
     new_fault: bool                     # the model diverged during this tick
+    measured: Outputs | None = None     # what the sensors measure of ``outputs`` (None:
+    #                                     ``outputs`` itself, every sensor ideal)
 
     @property
     def reversal(self) -> bool:
@@ -96,13 +104,17 @@ class Session:
         self._use(settings)
         self.start_step = int(start_step)
         self.initial_state = tuple(float(v) for v in self.plant.state)
-        self.rejected = {topic: 0 for topic in INPUT_TOPICS}
+        self.rejected = {topic: 0 for topic in (*INPUT_TOPICS, *INFO_TOPICS)}
         self.timed_out = False                 # command_timeout zeroed the input
         self._last_command = self.start_step   # step of the last accepted command
         self._lock = threading.Lock()          # guards _pending only
         self._pending: list[Event] = []
         self._observed: np.ndarray | None = None   # tick_quietly's rows, made on first use
         self.outputs: Outputs = self.plant.outputs()
+        self.sensors = SensorChain(settings.sensors, settings.dt)
+        #: What joint_states publishes of :attr:`outputs` (the same object when every
+        #: sensor is ideal). :meth:`tick_quietly` leaves it and the sensors' chain alone.
+        self.measured: Outputs = self.sensors.measure(self.outputs)
 
     def _use(self, settings: SimSettings) -> None:
         """Settings in force from now on, and what ``tick`` derives from them (once per
@@ -146,9 +158,11 @@ class Session:
                 notices = (*notices, notice)
         fault = plant.fault
         self.outputs = outputs = plant.advance_outputs(self._steps)
+        self.measured = measured = self.sensors.measure(outputs)
         return Tick(start, applied, rejected, notices, plant.input, plant.params, outputs,
                     previous_path, previous_direction, plant.fault,
-                    fault is None and plant.fault is not None)
+                    fault is None and plant.fault is not None,
+                    None if measured is outputs else measured)
 
     def _apply(self, events: list[Event], start: int) -> tuple[
             tuple[Event, ...], tuple[InputRejected, ...], tuple[str, ...], bool]:
@@ -177,12 +191,19 @@ class Session:
             elif isinstance(event, ParameterChange):
                 plant.set_params(event.params)
                 self._use(event.settings)
+                self.sensors.configure(event.settings.sensors)
                 drive, notice = limit_input(plant.input, event.params)
                 if notice is not None:
                     plant.set_input(drive)
                     notices.append(notice)
             elif isinstance(event, Reset):
                 plant.reset()
+                self.sensors.restart()
+            elif isinstance(event, Setpoint):
+                error = self._setpoint(event)
+                if error is not None:
+                    rejected.append(error)
+                    continue
             else:
                 raise TypeError(f'not a session event: {event!r}')
             applied.append(event.at(start))
@@ -198,6 +219,16 @@ class Session:
         except InputRejected as error:
             self.rejected[command.topic] += 1
             return error
+        return None
+
+    def _setpoint(self, setpoint: Setpoint) -> InputRejected | None:
+        """The refusal (counted) of a setpoint that is no finite angle; it is only
+        recorded, so nothing else is checked."""
+        value = setpoint.value
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not math.isfinite(value):
+            self.rejected['setpoint'] += 1
+            return InputRejected('setpoint', value, 'a setpoint must be a finite angle, rad')
         return None
 
     def _time_out(self, start: int) -> str | None:
@@ -223,6 +254,9 @@ class Session:
         (float64, at least n × ROW) gets tick i's outputs: θ(3) rad, ω(3) rad/s,
         effort(3) N·m, transmission error m, and the step they are at (exact in float64;
         a faulted plant's time stands still); :attr:`outputs` is the last one's.
+
+        The exact outputs only: the sensors (:attr:`measured`) do not follow these
+        ticks (replays compare the exact state; ``check_run`` measures it afresh).
 
         Stops before a tick that would do more than integrate: events are queued, or
         ``command_timeout`` comes due at its first step (:meth:`tick` does that one); and

@@ -30,7 +30,8 @@ import numpy as np
 import yaml
 
 from .commands import InputRejected, apply_command
-from .events import Command, Event, ParameterChange
+from .control import SetpointNotes
+from .events import Command, Event, ParameterChange, Setpoint
 from .parameter_sets import default_values, split_parameters
 from .params import ParameterError, SimSettings, TableParams
 from .pacing import sim_time_ns
@@ -90,8 +91,11 @@ def resolve(values: Mapping[str, Any] | None = None, **overrides: Any) -> tuple[
 class Observation:
     """What one tick publishes, SI units. Read-only by convention (slotted, not frozen:
     one is made a tick). ``position``, ``velocity`` and ``effort`` are per joint in
-    joint_states order (pinion 1, table, pinion 3); ``delta``, ``delta_rate`` and
-    ``mesh_force`` are mesh_state's values (mesh 1, mesh 3)."""
+    joint_states order (pinion 1, table, pinion 3): what the joint sensors measure
+    (:mod:`screwgear_ros.sensors`; the exact state when they are ideal), and
+    ``true_position``, ``true_velocity`` the exact state (~/true_joint_states);
+    ``delta``, ``delta_rate`` and ``mesh_force`` are mesh_state's values (mesh 1,
+    mesh 3)."""
 
     time: float                                # simulation time, s (step·dt)
     step: int                                  # integration steps since the start
@@ -104,13 +108,17 @@ class Observation:
     mesh_force: tuple[float, float]            # F1, F3, N
     active_path: int                           # 1 or 3
     fault: str | None                          # why the plant stands still, if it does
+    true_position: tuple[float, float, float] = (0.0, 0.0, 0.0)   # rad, exact
+    true_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)   # rad/s, exact
 
 
-def _observation(tick_outputs: Any, fault: str | None) -> Observation:
+def _observation(tick_outputs: Any, fault: str | None, measured: Any = None) -> Observation:
     o = tick_outputs
-    return Observation(o.time, o.step, o.position, o.velocity, o.effort,
+    m = o if measured is None else measured
+    return Observation(o.time, o.step, m.position, m.velocity, o.effort,
                        o.delta[0] if o.active_path == 1 else o.delta[1], o.delta,
-                       o.delta_rate, o.mesh_force, o.active_path, fault)
+                       o.delta_rate, o.mesh_force, o.active_path, fault, o.position,
+                       o.velocity)
 
 
 #: Columns of :attr:`Run.observed`, the plant's observed vector of each sample
@@ -140,6 +148,9 @@ class Run:
     #: Scheduled commands the session refused when they were to take effect (the node
     #: logs these and keeps the last valid command in force), as (step, message).
     rejected: list[tuple[int, str]] = field(default_factory=list)
+    #: (n, 6): θ and ω of the three joints as joint_states published them, measured by
+    #: the joint sensors (None: the sensors are ideal, the exact :attr:`observed` ones)
+    measured: np.ndarray | None = None
 
     @property
     def time(self) -> np.ndarray:
@@ -262,7 +273,7 @@ class Simulation:
         """Start a new run at step 0 at the preload equilibrium, at rest, with no input;
         its first observation (what the node publishes before its first tick)."""
         self._session = session = Session(self.params, self.settings)
-        return _observation(session.outputs, session.plant.fault)
+        return _observation(session.outputs, session.plant.fault, session.measured)
 
     def step(self, effort: float | None = None, *, torque: float | None = None,
              direction: int | None = None, load: float | None = None) -> Observation:
@@ -294,11 +305,12 @@ class Simulation:
             for topic, value in commands:
                 session.submit(Command(topic, value))
         tick = session.tick()
-        return _observation(tick.outputs, tick.fault)
+        return _observation(tick.outputs, tick.fault, tick.measured)
 
     def run(self, controller: Controller | None, duration: float,
             record: str | os.PathLike[str] | None = None, *,
-            events: Sequence[Event] = ()) -> Run:
+            events: Sequence[Event] = (),
+            setpoint: Callable[[float], float] | None = None) -> Run:
         """A new run of ``duration`` s of simulation time (rounded to whole ticks), closed
         by ``controller(observation) -> effort`` at every tick: the effort it returns
         for the observation of tick k (cmd_effort's signed drive torque, N·m; None: no
@@ -313,6 +325,12 @@ class Simulation:
         the run: the session validated it when it was to take effect, as the node does,
         and ran that tick with the last valid command, as the node does; the recording
         holds the run up to there, that tick included, closed and readable.
+
+        ``setpoint``: the controller's target for the table joint, t (s of simulation
+        time) → rad, when it is known (a scenario's profile). A recorded run records it
+        as table_sim records demo_controller's ``setpoint`` (before the answer, sent as
+        :class:`~screwgear_ros.control.SetpointNotes` says), so ``plot_run`` shows the
+        tracking error; it changes nothing else, and an unrecorded run ignores it.
         """
         if isinstance(duration, bool) or not (isinstance(duration, (int, float))
                                               and math.isfinite(duration) and duration >= 0.0):
@@ -325,6 +343,7 @@ class Simulation:
         session = self.session
         recording = None
         observed = np.empty((ticks + 1, OBSERVED))
+        measured = None if session.sensors.ideal else np.empty((ticks + 1, 6))
         # A list, made an array at the end: a store into it costs a fraction of NumPy's
         # per-element one, and holds whatever the controller answered until the session
         # has judged it (a refused answer raises InputRejected, as the node refuses it).
@@ -336,7 +355,8 @@ class Simulation:
                 from .ros.session_record import SessionRecording   # rclpy messages: to record
                 recording = SessionRecording(record, session)
             _loop(session, controller, first, ticks, observed, command, columns,
-                  sorted(events, key=lambda e: e.step), recording, rejected)
+                  sorted(events, key=lambda e: e.step), recording, rejected, measured,
+                  setpoint if recording is not None else None)
         finally:
             if recording is not None:
                 recording.close()
@@ -346,32 +366,44 @@ class Simulation:
                    np.array(paths, dtype=np.int8), np.array(directions, dtype=np.int8),
                    np.array(command[:n], dtype=np.float64), session.plant.fault,
                    None if record is None else Path(record),
-                   rejected)
+                   rejected, None if measured is None else measured[:n])
 
 
 def _loop(session: Session, controller: Controller | None, first: Observation, ticks: int,
           observed: np.ndarray, command: list[Any],
           columns: tuple[list[int], list[int], list[int]], events: list[Event],
-          recording: Any, rejected: list[tuple[int, str]]) -> None:
+          recording: Any, rejected: list[tuple[int, str]],
+          measured: np.ndarray | None = None,
+          setpoint: Callable[[float], float] | None = None) -> None:
     """The closed loop of :meth:`Simulation.run`: every sample's observed vector into
     ``observed``, its step, path and direction appended to ``columns``, the answers
     into ``command`` (each tick's outputs kept as one array copy: no object per tick
-    outlives the tick)."""
+    outlives the tick), the ``setpoint`` submitted before them when due; ``measured``:
+    the joint_states θ and ω of each sample, when the sensors are not ideal."""
     plant = session.plant
     submit, tick_once = session.submit, session.tick
     record = recording.tick if recording is not None else None
     steps, paths, directions = columns
     vector = plant.observed
     observed[0] = vector
+    if measured is not None:
+        measured[0] = (*first.position, *first.velocity)
     steps.append(first.step)
     paths.append(first.active_path)
     directions.append(plant.input.direction)
     observation = first
     due = events[0].step if events else None
     pending = 0
+    notes, dt = SetpointNotes(), session.settings.dt
     for i in range(1, ticks + 1):
         if due is not None and due <= observation.step:
             pending, due = _submit_due(session, events, pending, recording)
+        if setpoint is not None:
+            # t as the controllers take it: from the integer ns stamp of the sample
+            stamp = sim_time_ns(observation.step, dt)
+            target = float(setpoint(stamp * 1e-9))
+            if notes.due(stamp, target):
+                submit(Setpoint(target))
         effort = None if controller is None else controller(observation)
         if effort is not None:
             if isinstance(effort, np.generic):
@@ -387,10 +419,15 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
         if tick.rejected:
             _refused(tick, value, rejected)
         o = tick.outputs
-        observation = Observation(o.time, o.step, o.position, o.velocity, o.effort,
+        m = tick.measured
+        if m is None:
+            m = o
+        if measured is not None:
+            measured[i] = (*m.position, *m.velocity)
+        observation = Observation(o.time, o.step, m.position, m.velocity, o.effort,
                                   o.delta[0] if o.active_path == 1 else o.delta[1],
                                   o.delta, o.delta_rate, o.mesh_force, o.active_path,
-                                  tick.fault)
+                                  tick.fault, o.position, o.velocity)
         observed[i] = vector
         steps.append(o.step)
         paths.append(o.active_path)

@@ -107,6 +107,27 @@ def test_a_controller_at_rest_flipping_its_sign_by_rounding_noise_reverses_nothi
     assert not any('e-14' in n for n in notices), notices
 
 
+@pytest.mark.parametrize('target', [0.02, -0.03])
+def test_a_pd_loop_holding_its_target_reverses_nothing(target):
+    """A user's PD law (the README quick start's gains) closed in the node's own loop on
+    the paper's table: one braking reversal during the step, then none while it holds
+    the target, although its effort there is rounding noise of either sign (without the
+    deadband, hundreds of reversals from about 4 s on)."""
+    from pathlib import Path
+    from screwgear_ros import Simulation
+    sim = Simulation.from_yaml(Path(__file__).resolve().parents[1] / 'config' / 'paper.yaml')
+
+    def pd(o):
+        effort = 2000.0 * (target - o.position[1]) - 300.0 * o.velocity[1]
+        return max(-300.0, min(300.0, effort))
+
+    run = sim.run(pd, 10.0)
+    held = run.time >= 1.0
+    assert abs(run.position[held, 1] - target).max() < 0.01 * abs(target)   # it holds
+    assert len(set(run.direction[held].tolist())) == 1, 'a reversal while holding'
+    assert len(set(run.active_path[held].tolist())) == 1
+
+
 @pytest.mark.parametrize('effort', [[], [1.0, 2.0], [0.0, 0.0, 0.0], [math.nan], [math.inf],
                                     [-math.inf], [400.5], [-401.0], ['x']])
 def test_effort_of_the_wrong_length_or_value_is_rejected(effort):

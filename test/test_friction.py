@@ -1,4 +1,4 @@
-"""Bearing friction with exact sticking (screwgear_ros.friction, docs/model_notes.md §13).
+"""Bearing friction with exact sticking (screwgear_ros.friction, docs/model_notes.md §14).
 
 The law's pieces are checked against the law written out here from its definition
 (Modelica's BearingFriction with an exponential Stribeck curve), the parameters against

@@ -143,7 +143,7 @@ def test_ros2_run_launcher_execs_plot_run() -> None:
 def test_panels_share_one_time_axis_with_units(figures) -> None:
     run, fig = figures['load_steps_parameter_changes']
     panels = axes_by_label(fig)
-    assert list(panels) == list(Panel)
+    assert list(panels) == [p for p in Panel if p is not Panel.TRACKING]   # no setpoint
     bottom = panels[Panel.PATH]
     assert bottom.get_xlabel() == 'simulation time [s]'
     for panel, ax in panels.items():

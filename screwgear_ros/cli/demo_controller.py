@@ -21,6 +21,11 @@ controller says so and starts its profile again. With a free-running node the sa
 loop simply runs on whatever joint states arrive; a gap over ``control.MAX_GAP`` (lost
 samples) is not integrated.
 
+With each answer it may also send its target on ``setpoint`` (std_msgs/Float64, rad,
+before the effort; :class:`~screwgear_ros.control.SetpointNotes` says when): table_sim
+only records it, so that ``plot_run`` shows the tracking error. It does so when the
+controlled joint is the table (the second name of joint_states).
+
 On SIGINT/SIGTERM it sends a zero effort, leaving the table unforced (in lockstep
 that zero answers the pending tick, which then runs unforced, and the node waits).
 """
@@ -32,9 +37,9 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64, Float64MultiArray
 
-from ..control import DemoGains, DemoLaw
+from ..control import TABLE_JOINT, DemoGains, DemoLaw, SetpointNotes
 from ..ros.shutdown import spin_until, stop_on_signals
 
 LOG_PERIOD = 0.5   # s of simulation time between log lines
@@ -50,12 +55,15 @@ class DemoController(Node):
         self.law = DemoLaw(DemoGains(**values))
         self.joint = self.law.gains.joint
         self._pub = self.create_publisher(Float64MultiArray, 'cmd_effort', 10)
+        self._setpoint = self.create_publisher(Float64, 'setpoint', 10)
+        self._notes = SetpointNotes()
         self.create_subscription(JointState, 'joint_states', self._on_joint_states, 10)
         self.restart()
 
     def restart(self) -> None:
         """Forget the run: the profile starts again at the next joint state."""
         self.law.restart()
+        self._notes.restart()
         self._index = -1                 # target index last logged
         self._next_log = 0.0
 
@@ -76,6 +84,10 @@ class DemoController(Node):
         i = list(msg.name).index(self.joint)
         angle, speed = msg.position[i], msg.velocity[i]
         effort, t = self.law.answer(stamp, angle, speed)
+        if i == TABLE_JOINT:
+            target = self.law.target(t)
+            if self._setpoint.get_subscription_count() and self._notes.due(stamp, target):
+                self._setpoint.publish(Float64(data=target))
         self._pub.publish(Float64MultiArray(data=[effort]))
         self._log(stamp * 1e-9, t, angle, effort)
 

@@ -13,6 +13,8 @@ A thin shell over :class:`screwgear_ros.session.Session` (``shared/spec/interfac
   ``~/tick`` from a tool): :class:`screwgear_ros.pacing.AnswerGate`; while anything
   publishes on ``~/tick``, only ``~/tick`` answers (commands are then applied but
   answer nothing, so a tool can send any number of them in one tick);
+* a ``setpoint`` (the controller's target, informational) is submitted like a command
+  and only recorded: it changes nothing and never answers a tick;
 * a ``joint_commands`` message that carries no command yet (ros2_control's NaN before
   any controller wrote the interface) is not submitted: no command, no warning, no
   rejection; in lockstep it still answers the tick, as ``~/tick`` does;
@@ -57,7 +59,7 @@ from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
 from ..commands import carries_no_command, command_value
-from ..events import Command, ParameterChange, Reset
+from ..events import Command, ParameterChange, Reset, Setpoint
 from ..model import pack
 from ..pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns, wall_period
 from ..interface import (ANSWER_TOPICS, ANSWERS, BY_KEY, LATCHED_OUTPUTS, RECORDED_TOPICS,
@@ -68,7 +70,7 @@ from ..ratelimit import RateLimiter
 from ..warmup import compiled_now, without_blas_probe
 from ..session import Session, Tick
 from ..ros import inputs, messages, param_dump, parameters
-from ..ros.messages import INPUT_TYPES, OUTPUT_TYPES
+from ..ros.messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES
 from ..ros.run_io import RunIO
 from ..ros.shutdown import spin_until, stop_on_signals
 from ..status import (MAX_PHASE_PER_STEP, Health, diagnostic_values, mesh_phase_per_step,
@@ -121,9 +123,14 @@ class TableSim(Node):
         publishers = {key: self.create_publisher(
             kind, topic, LATCHED if key in LATCHED_OUTPUTS else 10)
             for key, (topic, kind) in OUTPUT_TYPES.items()
-            if key != 'clock' or settings.publish_clock}
-        # Answers last: rclpy's executor serves the ready subscriptions of one wait in
-        # creation order, so a command that arrived with an answer is applied with it.
+            if (key != 'clock' or settings.publish_clock)
+            and (key != 'true_joint_states' or not settings.sensors.ideal)}
+        # The setpoint first and answers last: rclpy's executor serves the ready
+        # subscriptions of one wait in creation order, so a setpoint or a command that
+        # arrived with an answer is applied with it.
+        notes = {topic: self.create_subscription(INFO_TYPES[topic], topic,
+                                                 partial(self._on_setpoint, topic), 10)
+                 for topic in INFO_TYPES}
         ordered = sorted(INPUT_TYPES, key=lambda topic: topic in ANSWER_TOPICS)
         # Raw: a message's size is looked at before it is decoded (ros/inputs.py).
         subs = {topic: self.create_subscription(INPUT_TYPES[topic], topic,
@@ -146,6 +153,7 @@ class TableSim(Node):
         self._fqn = self.get_fully_qualified_name()
         topics = {key: pub.topic_name for key, pub in publishers.items()}
         topics.update({topic: sub.topic_name for topic, sub in subs.items()})
+        topics.update({topic: sub.topic_name for topic, sub in notes.items()})
         topics.update({key: f'{self._fqn}/{key}' for key in RECORDED_TOPICS})
         self.io = RunIO(topics, settings.joint_names, publishers)
         self._derive(params, settings, keep=False)   # ParameterError: refuse to start
@@ -222,6 +230,11 @@ class TableSim(Node):
             self.session.submit(Command(topic, value))
         if self._answers(topic):
             self._gate.answer()
+
+    def _on_setpoint(self, topic: str, msg: Any) -> None:
+        """The controller's setpoint: recorded at the next tick's first step (the session
+        refuses a non-finite one), never an answer."""
+        self.session.submit(Setpoint(msg.data))
 
     def _answers(self, topic: str) -> bool:
         """Whether a message on ``topic`` answers the last tick in lockstep. A tool that

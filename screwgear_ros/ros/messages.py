@@ -11,10 +11,10 @@ import importlib
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Int8, String
+from std_msgs.msg import Float64, Int8, String
 
 from ..commands import JointCommand
-from ..interface import BY_KEY, COMMAND_TOPICS, OUTPUT_TOPICS, RECORDED_TOPICS
+from ..interface import BY_KEY, COMMAND_TOPICS, INFO_TOPICS, OUTPUT_TOPICS, RECORDED_TOPICS
 
 MESH_NAMES = ['mesh_1', 'mesh_3']
 
@@ -28,6 +28,8 @@ def message_class(name: str) -> type:
 
 #: The message class of each input topic of :data:`screwgear_ros.commands.INPUT_TOPICS`.
 INPUT_TYPES = {key: message_class(name) for key, name in COMMAND_TOPICS.items()}
+#: The inputs the node only records (the setpoint): key → message class.
+INFO_TYPES = {key: message_class(name) for key, name in INFO_TOPICS.items()}
 #: The node's outputs: key → (topic, relative unless absolute, message class).
 OUTPUT_TYPES = {key: (BY_KEY[key].name, message_class(name))
                 for key, name in OUTPUT_TOPICS.items()}
@@ -56,6 +58,10 @@ def stamp(time_ns: int) -> Time:
     return Time(sec=sec, nanosec=nanosec)
 
 
+def setpoint(value: float) -> Float64:
+    return Float64(data=float(value))
+
+
 def active_path(path: int) -> Int8:
     return Int8(data=path)
 
@@ -75,6 +81,6 @@ def diagnostics(name: str, hardware_id: str, level: int, message: str,
     return msg
 
 
-__all__ = ['MESH_NAMES', 'message_class', 'INPUT_TYPES', 'OUTPUT_TYPES', 'PRIVATE_TYPES',
-           'input_message', 'stamp', 'active_path', 'robot_description',
-           'diagnostics']
+__all__ = ['MESH_NAMES', 'message_class', 'INPUT_TYPES', 'INFO_TYPES', 'OUTPUT_TYPES',
+           'PRIVATE_TYPES', 'input_message', 'stamp', 'setpoint', 'active_path',
+           'robot_description', 'diagnostics']

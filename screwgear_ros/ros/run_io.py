@@ -44,7 +44,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 
 from .. import cdr, run_parameters
-from ..events import Command, ParameterChange
+from ..events import Command, ParameterChange, Setpoint
 from ..pacing import sim_time_ns
 from ..params import SimSettings, TableParams
 from ..plant import Outputs
@@ -53,7 +53,7 @@ from . import messages
 from .markers import MarkerEncoder
 from ..interface import LATCHED_OUTPUTS
 from ..cdr import type_name
-from .messages import INPUT_TYPES, OUTPUT_TYPES, PRIVATE_TYPES
+from .messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES, PRIVATE_TYPES
 from .urdf import robot_description
 
 if TYPE_CHECKING:
@@ -70,7 +70,7 @@ LISTENER_RECOUNT = 1.0
 def _message_class(key: str) -> type:
     if key in OUTPUT_TYPES:
         return OUTPUT_TYPES[key][1]
-    return INPUT_TYPES.get(key) or PRIVATE_TYPES[key]
+    return INPUT_TYPES.get(key) or INFO_TYPES.get(key) or PRIVATE_TYPES[key]
 
 
 def serialize(msg: Any) -> bytes:
@@ -109,8 +109,11 @@ class RunIO:
         # (publish_clock is read-only), so outputs() looks nothing up per tick. The
         # clock first: it has no values, so the runs outputs() encodes are the same
         # with or without it.
+        # The exact state last (when the sensors are not ideal, the caller names its
+        # topic): joint_states then carries what the sensors measure.
         self._tick_keys = (('clock',) if 'clock' in self.topics else ()) + (
-            'joint_states', 'mesh_state', 'transmission_error')
+            'joint_states', 'mesh_state', 'transmission_error') + (
+            ('true_joint_states',) if 'true_joint_states' in self.topics else ())
         if LATCHED_OUTPUTS.intersection(self._tick_keys):
             raise ValueError('a latched topic must be published whether or not anybody '
                              'listens: not one of the per-tick topics')
@@ -187,7 +190,7 @@ class RunIO:
         outputs."""
         self._parameters(session, session.step, session.plant.params, session.settings)
         self._publish_path(session.outputs.active_path, session.step, session.plant.dt)
-        self.outputs(session.outputs, session.plant.dt)
+        self.outputs(session.outputs, session.plant.dt, measured=session.measured)
         self._markers(session, time.monotonic())
 
     def tick(self, session: Session, tick: Tick, lossless: bool = True) -> None:
@@ -208,11 +211,13 @@ class RunIO:
             elif isinstance(event, Command):
                 self.record(event.topic, t_ns, messages.input_message(event.topic,
                                                                       event.value, t_ns))
+            elif isinstance(event, Setpoint):
+                self.record('setpoint', t_ns, messages.setpoint(event.value))
             else:
                 self.record('reset', t_ns, Empty())
         if tick.outputs.active_path != self._path:
             self._publish_path(tick.outputs.active_path, tick.start, dt)
-        self.outputs(tick.outputs, dt, lossless)
+        self.outputs(tick.outputs, dt, lossless, tick.measured)
         now = time.monotonic()
         if now >= self._next_recount:
             self._next_recount = now + LISTENER_RECOUNT
@@ -225,15 +230,21 @@ class RunIO:
         templates = {'clock': cdr.clock_template,
                      'joint_states': lambda: cdr.joint_state_template(self.joint_names),
                      'mesh_state': lambda: cdr.joint_state_template(messages.MESH_NAMES),
-                     'transmission_error': cdr.float64_template}
+                     'transmission_error': cdr.float64_template,
+                     'true_joint_states': lambda: cdr.joint_state_template(self.joint_names)}
         return cdr.Bundle([templates[key]() for key in self._tick_keys])
 
-    def outputs(self, out: Outputs, dt: float, lossless: bool = True) -> None:
-        """/clock, joint_states, mesh_state and transmission_error of ``out``;
-        ``lossless`` as for :meth:`tick` (:meth:`RunRecorder.write_group`'s)."""
+    def outputs(self, out: Outputs, dt: float, lossless: bool = True,
+                measured: Outputs | None = None) -> None:
+        """/clock, joint_states (``measured``: what the sensors measure of ``out``; None:
+        ``out`` itself), mesh_state, transmission_error and ~/true_joint_states (``out``,
+        if its topic is named) of ``out``; ``lossless`` as for :meth:`tick`
+        (:meth:`RunRecorder.write_group`'s)."""
         t_ns = sim_time_ns(out.step, dt)
-        tick = self._bundle.encode(t_ns, out.position, out.velocity, out.effort, out.delta,
-                                   out.delta_rate, out.mesh_force, (out.transmission_error,))
+        js = out if measured is None else measured
+        tick = self._bundle.encode(t_ns, js.position, js.velocity, js.effort, out.delta,
+                                   out.delta_rate, out.mesh_force, (out.transmission_error,),
+                                   out.position, out.velocity, out.effort)
         self.last_joint_states = tick[self._joint_states_at]
         matched = self._matched
         for i, (publisher, msg) in enumerate(zip(self._tick_publishers, tick)):

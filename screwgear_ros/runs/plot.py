@@ -51,6 +51,7 @@ class Panel(StrEnum):
     """The panels of :func:`run_figure`, top to bottom (the axes' labels)."""
 
     TABLE_ANGLE = 'table angle'
+    TRACKING = 'tracking error'     # only for a bag with a recorded setpoint
     TABLE_SPEED = 'table speed'
     DRIVE = 'drive input'
     PINIONS = 'pinion speeds'
@@ -73,8 +74,11 @@ class Mark(StrEnum):
     DRIVE_TORQUE = 'drive torque'
     LOAD_TORQUE = 'load torque'
     GAP = 'gap'
+    MEASURED = 'measured'       # joint_states as the joint sensors measured them
     ERROR = 'error'
     TOLERANCE = 'tolerance'
+    SETPOINT = 'setpoint'
+    TRACKING_ERROR = 'tracking error'
 
 
 class FigureFileError(Exception):
@@ -163,6 +167,30 @@ def in_contact(run: RecordedRun, ticks: list[Tick]) -> np.ndarray:
 # ------------------------------------------------------------------------- drawing
 
 
+def setpoint_series(run: RecordedRun) -> tuple[np.ndarray, np.ndarray]:
+    """(times s, setpoint rad) as recorded, a step function held to the end of the run;
+    empty without a recorded setpoint."""
+    sp = run.setpoint
+    if not len(sp):
+        return np.empty(0), np.empty(0)
+    steps = np.append(sp.steps, max(run.end_step, int(sp.steps[-1])))
+    values = sp.values[:, 0]
+    return steps * run.dt, np.append(values, values[-1])
+
+
+def tracking_error(run: RecordedRun) -> tuple[np.ndarray, np.ndarray]:
+    """(times s, setpoint − θ2 rad) at every joint_states sample from the first recorded
+    setpoint on: the setpoint recorded at a sample's step is the one the controller
+    computed from that sample, so it is paired with it (a zero-order hold after)."""
+    sp, js = run.setpoint, run.joint_states
+    if not len(sp):
+        return np.empty(0), np.empty(0)
+    index = np.searchsorted(sp.steps, js.steps, side='right') - 1
+    known = index >= 0
+    error = sp.values[index[known], 0] - js.values[known, 1]
+    return js.steps[known] * run.dt, error
+
+
 def _mark_events(ax: Axes, marks: RunMarks) -> None:
     for change in marks.parameter_changes:
         ax.axvline(change.time, gid=Mark.PARAMETER_CHANGE, zorder=1, **PARAMETER_STYLE)
@@ -187,7 +215,9 @@ def _legend(ax: Axes) -> None:
 
 
 def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Figure:
-    """The recorded run, panel by panel on one simulation-time axis (see :class:`Panel`);
+    """The recorded run, panel by panel on one simulation-time axis (see :class:`Panel`;
+    the setpoint on the table angle and the tracking-error panel only for a bag that
+    recorded a setpoint);
     ``zoom`` (t0, t1 in s): only that stretch, each panel scaled to what it shows there.
 
     Raises :class:`BagError` when the bag holds no data to draw (fewer than two output
@@ -213,22 +243,37 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
     t = js.steps * run.dt
     t_end = max(run.end_step * run.dt, float(t[-1]))
 
-    fig, axes = plt.subplots(len(Panel), 1, sharex=True, figsize=(13, 16), dpi=DPI,
-                             height_ratios=[HEIGHTS.get(p, 1.0) for p in Panel],
+    panels = [p for p in Panel if p is not Panel.TRACKING or len(run.setpoint)]
+    height = 16 + 2 * (len(panels) - len(Panel) + 1)     # the tracking panel adds room
+    fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(13, height), dpi=DPI,
+                             height_ratios=[HEIGHTS.get(p, 1.0) for p in panels],
                              layout='constrained')
-    ax = dict(zip(Panel, axes))
+    ax = dict(zip(panels, axes))
     for panel, a in ax.items():
         a.set_label(panel)
 
+    # With non-ideal sensors the exact state (true_joint_states) and, over it, what
+    # joint_states reported: counts as steps, held until the next sample.
+    measured = run.measured
+    exact = '' if measured is None else ' (exact)'
     a = ax[Panel.TABLE_ANGLE]
-    a.plot(t, js.values[:, 1], color=COLORS[0], label='θ2 table')
+    a.plot(t, js.values[:, 1], color=COLORS[0], label='θ2 table' + exact)
+    if Panel.TRACKING in ax:
+        a.plot(*setpoint_series(run), drawstyle='steps-post', color=COLORS[1], linestyle='--',
+               linewidth=1.4, gid=Mark.SETPOINT, label='setpoint\n(recorded)')
+        _draw_tracking(ax[Panel.TRACKING], run)
     a.set_ylabel('table angle [rad]')
-    _legend(a)
 
-    a = ax[Panel.TABLE_SPEED]
-    a.plot(t, js.values[:, 4], color=COLORS[0], label='ω2 table')
-    a.set_ylabel('table speed [rad/s]')
+    b = ax[Panel.TABLE_SPEED]
+    b.plot(t, js.values[:, 4], color=COLORS[0], label='ω2 table' + exact)
+    b.set_ylabel('table speed [rad/s]')
+    if measured is not None:
+        for panel, column, symbol in ((a, 1, 'θ2'), (b, 4, 'ω2')):
+            panel.plot(measured.steps * run.dt, measured.values[:, column],
+                       drawstyle='steps-post', color=COLORS[3], linewidth=0.9,
+                       gid=Mark.MEASURED, label=f'{symbol} measured (joint_states)')
     _legend(a)
+    _legend(b)
 
     a = ax[Panel.DRIVE]
     times, torque, load = drive_series(run, ticks)
@@ -312,6 +357,16 @@ def _fit_y(a: Axes, t0: float, t1: float) -> None:
     if np.isfinite(low):
         pad = 0.05 * (high - low) or 0.05 * abs(high) or 1.0
         a.set_ylim(low - pad, high + pad)
+
+
+def _draw_tracking(a: Axes, run: RecordedRun) -> None:
+    times, error = tracking_error(run)
+    rms = float(np.sqrt(np.mean(error ** 2))) if len(error) else 0.0
+    a.plot(times, error * 1e3, color=COLORS[0], gid=Mark.TRACKING_ERROR,
+           label=f'setpoint − θ2\n(RMS {rms * 1e3:.3g} mrad over the run)')
+    a.axhline(0.0, color='0.5', linewidth=0.6)
+    a.set_ylabel('tracking error [mrad]')
+    _legend(a)
 
 
 def _draw_mesh(a: Axes, run: RecordedRun, ticks: list[Tick], conventional: bool) -> None:
@@ -451,5 +506,6 @@ def save(fig: Figure, path: str | Path) -> Path:
 
 
 __all__ = ['DPI', 'DEFAULT_NAME', 'Panel', 'Mark', 'FigureFileError', 'ParameterMark',
-           'RunMarks', 'run_marks', 'drive_series', 'params_at', 'in_contact', 'run_figure',
-           'check_figure', 'output_path', 'default_output', 'save']
+           'RunMarks', 'run_marks', 'drive_series', 'setpoint_series', 'tracking_error',
+           'params_at', 'in_contact', 'run_figure', 'check_figure', 'output_path',
+           'default_output', 'save']
