@@ -17,10 +17,10 @@ bearing's friction jumps where its body sticks or breaks away
 (:class:`~screwgear_ros.friction.FrictionPiece`), and an RK4 step across such a point
 is only first- or second-order accurate. So each step is integrated with the meshes,
 the drive and the bearings held on the pieces they are on at its start (the smooth
-continuation of each piece; a stuck body stands exactly still). If the law is on another piece at the step's
-end, the change is located on the step's cubic Hermite interpolant
-(:func:`screwgear_ros.rk.hermite`, from the ends and their slopes: O(dt⁴)) by bisection
-on the pieces the law gives there (bisection, because a mesh can leave a branch
+continuation of each piece; a stuck body stands exactly still). If the law is on
+another piece at the step's end, the change is located on the step's cubic Hermite
+interpolant (:func:`screwgear_ros.rk.hermite`, from the ends and their slopes: O(dt⁴))
+by bisection on the pieces the law gives there (bisection, because a mesh can leave a branch
 tangentially, as a flank touched at rest does, where secant methods stall); the step is
 redone up to that instant, switched to the new pieces (a body that sticks there gets
 its speed set to exactly 0), and the rest of the step

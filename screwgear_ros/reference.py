@@ -11,7 +11,8 @@ The integrator is Dormand–Prince 8(5,3) with adaptive steps, compiled
 (:mod:`screwgear_ros.dop853`, calling the compiled ``model.rhs`` directly) and
 independent of the node's fixed-step RK4. ``method='scipy'`` runs SciPy's DOP853
 (``solve_ivp``) on the same segments instead, for cross-checks of runs without bearing
-friction (the compiled solver locates where a body sticks or breaks away; SciPy's does not). A run the reference
+friction (the compiled solver locates where a body sticks or breaks away; SciPy's does
+not). A run the reference
 cannot follow (the step size collapsing below the spacing of floating-point numbers,
 non-finite values) raises :class:`ReferenceFailure`, which says why and where.
 """
