@@ -33,10 +33,10 @@ from .commands import InputRejected, apply_command
 from .events import Command, Event, ParameterChange
 from .parameter_sets import default_values, split_parameters
 from .params import ParameterError, SimSettings, TableParams
-from .pacing import sim_time_ns
 from .integrator import OBSERVED
 from .plant import OBSERVED_DELTA, OBSERVED_JOINTS
 from .session import Session, Tick
+from .simtime import sim_time_ns
 
 #: Keys of a ROS 2 parameter file whose ``ros__parameters`` table_sim takes: any node
 #: (``/**``) and the node's own name, with or without its leading slash.
@@ -358,7 +358,7 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
     into ``command`` (each tick's outputs kept as one array copy: no object per tick
     outlives the tick)."""
     plant = session.plant
-    submit, tick_once = session.submit, session.tick
+    tick_once = session.tick
     record = recording.tick if recording is not None else None
     steps, paths, directions = columns
     vector = plant.observed
@@ -374,14 +374,14 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
             pending, due = _submit_due(session, events, pending, recording)
         effort = None if controller is None else controller(observation)
         if effort is not None:
-            if isinstance(effort, np.generic):
+            if type(effort) is not float and isinstance(effort, np.generic):
                 effort = effort.item()
             value = [effort]
-            submit(Command.of('cmd_effort', value))
             command[i - 1] = effort
+            tick = tick_once(Command.of('cmd_effort', value))
         else:
             value = None
-        tick = tick_once()
+            tick = tick_once()
         if record is not None:
             record(tick)
         if tick.rejected:

@@ -59,7 +59,7 @@ from std_srvs.srv import Trigger
 from ..commands import carries_no_command, command_value
 from ..events import Command, ParameterChange, Reset
 from ..model import pack
-from ..pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns, wall_period
+from ..pacing import AnswerGate, FactorMeter, Pacer, wall_period
 from ..interface import (ANSWER_TOPICS, ANSWERS, BY_KEY, LATCHED_OUTPUTS, RECORDED_TOPICS,
                          TICK_TOPIC)
 from ..parameter_sets import split_parameters
@@ -406,8 +406,8 @@ class TableSim(Node):
         params = session.plant.params
         level, text, values = diagnostic_values(params, out, health)
         msg = messages.diagnostics(f'{self._fqn}: simulation', 'screwgear_ros/table_sim',
-                                   level, text, values, sim_time_ns(out.step, health.dt))
-        self.io.send('diagnostics', sim_time_ns(out.step, health.dt), msg)
+                                   level, text, values, out.time_ns)
+        self.io.send('diagnostics', out.time_ns, msg)
         phase_step = mesh_phase_per_step(params, out, health.dt)
         if phase_step > MAX_PHASE_PER_STEP and self._warnings.allow('mesh_phase')[0]:
             self.get_logger().warning(
