@@ -19,8 +19,8 @@ A thin shell over :class:`screwgear_ros.session.Session` (``shared/spec/interfac
 * SIGINT/SIGTERM stop the pacing thread first, then the recorder, the node, rclpy.
 
 Who owns what: ``_values`` (the parameter values in force on the ROS side) belongs to
-the executor thread: main() spins a SingleThreadedExecutor, so the parameter
-callbacks never run concurrently. The session's queue is guarded by its own lock;
+the executor thread: main() spins one single-threaded executor (``NODE_EXECUTOR``), so
+the parameter callbacks never run concurrently. The session's queue is guarded by its own lock;
 the session, the RunIO, the pacer, the rate limiter and the health record belong
 to the pacing thread, except ``RunIO.prepare``, which the parameter callback calls to
 render a change's YAML and URDF off the pacing thread before it accepts the change (the
@@ -49,6 +49,7 @@ import rclpy
 import rclpy.logging
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import ParameterException
+from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -97,6 +98,12 @@ NAME_CHECK_PERIOD = 1.0
 NAME_CHECKS = 5
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: The executor that serves the node's callbacks. rclpy's events executor takes each
+#: arrival as it comes, in C++; the SingleThreadedExecutor rebuilds its wait set from
+#: every entity of the node (and each one's QoS event handlers) in Python at every wait,
+#: holding the interpreter lock that the pacing thread needs to tick and publish: in
+#: lockstep, where every tick waits for one arrival, that work is most of a tick's.
+NODE_EXECUTOR = EventsExecutor
 
 
 class TableSim(Node):
@@ -122,8 +129,9 @@ class TableSim(Node):
             kind, topic, LATCHED if key in LATCHED_OUTPUTS else 10)
             for key, (topic, kind) in OUTPUT_TYPES.items()
             if key != 'clock' or settings.publish_clock}
-        # Answers last: rclpy's executor serves the ready subscriptions of one wait in
-        # creation order, so a command that arrived with an answer is applied with it.
+        # Answers last: the events executor serves arrivals in their order, and an
+        # executor that serves the ready subscriptions of one wait in creation order (the
+        # SingleThreadedExecutor) then also applies a command that arrived with an answer.
         ordered = sorted(INPUT_TYPES, key=lambda topic: topic in ANSWER_TOPICS)
         # Raw: a message's size is looked at before it is decoded (ros/inputs.py).
         subs = {topic: self.create_subscription(INPUT_TYPES[topic], topic,
@@ -219,7 +227,7 @@ class TableSim(Node):
     def _command(self, topic: str, msg: Any) -> None:
         value = command_value(topic, msg)
         if not carries_no_command(topic, value):
-            self.session.submit(Command(topic, value))
+            self.session.submit(Command.of(topic, value))
         if self._answers(topic):
             self._gate.answer()
 
@@ -444,7 +452,7 @@ def main(args: list[str] | None = None) -> int:
             rclpy.logging.get_logger('table_sim').fatal(f'cannot start: {error}')
             return 2
         node.start()
-        spin_until(node, stop)
+        spin_until(node, stop, executor=NODE_EXECUTOR())
         node.close()                   # the recorder's last writes can still fail
         return node.exit_code()
     finally:
@@ -454,4 +462,4 @@ def main(args: list[str] | None = None) -> int:
         rclpy.try_shutdown()
 
 
-__all__ = ['TableSim', 'main']
+__all__ = ['NODE_EXECUTOR', 'TableSim', 'main']
