@@ -57,7 +57,7 @@ from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
-from ..commands import carries_no_command, command_value
+from ..commands import carries_no_command
 from ..events import Command, ParameterChange, Reset
 from ..model import pack
 from ..pacing import AnswerGate, FactorMeter, Pacer, wall_period
@@ -220,12 +220,11 @@ class TableSim(Node):
                 self.get_logger().warning(
                     refused + (f' ({held} more refused since the last warning)' if held else ''))
         else:
-            self._command(topic, inputs.decode(topic, data))
+            self._command(topic, inputs.value(topic, data))
         if refused is not None and self._answers(topic):
             self._gate.answer()         # an answer, if a bad one, as a rejected command is
 
-    def _command(self, topic: str, msg: Any) -> None:
-        value = command_value(topic, msg)
+    def _command(self, topic: str, value: Any) -> None:
         if not carries_no_command(topic, value):
             self.session.submit(Command.of(topic, value))
         if self._answers(topic):
