@@ -403,7 +403,7 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
             stamp = sim_time_ns(observation.step, dt)
             target = float(setpoint(stamp * 1e-9))
             if notes.due(stamp, target):
-                submit(Setpoint(target))
+                session.submit(Setpoint(target))
         effort = None if controller is None else controller(observation)
         if effort is not None:
             if type(effort) is not float and isinstance(effort, np.generic):
