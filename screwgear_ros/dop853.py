@@ -179,7 +179,7 @@ def _law(t, y, model, drive, held):
 def _event(t, y, h, k, tableau, y_stage, y_new, model, drive, held, after):
     """The first instant t + s·h (0 < s ≤ 1) at which a bearing leaves its piece in
     ``held`` within the accepted step of h from (t, y), by bisection on s, each trial a
-    step of s·h from (t, y) (k[0] = f(t, y) kept): s, with y_new the state there, and the
+    step of s·h from (t, y) (k[0] = f(t, y) kept; k and y_new are scratch): s, and the
     pieces there (``after``: those at s = 1)."""
     lo, hi = 0.0, 1.0
     for _ in range(EVENT_BISECTIONS):
@@ -192,20 +192,30 @@ def _event(t, y, h, k, tableau, y_stage, y_new, model, drive, held, after):
             lo = mid
         else:
             hi, after = mid, now
-    _stages(t, y, hi * h, k, tableau, y_stage, y_new, model, drive, held)
     return hi, after
 
 
 @allocating_kernel
-def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
+def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps):
     """Integrate y' = rhs(t, y) of the model (a :class:`~screwgear_ros.model.PackedModel`)
     under the input ``drive`` (a :class:`~screwgear_ros.model.Drive`) from (t0, y0)
-    through the sorted times ``t_out`` (all ≥ t0), writing the state at each into
-    ``out[j]``, with the method ``tableau`` (:data:`TABLEAU`).
+    through the sorted times t0 + ``tau_out`` (``tau_out``: time elapsed since t0, all
+    ≥ 0), writing the state at each into ``out[j]``, with the method ``tableau``
+    (:data:`TABLEAU`).
+
+    The steps add up to the elapsed time exactly: the kernel counts it from 0 (``tau``)
+    and takes each step as the float difference of its end and start there, so the
+    state advances by exactly the time the step covers, and a caller that gives the
+    elapsed times as whole steps times dt integrates each input for exactly its
+    duration. Counted on the absolute time, a step's length would be rounded to the
+    spacing of floats at t, which late in a long run is a relative error far above
+    any tolerance and unseen by the error control: the momentum the drive's torque
+    puts in (a linear invariant, which a Runge–Kutta step otherwise keeps exactly) is
+    then off, and the table angle drifts. The model is evaluated at t0 + tau.
 
     Returns (status, t, h, accepted, rejected, done): status OK or the failure code,
-    the time reached (where it failed), the last step size, step counts, and how
-    many rows of ``out`` were written.
+    the time reached (absolute; where it failed), the last step size, step counts, and
+    how many rows of ``out`` were written.
     """
     a, b, c, e3, e5 = tableau
     n_stages = b.shape[0]
@@ -215,28 +225,29 @@ def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
     y_stage = np.empty(N)
     for i in range(N):
         y[i] = y0[i]
+    tau = 0.0
     t = t0
     done = 0
-    n_out = t_out.shape[0]
-    while done < n_out and t_out[done] <= t:        # outputs at the start
+    n_out = tau_out.shape[0]
+    while done < n_out and tau_out[done] <= tau:    # outputs at the start
         for i in range(N):
             out[done, i] = y[i]
         done += 1
     if done == n_out:
         return OK, t, 0.0, 0, 0, done
-    t_end = t_out[n_out - 1]
+    tau_end = tau_out[n_out - 1]
     held = _law(t, y, model, drive, BY_LAW)
     _f(t, y, k, 0, model, drive, held)
     for i in range(N):
         if not (math.isfinite(y[i]) and math.isfinite(k[0, i])):
             return NON_FINITE, t, 0.0, 0, 0, done
-    h = _initial_step(t, y, k, t_end - t, model, drive, rtol, atol, y_stage, held)
+    h = _initial_step(t, y, k, tau_end, model, drive, rtol, atol, y_stage, held)
     accepted = 0
     rejected = 0
     last_rejected = False
     last_non_finite = False
     while done < n_out:
-        target = t_out[done]
+        target = tau_out[done]
         min_step = MIN_STEP_SPACINGS * _spacing(t)
         if h < min_step:
             return (NON_FINITE if last_non_finite else STEP_COLLAPSED), t, h, accepted, \
@@ -244,10 +255,11 @@ def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
         if accepted + rejected >= max_steps:
             return BUDGET, t, h, accepted, rejected, done
         # cut the step to land on the next output time exactly
-        lands = t + h >= target - min_step
-        h_step = target - t if lands else h
+        lands = tau + h >= target - min_step
+        h_step = target - tau if lands else (tau + h) - tau
         finite = _stages(t, y, h_step, k, tableau, y_stage, y_new, model, drive, held)
-        t_new = target if lands else t + h_step
+        tau_new = target if lands else tau + h_step
+        t_new = t0 + tau_new
         if finite:
             _f(t_new, y_new, k, n_stages, model, drive, held)
             for i in range(N):
@@ -275,10 +287,13 @@ def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
         if err <= 1.0:
             after = _law(t_new, y_new, model, drive, held)
             if after != held:
-                # a bearing sticks or breaks away inside the step: end the step there,
-                # stop a body that sticks exactly, go on from there on the new pieces
+                # a bearing sticks or breaks away inside the step: end the step there
+                # (its length the float difference of its ends, as every step's), stop a
+                # body that sticks exactly, go on from there on the new pieces
                 s_event, after = _event(t, y, h_step, k, tableau, y_stage, y_new, model,
                                         drive, held, after)
+                tau_new = tau + s_event * h_step
+                _stages(t, y, tau_new - tau, k, tableau, y_stage, y_new, model, drive, held)
                 stuck = FrictionPiece.STUCK
                 if after.friction_1 == stuck and held.friction_1 != stuck:
                     y_new[3] = 0.0
@@ -286,14 +301,15 @@ def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
                     y_new[4] = 0.0
                 if after.friction_3 == stuck and held.friction_3 != stuck:
                     y_new[5] = 0.0
-                t = t + s_event * h_step
+                tau = tau_new
+                t = t0 + tau
                 for i in range(N):
                     y[i] = y_new[i]
                 held = after
                 _f(t, y, k, 0, model, drive, held)
                 accepted += 1
                 last_rejected = False
-                while done < n_out and t_out[done] <= t:
+                while done < n_out and tau_out[done] <= tau:
                     for i in range(N):
                         out[done, i] = y[i]
                     done += 1
@@ -307,13 +323,14 @@ def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
             # a step cut short to land on an output time does not shrink the next one
             h_next = h_step * factor
             h = h if (lands and not last_rejected and h > h_next) else h_next
+            tau = tau_new
             t = t_new
             for i in range(N):
                 y[i] = y_new[i]
                 k[0, i] = k[n_stages, i]
             accepted += 1
             last_rejected = False
-            while done < n_out and t_out[done] <= t:
+            while done < n_out and tau_out[done] <= tau:
                 for i in range(N):
                     out[done, i] = y[i]
                 done += 1

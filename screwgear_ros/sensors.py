@@ -267,9 +267,9 @@ class SensorChain:
             return outputs
         position, velocity = self.measure_values(outputs.step, outputs.position,
                                                  outputs.velocity)
-        return type(outputs)(outputs.time, outputs.step, position, velocity, outputs.effort,
-                             outputs.delta, outputs.delta_rate, outputs.mesh_force,
-                             outputs.active_path)
+        return type(outputs)(outputs.time, outputs.time_ns, outputs.step, position, velocity,
+                             outputs.effort, outputs.delta, outputs.delta_rate,
+                             outputs.mesh_force, outputs.active_path)
 
 
 __all__ = ['JOINTS', 'MAX_DELAY', 'MAX_SEED', 'NOISE_BLOCK', 'JointSensor', 'SensorConfig',

@@ -77,12 +77,22 @@ class Tick:
     drive: DriveInput                   # input in force during the tick
     params: TableParams                 # parameters in force during the tick
     outputs: Outputs                    # at the tick's last step
-    previous_path: int                  # active path before the tick's events
+    previous: Outputs                   # at its first step, before its events
     previous_direction: int             # commanded direction before the tick's events
     fault: str | None                   # why the plant stands still, if it does
     new_fault: bool                     # the model diverged during this tick
     measured: Outputs | None = None     # what the sensors measure of ``outputs`` (None:
     #                                     ``outputs`` itself, every sensor ideal)
+
+    @property
+    def start_ns(self) -> int:
+        """Simulation time of ``start``, ns: the stamp of what took effect then."""
+        return self.previous.time_ns
+
+    @property
+    def previous_path(self) -> int:
+        """Active path before the tick's events."""
+        return self.previous.active_path
 
     @property
     def reversal(self) -> bool:
@@ -134,11 +144,14 @@ class Session:
         with self._lock:
             self._pending.append(event)
 
-    def tick(self) -> Tick:
-        """Apply the queued events, integrate one tick, compute its outputs."""
+    def tick(self, command: Command | None = None) -> Tick:
+        """Apply the queued events, integrate one tick, compute its outputs.
+
+        ``command``: what ``submit(command)`` just before would do, without the queue
+        when nothing else waits in it (a closed loop's tick: its controller's answer)."""
         plant = self.plant
         start = plant.step
-        previous_path = self.outputs.active_path
+        previous = self.outputs
         previous_direction = plant.input.direction
         applied: tuple[Event, ...] = ()
         rejected: tuple[InputRejected, ...] = ()
@@ -147,9 +160,17 @@ class Session:
         # Read without the lock first: only this thread empties the queue, and an event
         # submitted just after the read is as late as one submitted after the swap.
         if self._pending:
+            if command is not None:
+                self.submit(command)
             with self._lock:
                 events, self._pending = self._pending, []
             applied, rejected, notices, commanded = self._apply(events, start)
+        elif command is not None:
+            error = self._command(command)
+            if error is None:
+                applied, commanded = (command.at(start),), True
+            else:
+                rejected = (error,)
         if commanded:                        # an accepted command restarts the timeout
             self._last_command, self.timed_out = start, False
         elif self._timeout_steps is not None:
@@ -160,7 +181,7 @@ class Session:
         self.outputs = outputs = plant.advance_outputs(self._steps)
         self.measured = measured = self.sensors.measure(outputs)
         return Tick(start, applied, rejected, notices, plant.input, plant.params, outputs,
-                    previous_path, previous_direction, plant.fault,
+                    previous, previous_direction, plant.fault,
                     fault is None and plant.fault is not None,
                     None if measured is outputs else measured)
 

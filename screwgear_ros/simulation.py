@@ -34,10 +34,10 @@ from .control import SetpointNotes
 from .events import Command, Event, ParameterChange, Setpoint
 from .parameter_sets import default_values, split_parameters
 from .params import ParameterError, SimSettings, TableParams
-from .pacing import sim_time_ns
 from .integrator import OBSERVED
 from .plant import OBSERVED_DELTA, OBSERVED_JOINTS
 from .session import Session, Tick
+from .simtime import sim_time_ns
 
 #: Keys of a ROS 2 parameter file whose ``ros__parameters`` table_sim takes: any node
 #: (``/**``) and the node's own name, with or without its leading slash.
@@ -381,7 +381,7 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
     outlives the tick), the ``setpoint`` submitted before them when due; ``measured``:
     the joint_states θ and ω of each sample, when the sensors are not ideal."""
     plant = session.plant
-    submit, tick_once = session.submit, session.tick
+    tick_once = session.tick
     record = recording.tick if recording is not None else None
     steps, paths, directions = columns
     vector = plant.observed
@@ -403,17 +403,17 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
             stamp = sim_time_ns(observation.step, dt)
             target = float(setpoint(stamp * 1e-9))
             if notes.due(stamp, target):
-                submit(Setpoint(target))
+                session.submit(Setpoint(target))
         effort = None if controller is None else controller(observation)
         if effort is not None:
-            if isinstance(effort, np.generic):
+            if type(effort) is not float and isinstance(effort, np.generic):
                 effort = effort.item()
             value = [effort]
-            submit(Command.of('cmd_effort', value))
             command[i - 1] = effort
+            tick = tick_once(Command.of('cmd_effort', value))
         else:
             value = None
-        tick = tick_once()
+            tick = tick_once()
         if record is not None:
             record(tick)
         if tick.rejected:
