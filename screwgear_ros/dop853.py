@@ -32,7 +32,7 @@ import numpy as np
 import scipy
 
 from .jit import allocating_kernel, kernel
-from .model import rhs
+from .model import N_STATE, rhs
 
 #: SciPy's private module of the tableau, and the names taken from it.
 TABLEAU_MODULE = 'scipy.integrate._ivp.dop853_coefficients'
@@ -72,19 +72,21 @@ OK, STEP_COLLAPSED, NON_FINITE, BUDGET = 0, 1, 2, 3
 #: Default step budget per kernel call (a safety net: far above any sane run).
 MAX_STEPS = 50_000_000
 
-N = 6
+N = N_STATE
 
 
 @kernel
 def _f(t, y, out, k, model, drive):
     """out[k, :] = f(t, y) through the model's compiled rhs."""
-    d = rhs(t, (y[0], y[1], y[2], y[3], y[4], y[5]), model, drive)
+    d = rhs(t, (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]), model, drive)
     out[k, 0] = d[0]
     out[k, 1] = d[1]
     out[k, 2] = d[2]
     out[k, 3] = d[3]
     out[k, 4] = d[4]
     out[k, 5] = d[5]
+    out[k, 6] = d[6]
+    out[k, 7] = d[7]
 
 
 @kernel

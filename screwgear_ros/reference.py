@@ -23,7 +23,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from . import dop853
-from .model import pack, rhs_vector
+from .model import N_STATE, pack, rhs_vector
 from .params import TableParams
 from .plant import DriveInput
 
@@ -77,7 +77,9 @@ def solve(initial_state: np.ndarray, segments: Sequence[Segment], dt: float,
           sample_steps: np.ndarray, rtol: float = RTOL, atol: float = ATOL,
           progress: Callable[[int], None] | None = None,
           method: str = 'dop853') -> np.ndarray:
-    """States at the integration steps ``sample_steps`` (sorted ints), shape (n, 6).
+    """States at the integration steps ``sample_steps`` (sorted ints), shape (n, m), as
+    long as ``initial_state`` (m = 6: the mechanical state, the drives' lagged torques
+    starting at 0; m = N_STATE: the whole state).
 
     ``segments`` are sorted by start step and the first starts at or before the
     first sample. Time is step·dt, s. ``progress(k)`` is told each segment done.
@@ -90,8 +92,10 @@ def solve(initial_state: np.ndarray, segments: Sequence[Segment], dt: float,
     sample_steps = np.asarray(sample_steps, dtype=np.int64)
     if len(segments) == 0 or segments[0].start_step > (sample_steps[0] if len(sample_steps) else 0):
         raise ValueError('the first segment must start at or before the first sample')
-    out = np.empty((len(sample_steps), 6))
-    y = np.array(initial_state, dtype=np.float64)
+    width = len(initial_state)
+    out = np.empty((len(sample_steps), N_STATE))
+    y = np.zeros(N_STATE)
+    y[:width] = initial_state
     step = segments[0].start_step
     last_step = int(sample_steps[-1]) if len(sample_steps) else step
     integrate = _segment if method == 'dop853' else _segment_scipy
@@ -113,7 +117,7 @@ def solve(initial_state: np.ndarray, segments: Sequence[Segment], dt: float,
             out[hit] = y
         if progress is not None:
             progress(k)
-    return out
+    return out[:, :width]
 
 
 #: Why the compiled solver stopped, by its status code.
@@ -136,7 +140,7 @@ def _segment(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray, dt: 
     drive = seg.drive
     ends_on_sample = len(samples) > 0 and samples[-1] == step_b
     steps = samples if ends_on_sample else np.append(samples, step_b)  # always see the end
-    states = np.empty((len(steps), 6))
+    states = np.empty((len(steps), N_STATE))
     status, t, h, accepted, rejected, _ = dop853.integrate(
         step_a * dt, y0, steps * dt, states, model, drive.kernel, rtol, atol,
         dop853.TABLEAU, dop853.MAX_STEPS)
