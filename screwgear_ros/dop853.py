@@ -32,7 +32,7 @@ import numpy as np
 import scipy
 
 from .jit import allocating_kernel, kernel
-from .model import N_STATE, rhs
+from .model import N_MECHANICAL, N_STATE, TAU, rhs
 
 #: SciPy's private module of the tableau, and the names taken from it.
 TABLEAU_MODULE = 'scipy.integrate._ivp.dop853_coefficients'
@@ -96,27 +96,36 @@ def _spacing(t):
 
 
 @kernel
+def _normed(model):
+    """How many leading state entries the error norms take: all, or with no current-loop
+    lag (τ_d = 0: the lagged torques have slope 0 and stay as they are, unused) the
+    mechanical ones alone, so that norms and steps are those of the mechanical model."""
+    return N if model.p[TAU] != 0.0 else N_MECHANICAL
+
+
+@kernel
 def _initial_step(t0, y0, k, t_span, model, drive, rtol, atol, y1):
     """Hairer's starting step (Solving ODEs I, §II.4), k[0] = f(t0, y0) given; uses
     k[1] and y1 as scratch."""
+    n = _normed(model)
     d0 = 0.0
     d1 = 0.0
-    for i in range(N):
+    for i in range(n):
         sc = atol + rtol * abs(y0[i])
         d0 += (y0[i] / sc) ** 2
         d1 += (k[0, i] / sc) ** 2
-    d0 = math.sqrt(d0 / N)
-    d1 = math.sqrt(d1 / N)
+    d0 = math.sqrt(d0 / n)
+    d1 = math.sqrt(d1 / n)
     h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
     h0 = min(h0, t_span)
     for i in range(N):
         y1[i] = y0[i] + h0 * k[0, i]
     _f(t0 + h0, y1, k, 1, model, drive)
     d2 = 0.0
-    for i in range(N):
+    for i in range(n):
         sc = atol + rtol * abs(y0[i])
         d2 += ((k[1, i] - k[0, i]) / sc) ** 2
-    d2 = math.sqrt(d2 / N) / h0
+    d2 = math.sqrt(d2 / n) / h0
     big = max(d1, d2)
     if big <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
@@ -140,6 +149,7 @@ def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
     many rows of ``out`` were written.
     """
     a, b, c, e3, e5 = tableau
+    normed = _normed(model)
     n_stages = b.shape[0]
     k = np.empty((n_stages + 1, N))
     y = np.empty(N)
@@ -202,7 +212,7 @@ def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
         if finite:
             err5 = 0.0
             err3 = 0.0
-            for i in range(N):
+            for i in range(normed):
                 sc = atol + rtol * max(abs(y[i]), abs(y_new[i]))
                 s5 = 0.0
                 s3 = 0.0
@@ -214,7 +224,7 @@ def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
             if err5 == 0.0 and err3 == 0.0:
                 err = 0.0
             else:
-                err = abs(h_step) * err5 / math.sqrt((err5 + 0.01 * err3) * N)
+                err = abs(h_step) * err5 / math.sqrt((err5 + 0.01 * err3) * normed)
         else:
             err = math.inf
         last_non_finite = not finite

@@ -394,6 +394,24 @@ def cogging(th1: float, th3: float, t1: float, t3: float,
 
 
 @kernel
+def pinion_torques(piece: DrivePiece, t: float, y: tuple, torque: float, direction: float,
+                   p: np.ndarray) -> tuple[float, float, DrivePiece]:
+    """Torques (T1, T3), N·m, the drives apply to pinions 1 and 3 at state y with the
+    drive's line on ``piece`` (FROM_STATE: the piece the speed picks), and that piece:
+    τ_d = 0, :func:`applied_torques_on` of the command; τ_d > 0, the lagged torques y[6],
+    y[7] (:func:`lagged_torques`); then the cogging ripple (:func:`cogging`)."""
+    if p[TAU] == 0.0:
+        t1, t3, piece = applied_torques_on(piece, t, y[3], y[5], torque, direction, p)
+    else:
+        t1, t3 = lagged_torques(t, y[6], y[7], direction, p)
+        if piece == DrivePiece.FROM_STATE:
+            piece = drive_piece(torque, active_speed(y[3], y[5], direction, p), p)
+    if p[TCOG] != 0.0:
+        t1, t3 = cogging(y[0], y[2], t1, t3, p)
+    return t1, t3, piece
+
+
+@kernel
 def motion(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
            ) -> tuple[float, float, float, float, float, float, float, float, Pieces]:
     """The 3-DOF equations of motion (model.md §3) at state y, the meshes on the contact
@@ -402,25 +420,16 @@ def motion(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
 
     I1·θ̈1 = T1 − Q1;  I3·θ̈3 = T3 − Q3;  I2·θ̈2 = r2·(F1 + F3) − T_load − c_t·θ̇2,
     Q = r·F (`paper`) or the energy-consistent pinion load (:func:`mesh_load_on`); T1, T3
-    through the drive's torque–speed line (:func:`applied_torques`), or with τ_d > 0 the
-    lagged drive torques y[6], y[7] (:func:`lagged_torques`), plus the cogging ripple
-    (:func:`cogging`). In `conventional` mode pinion 3 is disengaged (F3 = Q3 = 0).
+    those of :func:`pinion_torques` (through the drive's torque–speed line; lagged by the
+    current loops; with cogging). In `conventional` mode pinion 3 is disengaged
+    (F3 = Q3 = 0).
 
     Returns (θ̈1, θ̈2, θ̈3 in rad/s², T1, net table torque, T3 in N·m, F1, F3 in N, the
     pieces the law was on).
     """
     p = model.p
     th1, th2, th3, w1, w2, w3 = y[0], y[1], y[2], y[3], y[4], y[5]
-    if p[TAU] == 0.0:
-        t1, t3, piece = applied_torques_on(held.drive, t, w1, w3, drive.torque,
-                                           drive.direction, p)
-    else:
-        t1, t3 = lagged_torques(t, y[6], y[7], drive.direction, p)
-        piece = held.drive
-        if piece == DrivePiece.FROM_STATE:
-            piece = drive_piece(drive.torque, active_speed(w1, w3, drive.direction, p), p)
-    if p[TCOG] != 0.0 and p[NCOG] != 0.0:
-        t1, t3 = cogging(th1, th3, t1, t3, p)
+    t1, t3, piece = pinion_torques(held.drive, t, y, drive.torque, drive.direction, p)
     f1, q1, branch_1 = mesh_load_on(th1, w1, p[R1], p[Z1], th2, w2, t, model, held.branch_1)
     if p[MODE] == MODE_CONVENTIONAL:
         f3, q3, branch_3 = 0.0, 0.0, ContactBranch.DISENGAGED
@@ -476,8 +485,8 @@ def outputs(t: float, y: tuple, model: PackedModel, drive: Drive
             ) -> tuple[float, float, float, float, float, float, float, float, float]:
     """What the node publishes about a state besides the state itself: the torques
     applied to pinion 1, the table (net, = I2·θ̈2) and pinion 3 (N·m; on the pinions the
-    preload and the drive torque the drive's torque–speed line delivers at this speed,
-    :func:`applied_torques`: the command itself below the line), then δ (m), δ̇ (m/s) and
+    preload and the drive torque actually applied, :func:`pinion_torques`: the command
+    itself below the drive's line with no lag), then δ (m), δ̇ (m/s) and
     the mesh force F (N) of mesh 1 and of mesh 3 (δ3 and δ̇3 also when pinion 3 is
     disengaged, with F3 = 0)."""
     p = model.p
@@ -694,7 +703,7 @@ __all__ = [
     'stiffest_linearization', 'EquilibriumNotFound', 'NEWTON_ITERATIONS',
     'equilibrium_state', 'MODE_ANTI_BACKLASH', 'MODE_CONVENTIONAL', 'PHASE_ANGLE', 'PHASE_TIME',
     'N_PACKED', 'N_STATE', 'N_MECHANICAL', 'state_rate', 'drive_targets', 'lag_rates',
-    'lagged_torques', 'cogging', 'TAU', 'TCOG', 'NCOG', 'I1', 'I2', 'I3', 'R1', 'R2', 'R3', 'Z1', 'Z3', 'K_EFF', 'K_A', 'PHI_K', 'C', 'B',
+    'lagged_torques', 'cogging', 'pinion_torques', 'TAU', 'TCOG', 'NCOG', 'I1', 'I2', 'I3', 'R1', 'R2', 'R3', 'Z1', 'Z3', 'K_EFF', 'K_A', 'PHI_K', 'C', 'B',
     'TP', 'TV', 'WV', 'CT', 'WE', 'WNL', 'TS', 'MODE', 'PHASE', 'FORMULATION', 'FORM_PAPER',
     'FORM_ENERGY',
 ]

@@ -184,8 +184,8 @@ class TableParams:
         'T_cog·sin(n_cog·θ) at its pinion angle θ (cogging)', low=0.0, high=TORQUE,
         kernel=True)
     cogging_order: int = parameter(
-        0, 'n_cog', '', 'harmonic of the pinion angle the cogging ripple has (periods per '
-        'pinion revolution); 0 = no ripple', low=1, high=TEETH, zero=True, kernel=True)
+        1, 'n_cog', '', 'harmonic of the pinion angle the cogging ripple has (periods per '
+        'pinion revolution)', low=1, high=TEETH, kernel=True)
     mode: Mode = parameter(Mode.ANTI_BACKLASH, '', '', 'both pinions under preload, or '
                            'pinion 1 alone with backlash', read_only=True)
     mesh_phase: MeshPhase = parameter(MeshPhase.ANGLE, '', '', 'what drives the mesh phase: '

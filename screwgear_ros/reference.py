@@ -23,7 +23,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from . import dop853
-from .model import N_STATE, pack, rhs_vector
+from .model import N_MECHANICAL, N_STATE, pack, rhs_vector
 from .params import TableParams
 from .plant import DriveInput
 
@@ -159,9 +159,16 @@ def _segment_scipy(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray
     ends_on_sample = len(samples) > 0 and samples[-1] == step_b
     steps = samples if ends_on_sample else np.append(samples, step_b)
     kernel_drive = drive.kernel
-    sol = solve_ivp(lambda t, y: rhs_vector(t, y, model, kernel_drive),
-                    (step_a * dt, step_b * dt), y0, method='DOP853', rtol=rtol, atol=atol,
-                    t_eval=steps * dt)
+    # With no current-loop lag the lagged torques stay as they are: SciPy integrates (and
+    # norms) the mechanical state alone, as the compiled solver does.
+    width = N_STATE if seg.params.drive_time_constant > 0.0 else N_MECHANICAL
+    rest = y0[width:]
+    sol = solve_ivp(lambda t, y: rhs_vector(t, np.concatenate([y, rest]), model,
+                                            kernel_drive)[:width],
+                    (step_a * dt, step_b * dt), y0[:width], method='DOP853', rtol=rtol,
+                    atol=atol, t_eval=steps * dt)
+    if sol.success:
+        sol.y = np.vstack([sol.y, np.repeat(rest[:, None], sol.y.shape[1], axis=1)])
     if not sol.success:
         t = float(sol.t[-1]) if len(sol.t) else step_a * dt
         raise ReferenceFailure(f'SciPy: {sol.message}', t, 0, 1, step_a * dt, step_b * dt,

@@ -27,7 +27,7 @@ EXTRA_KEYS = ('package_version', 'initial_state', 'start_step')
 INTRODUCED = {'command_timeout': 0.0, 'drive_no_load_speed': 0.0, 'effort_deadband': 0.0,
               'drive_stall_torque': TableParams.drive_stall_torque, 'mesh_formulation': 'paper',
               'contact_location': False, 'drive_time_constant': 0.0,
-              'cogging_amplitude': 0.0, 'cogging_order': 0}
+              'cogging_amplitude': 0.0, 'cogging_order': 1}
 _REQUIRED = ({f.name for f in fields(TableParams)} | set(EXTRA_KEYS)) - set(INTRODUCED)
 
 
