@@ -357,6 +357,15 @@ def drive_targets(piece: DrivePiece, w1: float, w3: float, torque: float, direct
 
 
 @kernel
+def lag_state(y: tuple) -> tuple[float, float]:
+    """The drives' lagged torques L1, L3 (N·m) of state y: y[6], y[7], or 0 for a
+    mechanical state alone (six entries; the length is known when the kernel compiles)."""
+    if len(y) > 6:
+        return y[6], y[7]
+    return 0.0, 0.0
+
+
+@kernel
 def lag_rates(y: tuple, torque: float, direction: float, piece: DrivePiece,
               p: np.ndarray) -> tuple[float, float]:
     """dL1/dt, dL3/dt (N·m/s) of the lagged drive torques y[6], y[7]: (target − L)/τ_d
@@ -364,7 +373,8 @@ def lag_rates(y: tuple, torque: float, direction: float, piece: DrivePiece,
     if p[TAU] == 0.0:
         return 0.0, 0.0
     m1, m3 = drive_targets(piece, y[3], y[5], torque, direction, p)
-    return (m1 - y[6]) / p[TAU], (m3 - y[7]) / p[TAU]
+    lag1, lag3 = lag_state(y)
+    return (m1 - lag1) / p[TAU], (m3 - lag3) / p[TAU]
 
 
 @kernel
@@ -403,7 +413,8 @@ def pinion_torques(piece: DrivePiece, t: float, y: tuple, torque: float, directi
     if p[TAU] == 0.0:
         t1, t3, piece = applied_torques_on(piece, t, y[3], y[5], torque, direction, p)
     else:
-        t1, t3 = lagged_torques(t, y[6], y[7], direction, p)
+        lag1, lag3 = lag_state(y)
+        t1, t3 = lagged_torques(t, lag1, lag3, direction, p)
         if piece == DrivePiece.FROM_STATE:
             piece = drive_piece(torque, active_speed(y[3], y[5], direction, p), p)
     if p[TCOG] != 0.0:
@@ -498,8 +509,10 @@ def outputs(t: float, y: tuple, model: PackedModel, drive: Drive
 
 
 def rhs_vector(t: float, y: np.ndarray, model: PackedModel, drive: Drive) -> np.ndarray:
-    """The same right-hand side on a state vector (N_STATE long), for SciPy solvers."""
-    return np.array(rhs(t, (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]), model, drive))
+    """The same right-hand side on a state vector, for SciPy solvers: N_STATE long, or the
+    mechanical state alone (the drives' lagged torques then 0), as long as ``y``."""
+    lag = (y[6], y[7]) if len(y) > N_MECHANICAL else (0.0, 0.0)
+    return np.array(rhs(t, (y[0], y[1], y[2], y[3], y[4], y[5], *lag), model, drive))[:len(y)]
 
 
 def stiffest_linearization(params: TableParams) -> np.ndarray:
@@ -703,7 +716,7 @@ __all__ = [
     'stiffest_linearization', 'EquilibriumNotFound', 'NEWTON_ITERATIONS',
     'equilibrium_state', 'MODE_ANTI_BACKLASH', 'MODE_CONVENTIONAL', 'PHASE_ANGLE', 'PHASE_TIME',
     'N_PACKED', 'N_STATE', 'N_MECHANICAL', 'state_rate', 'drive_targets', 'lag_rates',
-    'lagged_torques', 'cogging', 'pinion_torques', 'TAU', 'TCOG', 'NCOG', 'I1', 'I2', 'I3', 'R1', 'R2', 'R3', 'Z1', 'Z3', 'K_EFF', 'K_A', 'PHI_K', 'C', 'B',
+    'lagged_torques', 'cogging', 'pinion_torques', 'lag_state', 'TAU', 'TCOG', 'NCOG', 'I1', 'I2', 'I3', 'R1', 'R2', 'R3', 'Z1', 'Z3', 'K_EFF', 'K_A', 'PHI_K', 'C', 'B',
     'TP', 'TV', 'WV', 'CT', 'WE', 'WNL', 'TS', 'MODE', 'PHASE', 'FORMULATION', 'FORM_PAPER',
     'FORM_ENERGY',
 ]
