@@ -14,7 +14,10 @@ Prints, measured in this run, interleaved ``--repeat`` times (median, and the ra
   with one ``cmd_effort`` (the same PD law), ticks/s;
 * **ping-pong floor**: a bare rclpy round trip between two processes (one JointState
   out, one Float64MultiArray back, no physics), round trips/s: what any DDS loop written
-  with rclpy costs at least;
+  with rclpy costs at least. Each side spins the executor its counterpart in the
+  lockstep loop spins: the ping the controller's (a SingleThreadedExecutor), the echo
+  table_sim's (``NODE_EXECUTOR``), so the ratio compares the node's own cost of a tick
+  and not the executors; the floor with a SingleThreadedExecutor echo is printed too;
 * **table_sim alone**: the node flat out (real-time factor 0, no lockstep), ticks/s from
   the stamps a subscriber here receives: the node's own cost of a tick, publishing
   included (a lockstep tick costs that, plus a round trip, plus the hand-offs).
@@ -94,13 +97,17 @@ def lockstep(window: float) -> float:
     node = rclpy.create_node('bench_loop_controller')
     try:
         publisher = node.create_publisher(Float64MultiArray, '/cmd_effort', 10)
-        seen = {'last': -1, 'count': 0}
+        seen = {'last': -1, 'count': 0, 'matched': False}
         nan = float('nan')
 
         def answer(msg: JointState) -> None:
             stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-            if stamp <= seen['last'] or publisher.get_subscription_count() == 0:
+            if stamp <= seen['last']:
                 return
+            if not seen['matched']:       # an answer before the node listens is lost
+                if publisher.get_subscription_count() == 0:
+                    return
+                seen['matched'] = True    # (asked once: the ping asks nothing a message)
             seen['last'] = stamp
             seen['count'] += 1
             o = Observation(stamp * 1e-9, 0, msg.position, msg.velocity, msg.effort, nan,
@@ -164,29 +171,36 @@ def flat_out(window: float) -> float:
 
 
 _ECHO = textwrap.dedent('''
+    import sys
     import rclpy
+    from rclpy.executors import SingleThreadedExecutor
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
+    from screwgear_ros.cli.table_sim import NODE_EXECUTOR
     rclpy.init()
     node = rclpy.create_node('bench_loop_echo')
     pub = node.create_publisher(Float64MultiArray, '/bench_loop/answer', 10)
     node.create_subscription(JointState, '/bench_loop/state',
                              lambda m: pub.publish(Float64MultiArray(data=[m.position[1]])), 10)
+    executor = NODE_EXECUTOR() if sys.argv[1] == 'node' else SingleThreadedExecutor()
+    executor.add_node(node)
     try:
-        rclpy.spin(node)
+        while rclpy.ok():       # spin() of the events executor does not see SIGTERM
+            executor.spin_once(timeout_sec=0.1)
     except BaseException:
         pass
 ''')
 
 
-def ping_pong(window: float) -> float:
-    """Round trips/s of a bare rclpy ping-pong with an echo process."""
+def ping_pong(window: float, echo_executor: str = 'node') -> float:
+    """Round trips/s of a bare rclpy ping-pong with an echo process spinning
+    ``NODE_EXECUTOR`` ('node') or a SingleThreadedExecutor ('single')."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
-    echo = subprocess.Popen([sys.executable, '-P', '-c', _ECHO])
+    echo = subprocess.Popen([sys.executable, '-P', '-c', _ECHO, echo_executor])
     rclpy.init()
     node = rclpy.create_node('bench_loop_ping')
     try:
@@ -245,7 +259,8 @@ def main() -> int:
     in_process(200)
     seen: dict[str, list[float]] = {'physics': [], 'in_process': [], 'ratio': [],
                                     'physics_cpu': [], 'in_process_cpu': [], 'ratio_cpu': [],
-                                    'lockstep': [], 'ping_pong': [], 'flat_out': []}
+                                    'lockstep': [], 'ping_pong': [], 'ping_pong_single': [],
+                                    'flat_out': []}
     for k in range(max(args.pairs, args.repeat)):
         if k < args.pairs:
             (a, a_cpu), (b, b_cpu) = physics_alone(IN_PROCESS_TICKS), in_process(IN_PROCESS_TICKS)
@@ -258,6 +273,7 @@ def main() -> int:
         if k < args.repeat and not args.no_dds:
             seen['lockstep'].append(lockstep(args.window))
             seen['ping_pong'].append(ping_pong(args.window))
+            seen['ping_pong_single'].append(ping_pong(args.window, 'single'))
             seen['flat_out'].append(flat_out(args.window))
     load = os.getloadavg()[0]
     print(f'closed loops, {args.pairs} in-process pairs, {args.repeat} DDS rounds, '
@@ -274,6 +290,8 @@ def main() -> int:
         inproc = statistics.median(seen['in_process'])
         print(f'DDS lockstep, table_sim + rclpy PD        ticks/s {spread(seen["lockstep"])}')
         print(f'rclpy ping-pong floor (2 processes)   round trips/s {spread(seen["ping_pong"])}')
+        print(f'  the same, echo on a SingleThreadedExecutor      '
+              f'{spread(seen["ping_pong_single"])}')
         print(f'table_sim alone flat out (no lockstep)    ticks/s {spread(seen["flat_out"])}')
         print(f'  in-process / lockstep                           {inproc / lock:10.1f}')
         print(f'  lockstep / ping-pong floor                      {lock / floor:10.2f}')

@@ -4,7 +4,7 @@ A ``joint_states`` message always has the same names and three values per array,
 ``Float64`` one value, a ``Clock`` one stamp, a ``table_markers`` array the same markers
 for as long as its colours and texts stay: their CDR layout does not change. A
 :class:`Template` is the serialization of one such message, and the offsets where its
-varying fields go (the stamps and runs of doubles). Encoding is then one
+varying fields go (the stamps and blocks of doubles). Encoding is then one
 ``struct.pack`` of the whole message, the template's unchanging bytes included (no
 message objects, no rclpy serializer), and the same bytes are published (rclpy
 publishes ``bytes`` as a serialized message) and handed to the recorder. A
@@ -53,7 +53,7 @@ Path = tuple[str | int, ...]
 
 @dataclass(frozen=True)
 class Field:
-    """Where a run of doubles (or a stamp) sits in the template."""
+    """Where a block of doubles (or a stamp) sits in the template."""
 
     offset: int
     codec: struct.Struct
@@ -126,7 +126,7 @@ class _Writer:
         """The struct codes of the primitives written in [start, end)."""
         return ''.join(code for offset, code in self.leaves if start <= offset < end)
 
-    def run(self, paths: Sequence[Path]) -> Field:
+    def block(self, paths: Sequence[Path]) -> Field:
         """The doubles from the start of ``paths[0]`` to the end of ``paths[-1]``, which
         must hold nothing but doubles (no padding, no other field)."""
         if not paths:
@@ -134,7 +134,7 @@ class _Writer:
         start, end = self.spans[paths[0]][0], self.spans[paths[-1]][1]
         codec = struct.Struct('<' + self._codes(start, end))
         if set(codec.format[1:]) != {'d'} or codec.size != end - start:
-            raise ValueError(f'cdr: {paths[0]}..{paths[-1]} is not a run of doubles')
+            raise ValueError(f'cdr: {paths[0]}..{paths[-1]} is not a block of doubles')
         return Field(start, codec)
 
     def stamp(self, path: Path) -> Field:
@@ -148,29 +148,29 @@ class _Writer:
 class _Packed:
     """A layout encoded by one ``struct.pack``: ``_whole`` the struct, ``_items`` its
     arguments with the unchanging bytes in place, and where the varying ones go: a
-    stamp's two at ``_stamp_items[i]``, a run's doubles at ``_run_items[k] = (first,
+    stamp's two at ``_stamp_items[i]``, a block's doubles at ``_block_items[k] = (first,
     count)``."""
 
     _whole: struct.Struct
     _items: list[Any]
     _stamp_items: list[int]
-    _run_items: list[tuple[int, int]]
+    _block_items: list[tuple[int, int]]
 
-    def _pack(self, time_ns: int, runs: Sequence[Sequence[float]]) -> bytes:
-        """Every stamp set to ``time_ns`` (ns), the runs in order, packed."""
+    def _pack(self, time_ns: int, blocks: Sequence[Sequence[float]]) -> bytes:
+        """Every stamp set to ``time_ns`` (ns), the blocks in order, packed."""
         items = self._items.copy()
         if self._stamp_items:
             sec, nanosec = divmod(time_ns, 1_000_000_000)
             for i in self._stamp_items:
                 items[i], items[i + 1] = sec, nanosec
-        for (i, count), values in zip(self._run_items, runs):
+        for (i, count), values in zip(self._block_items, blocks):
             items[i:i + count] = values
         return self._whole.pack(*items)
 
 
 class Template(_Packed):
     """The CDR bytes of one message layout, with the places of its varying fields:
-    its stamps (each set to the same time; none for an unstamped message) and one run
+    its stamps (each set to the same time; none for an unstamped message) and one block
     of doubles per value argument of :meth:`encode`; ``free``: the byte ranges
     [start, end) no decoder reads (the encapsulation options and the alignment padding,
     which rclpy leaves uninitialized)."""
@@ -189,18 +189,18 @@ class Template(_Packed):
                          key=lambda v: v[0])
         formats, self._items, at = ['<'], [], 0
         self._stamp_items: list[int] = []
-        self._run_items = [(0, 0)] * len(self.fields)
-        for offset, codec, run in varying:
+        self._block_items = [(0, 0)] * len(self.fields)
+        for offset, codec, block in varying:
             if not codec.size:
                 continue
             count = len(codec.format) - 1           # one struct code per item
             if offset > at:
                 formats.append(f'{offset - at}s')
                 self._items.append(self.bytes[at:offset])
-            if run < 0:
+            if block < 0:
                 self._stamp_items.append(len(self._items))
             else:
-                self._run_items[run] = (len(self._items), count)
+                self._block_items[block] = (len(self._items), count)
             formats.append(codec.format[1:])
             self._items.extend([0] * count)
             at = offset + codec.size
@@ -209,9 +209,9 @@ class Template(_Packed):
             self._items.append(self.bytes[at:])
         self._whole = struct.Struct(''.join(formats))
 
-    def encode(self, time_ns: int, *runs: Sequence[float]) -> bytes:
+    def encode(self, time_ns: int, *blocks: Sequence[float]) -> bytes:
         """The message's CDR bytes with these stamps (ns) and these values."""
-        return self._pack(time_ns, runs)
+        return self._pack(time_ns, blocks)
 
 
 class Bundle(_Packed):
@@ -223,23 +223,23 @@ class Bundle(_Packed):
     def __init__(self, templates: Sequence[Template]) -> None:
         self.templates = tuple(templates)
         formats, self._items = ['<'], []
-        self._stamp_items, self._run_items = [], []
+        self._stamp_items, self._block_items = [], []
         self._bounds: list[tuple[int, int]] = []     # each message's bytes in the pack
         at = 0
         for t in self.templates:
             first = len(self._items)
             self._items.extend(t._items)
             self._stamp_items.extend(first + i for i in t._stamp_items)
-            self._run_items.extend((first + i, count) for i, count in t._run_items)
+            self._block_items.extend((first + i, count) for i, count in t._block_items)
             formats.append(t._whole.format[1:])
             self._bounds.append((at, at + t._whole.size))
             at += t._whole.size
         self._whole = struct.Struct(''.join(formats))
 
-    def encode(self, time_ns: int, *runs: Sequence[float]) -> list[bytes]:
+    def encode(self, time_ns: int, *blocks: Sequence[float]) -> list[bytes]:
         """Each template's CDR bytes, in order, every stamp set to ``time_ns`` (ns) and
-        the runs of the first template, then of the second, and so on."""
-        data = self._pack(time_ns, runs)
+        the blocks of the first template, then of the second, and so on."""
+        data = self._pack(time_ns, blocks)
         return [data[start:end] for start, end in self._bounds]
 
 
@@ -275,14 +275,14 @@ def _time() -> Shape:
 
 
 def template_of(msg: Any, stamps: Sequence[Path] = (),
-                runs: Sequence[Sequence[Path]] = ()) -> Template:
+                blocks: Sequence[Sequence[Path]] = ()) -> Template:
     """The template of ``msg``'s layout: its CDR bytes, the builtin_interfaces/Time at
-    each of ``stamps``, and one run of doubles per entry of ``runs`` (the fields from its
+    each of ``stamps``, and one block of doubles per entry of ``blocks`` (the fields from its
     first path to its last, nothing but doubles)."""
     w = _Writer()
     w.message(msg)
     return Template(type_name(msg), w.buf, [w.stamp(p) for p in stamps],
-                    [w.run(paths) for paths in runs], w.free)
+                    [w.block(paths) for paths in blocks], w.free)
 
 
 def joint_state_template(names: Sequence[str]) -> Template:
@@ -302,7 +302,7 @@ def joint_state_template(names: Sequence[str]) -> Template:
 def float64_template() -> Template:
     """std_msgs/Float64."""
     return template_of(Shape('std_msgs/msg/Float64', {'data': ('double', 0.0)}),
-                       runs=[[('data',)]])
+                       blocks=[[('data',)]])
 
 
 def clock_template() -> Template:

@@ -37,7 +37,7 @@ import math
 from dataclasses import dataclass, fields
 from typing import Any, Callable, Sequence
 
-from .pacing import sim_time_ns
+from .simtime import sim_time_ns
 
 #: s: a longer gap between two joint states (lost samples) is not integrated.
 MAX_GAP = 0.01
@@ -171,7 +171,7 @@ class DemoLaw:
 class DemoController:
     """The demo law as a :meth:`Simulation.run <screwgear_ros.simulation.Simulation.run>`
     controller: ``controller(observation) -> effort``. The stamps are the node's
-    (:func:`~screwgear_ros.pacing.sim_time_ns` of the observation's step), so a run gives
+    (:func:`~screwgear_ros.simtime.sim_time_ns` of the observation's step), so a run gives
     the bits a lockstep run of table_sim with demo_controller gives. A new run (an
     observation at an earlier step than the last) restarts the profile."""
 

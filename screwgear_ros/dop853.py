@@ -138,15 +138,26 @@ def _initial_step(t0, y0, k, t_span, model, drive, rtol, atol, y1):
 
 
 @allocating_kernel
-def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
+def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps):
     """Integrate y' = rhs(t, y) of the model (a :class:`~screwgear_ros.model.PackedModel`)
     under the input ``drive`` (a :class:`~screwgear_ros.model.Drive`) from (t0, y0)
-    through the sorted times ``t_out`` (all ≥ t0), writing the state at each into
-    ``out[j]``, with the method ``tableau`` (:data:`TABLEAU`).
+    through the sorted times t0 + ``tau_out`` (``tau_out``: time elapsed since t0, all
+    ≥ 0), writing the state at each into ``out[j]``, with the method ``tableau``
+    (:data:`TABLEAU`).
+
+    The steps add up to the elapsed time exactly: the kernel counts it from 0 (``tau``)
+    and takes each step as the float difference of its end and start there, so the
+    state advances by exactly the time the step covers, and a caller that gives the
+    elapsed times as whole steps times dt integrates each input for exactly its
+    duration. Counted on the absolute time, a step's length would be rounded to the
+    spacing of floats at t, which late in a long run is a relative error far above
+    any tolerance and unseen by the error control: the momentum the drive's torque
+    puts in (a linear invariant, which a Runge–Kutta step otherwise keeps exactly) is
+    then off, and the table angle drifts. The model is evaluated at t0 + tau.
 
     Returns (status, t, h, accepted, rejected, done): status OK or the failure code,
-    the time reached (where it failed), the last step size, step counts, and how
-    many rows of ``out`` were written.
+    the time reached (absolute; where it failed), the last step size, step counts, and
+    how many rows of ``out`` were written.
     """
     a, b, c, e3, e5 = tableau
     normed = _normed(model)
@@ -157,27 +168,28 @@ def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
     y_stage = np.empty(N)
     for i in range(N):
         y[i] = y0[i]
+    tau = 0.0
     t = t0
     done = 0
-    n_out = t_out.shape[0]
-    while done < n_out and t_out[done] <= t:        # outputs at the start
+    n_out = tau_out.shape[0]
+    while done < n_out and tau_out[done] <= tau:    # outputs at the start
         for i in range(N):
             out[done, i] = y[i]
         done += 1
     if done == n_out:
         return OK, t, 0.0, 0, 0, done
-    t_end = t_out[n_out - 1]
+    tau_end = tau_out[n_out - 1]
     _f(t, y, k, 0, model, drive)
     for i in range(N):
         if not (math.isfinite(y[i]) and math.isfinite(k[0, i])):
             return NON_FINITE, t, 0.0, 0, 0, done
-    h = _initial_step(t, y, k, t_end - t, model, drive, rtol, atol, y_stage)
+    h = _initial_step(t, y, k, tau_end, model, drive, rtol, atol, y_stage)
     accepted = 0
     rejected = 0
     last_rejected = False
     last_non_finite = False
     while done < n_out:
-        target = t_out[done]
+        target = tau_out[done]
         min_step = MIN_STEP_SPACINGS * _spacing(t)
         if h < min_step:
             return (NON_FINITE if last_non_finite else STEP_COLLAPSED), t, h, accepted, \
@@ -185,8 +197,8 @@ def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
         if accepted + rejected >= max_steps:
             return BUDGET, t, h, accepted, rejected, done
         # cut the step to land on the next output time exactly
-        lands = t + h >= target - min_step
-        h_step = target - t if lands else h
+        lands = tau + h >= target - min_step
+        h_step = target - tau if lands else (tau + h) - tau
         # stages 2..12
         for s in range(1, n_stages):
             for i in range(N):
@@ -203,7 +215,8 @@ def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
             y_new[i] = y[i] + h_step * acc
             if not math.isfinite(y_new[i]):
                 finite = False
-        t_new = target if lands else t + h_step
+        tau_new = target if lands else tau + h_step
+        t_new = t0 + tau_new
         if finite:
             _f(t_new, y_new, k, n_stages, model, drive)
             for i in range(N):
@@ -238,13 +251,14 @@ def integrate(t0, y0, t_out, out, model, drive, rtol, atol, tableau, max_steps):
             # a step cut short to land on an output time does not shrink the next one
             h_next = h_step * factor
             h = h if (lands and not last_rejected and h > h_next) else h_next
+            tau = tau_new
             t = t_new
             for i in range(N):
                 y[i] = y_new[i]
                 k[0, i] = k[n_stages, i]
             accepted += 1
             last_rejected = False
-            while done < n_out and t_out[done] <= t:
+            while done < n_out and tau_out[done] <= tau:
                 for i in range(N):
                     out[done, i] = y[i]
                 done += 1

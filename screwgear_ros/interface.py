@@ -77,8 +77,12 @@ TOPICS = (
           'next tick\'s first step for plots of the tracking error; never applied, '
           'answers nothing, not replayed', contract=True),
     Topic('joint_states', 'joint_states', 'sensor_msgs/msg/JointState', OUT,
-          Delivery.PER_TICK, '`pinion_1`, `table`, `pinion_3`: rad, rad/s, applied torque N·m',
+          Delivery.PER_TICK, '`pinion_1`, `table`, `pinion_3`: rad, rad/s (as the joint '
+          'sensors measure them: encoder_counts_*, …), applied torque N·m',
           contract=True),
+    Topic('true_joint_states', '~/true_joint_states', 'sensor_msgs/msg/JointState', OUT,
+          Delivery.PER_TICK, 'the exact state joint_states measures (as joint_states); only '
+          'when a joint sensor is not ideal (else joint_states is exact)', contract=True),
     Topic('mesh_state', 'mesh_state', 'sensor_msgs/msg/JointState', OUT, Delivery.PER_TICK,
           '`mesh_1`, `mesh_3`: δ (m), δ̇ (m/s), mesh force F (N)', contract=True),
     Topic('transmission_error', 'transmission_error', 'std_msgs/msg/Float64', OUT,
@@ -120,8 +124,8 @@ def _select(direction: Direction, private: bool = False) -> dict[str, str]:
 COMMAND_TOPICS = _select(IN)
 #: Inputs the node only records (the controller's setpoint): key → message type name.
 INFO_TOPICS = _select(INFO)
-#: What the node publishes: key → message type name.
-OUTPUT_TOPICS = _select(OUT)
+#: What the node publishes (under its namespace, or its private one): key → type name.
+OUTPUT_TOPICS = {**_select(OUT), **_select(OUT, private=True)}
 #: What only a recording holds, under the node's private namespace: key → type name.
 RECORDED_TOPICS = _select(RECORDED, private=True)
 #: Outputs published (and recorded) transient local: a late subscriber gets the last one
@@ -140,15 +144,24 @@ TICK_TOPIC = next(t.name[2:] for t in TOPICS if t.answer and t.private)
 ANSWERS = f"{', '.join(ANSWER_TOPICS)} or ~/{TICK_TOPIC}"
 
 
+def _resolved(t: Topic, ns: str, node_name: str) -> str:
+    if t.private:
+        return f'{ns}/{node_name}/{t.name[2:]}'
+    return t.name if t.absolute else f'{ns}/{t.name}'
+
+
 def topic_names(namespace: str = '', node_name: str = 'table_sim',
-                clock: bool = True) -> dict[str, str]:
+                clock: bool = True, true_states: bool = False) -> dict[str, str]:
     """Key → resolved topic name of every topic a table in ``namespace`` publishes or
-    records (outputs, inputs, the setpoint, the private run_parameters and reset)."""
+    records (outputs, inputs, the setpoint, the private run_parameters and reset);
+    without /clock unless ``clock``, without ~/true_joint_states unless ``true_states``
+    (a table publishes it only when its sensors are not ideal: not by default)."""
     ns = namespace.rstrip('/')
-    names = {key: BY_KEY[key].name if BY_KEY[key].absolute else f'{ns}/{BY_KEY[key].name}'
-             for key in OUTPUT_TOPICS}
+    names = {key: _resolved(BY_KEY[key], ns, node_name) for key in OUTPUT_TOPICS}
     if not clock:
         del names['clock']
+    if not true_states:
+        del names['true_joint_states']
     names.update({topic: f'{ns}/{topic}' for topic in COMMAND_TOPICS})
     names.update({topic: f'{ns}/{topic}' for topic in INFO_TOPICS})
     names.update({key: f'{ns}/{node_name}/{key}' for key in RECORDED_TOPICS})

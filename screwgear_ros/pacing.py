@@ -23,26 +23,7 @@ import math
 import threading
 import time
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import Callable
-
-
-def sim_time_ns(step: int, dt: float) -> int:
-    """Simulation time of integration step ``step``, integer nanoseconds.
-
-    Exact (``step·dt_ns``) when dt is a whole number of nanoseconds, as every
-    sensible step is; otherwise rounded to the nearest nanosecond.
-    """
-    whole = _whole_ns(dt)
-    return step * whole if whole is not None else round(step * (dt * 1e9))
-
-
-@lru_cache(maxsize=16)
-def _whole_ns(dt: float) -> int | None:
-    """dt in whole nanoseconds, None if it is not one (asked per tick: remembered)."""
-    dt_ns = dt * 1e9
-    whole = round(dt_ns)
-    return whole if abs(dt_ns - whole) <= 1e-6 * max(1.0, dt_ns) else None
 
 
 #: Longest single sleep of the pacer, s of wall time: the most a stop waits to be seen.
@@ -232,5 +213,5 @@ class AnswerGate:
             self._cond.notify_all()
 
 
-__all__ = ['sim_time_ns', 'MAX_SLEEP', 'wall_period', 'Pacer', 'PacerStats', 'FactorMeter',
+__all__ = ['MAX_SLEEP', 'wall_period', 'Pacer', 'PacerStats', 'FactorMeter',
            'AnswerGate']

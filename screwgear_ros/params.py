@@ -22,6 +22,7 @@ from typing import Any
 
 from .declare import ParameterError, declared, parameter, plain, validate
 from .interface import ANSWERS
+from .sensors import MAX_DELAY, MAX_SEED, SensorConfig
 
 
 class Mode(StrEnum):
@@ -73,6 +74,9 @@ MAX_HARMONICS = 32
 HARMONICS_WHY = ('each harmonic is summed in every RK4 stage of both meshes, so a step '
                  'costs in proportion; 32 describe any tooth profile error and keep the '
                  'default step within real time')
+
+#: Most encoder counts per revolution (2^30: a 30-bit encoder resolves 5.9e-9 rad).
+MAX_COUNTS = 2 ** 30
 
 #: Pinion speed of the paper's example, 24 r/min, in rad/s.
 PAPER_PINION_SPEED = 24.0 * 2.0 * math.pi / 60.0
@@ -272,6 +276,68 @@ class SimSettings:
                                              'fixed for a run: a recording and the tools that '
                                              'read it know its joints by one set of names',
                                              read_only=True)
+    encoder_counts_pinion_1: int = parameter(
+        0, 'N1', 'counts/rev', 'encoder counts per revolution of pinion 1: joint_states '
+        'reports its angle in whole counts and its speed as their backward difference over '
+        'the tick; 0 = ideal (the exact angle and speed)', low=1, high=MAX_COUNTS, zero=True,
+        read_only=True, why='a 30-bit encoder, finer than any table encoder sold')
+    position_noise_pinion_1: float = parameter(
+        0.0, 'σ_θ1', 'rad', 'white noise (standard deviation) on the angle of pinion 1 '
+        'before it is counted', low=0.0, high=1.0, read_only=True)
+    velocity_noise_pinion_1: float = parameter(
+        0.0, 'σ_ω1', 'rad/s', 'white noise (standard deviation) on the speed of pinion 1',
+        low=0.0, high=1e3, read_only=True)
+    measurement_delay_pinion_1: int = parameter(
+        0, 'k1', 'ticks', 'joint_states reports the angle and speed of pinion 1 this many '
+        'publish ticks late', low=0, high=MAX_DELAY, read_only=True,
+        why='the delay line is kept per joint')
+    velocity_filter_cutoff_pinion_1: float = parameter(
+        0.0, 'f_c1', 'Hz', 'cutoff of the first-order low-pass on the measured speed of '
+        'pinion 1 (α = 1 − exp(−2π·f_c·Δt) per sample); 0 = off', low=1e-3, high=1e6,
+        zero=True, read_only=True)
+    encoder_counts_table: int = parameter(
+        0, 'N2', 'counts/rev', 'encoder counts per revolution of the table: joint_states '
+        'reports its angle in whole counts and its speed as their backward difference over '
+        'the tick; 0 = ideal (the exact angle and speed)', low=1, high=MAX_COUNTS, zero=True,
+        read_only=True, why='a 30-bit encoder, finer than any table encoder sold')
+    position_noise_table: float = parameter(
+        0.0, 'σ_θ2', 'rad', 'white noise (standard deviation) on the angle of the table '
+        'before it is counted', low=0.0, high=1.0, read_only=True)
+    velocity_noise_table: float = parameter(
+        0.0, 'σ_ω2', 'rad/s', 'white noise (standard deviation) on the speed of the table',
+        low=0.0, high=1e3, read_only=True)
+    measurement_delay_table: int = parameter(
+        0, 'k2', 'ticks', 'joint_states reports the angle and speed of the table this many '
+        'publish ticks late', low=0, high=MAX_DELAY, read_only=True,
+        why='the delay line is kept per joint')
+    velocity_filter_cutoff_table: float = parameter(
+        0.0, 'f_c2', 'Hz', 'cutoff of the first-order low-pass on the measured speed of '
+        'the table (α = 1 − exp(−2π·f_c·Δt) per sample); 0 = off', low=1e-3, high=1e6,
+        zero=True, read_only=True)
+    encoder_counts_pinion_3: int = parameter(
+        0, 'N3', 'counts/rev', 'encoder counts per revolution of pinion 3: joint_states '
+        'reports its angle in whole counts and its speed as their backward difference over '
+        'the tick; 0 = ideal (the exact angle and speed)', low=1, high=MAX_COUNTS, zero=True,
+        read_only=True, why='a 30-bit encoder, finer than any table encoder sold')
+    position_noise_pinion_3: float = parameter(
+        0.0, 'σ_θ3', 'rad', 'white noise (standard deviation) on the angle of pinion 3 '
+        'before it is counted', low=0.0, high=1.0, read_only=True)
+    velocity_noise_pinion_3: float = parameter(
+        0.0, 'σ_ω3', 'rad/s', 'white noise (standard deviation) on the speed of pinion 3',
+        low=0.0, high=1e3, read_only=True)
+    measurement_delay_pinion_3: int = parameter(
+        0, 'k3', 'ticks', 'joint_states reports the angle and speed of pinion 3 this many '
+        'publish ticks late', low=0, high=MAX_DELAY, read_only=True,
+        why='the delay line is kept per joint')
+    velocity_filter_cutoff_pinion_3: float = parameter(
+        0.0, 'f_c3', 'Hz', 'cutoff of the first-order low-pass on the measured speed of '
+        'pinion 3 (α = 1 − exp(−2π·f_c·Δt) per sample); 0 = off', low=1e-3, high=1e6,
+        zero=True, read_only=True)
+    sensor_seed: int = parameter(
+        0, '', '', 'seed of the sensor noise: the noise of a sample is a function of the '
+        'seed, the joint and the sample\'s integration step only (screwgear_ros/sensors.py), '
+        'so a replay and check_run reproduce it', low=0, high=MAX_SEED,
+        read_only=True)
 
     def __post_init__(self) -> None:
         validate(self)
@@ -286,6 +352,11 @@ class SimSettings:
             raise ParameterError('joint_names', list(names),
                                  'must be three distinct, non-empty names '
                                  '(pinion 1, table, pinion 3)')
+
+    @property
+    def sensors(self) -> SensorConfig:
+        """The joint sensors these settings declare (:mod:`screwgear_ros.sensors`)."""
+        return SensorConfig.of(self)
 
     @property
     def steps_per_publish(self) -> int:

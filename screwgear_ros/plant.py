@@ -2,7 +2,10 @@
 
 :class:`Plant` is what the node (and in-process replays and tests) drive: set the
 input, ``advance(n)``, read :meth:`Plant.outputs`. It holds no ROS. Simulation time
-is ``step·dt`` exactly. ``contact_location`` (settings) selects RK4 with contact
+is ``step·dt`` exactly; the plant, which owns the step and dt, stamps every
+:class:`Outputs` with it once, in seconds and in the integer nanoseconds of the
+messages' stamps (:func:`~screwgear_ros.simtime.sim_time_ns`): nothing downstream
+recomputes it. ``contact_location`` (settings) selects RK4 with contact
 changes located inside the steps, or plain fixed-step RK4
 (:func:`screwgear_ros.integrator.advance`). If a step ever produces a non-finite state
 (parameters whose physics diverges: RK4 itself is kept stable by ``check_step``) the
@@ -20,6 +23,7 @@ import numpy as np
 from .integrator import OBSERVED, advance_observed, advance_ticks, observe
 from .model import N_MECHANICAL, N_STATE, Drive, PackedModel, active_path, equilibrium_state, pack
 from .params import TableParams
+from .simtime import sim_time_ns
 from .stability import check_step
 
 
@@ -56,6 +60,7 @@ class Outputs:
     """
 
     time: float                              # simulation time, s
+    time_ns: int                             # the same, integer ns (sim_time_ns: stamps)
     step: int                                # integration steps since start
     position: tuple[float, float, float]     # θ1, θ2, θ3, rad
     velocity: tuple[float, float, float]     # ω1, ω2, ω3, rad/s
@@ -245,8 +250,9 @@ class Plant:
         th1, th2, th3, w1, w2, w3, t1, table, t3, d1, dd1, f1, d3, dd3, f3 = \
             self._observed.tolist()
         step = self.step
-        return Outputs(step * self.dt, step, (th1, th2, th3), (w1, w2, w3), (t1, table, t3),
-                       (d1, d3), (dd1, dd3), (f1, f3), self._path)
+        return Outputs(step * self.dt, sim_time_ns(step, self.dt), step, (th1, th2, th3),
+                       (w1, w2, w3), (t1, table, t3), (d1, d3), (dd1, dd3), (f1, f3),
+                       self._path)
 
 
 def compiled_entry(dispatcher: Any, args: tuple[Any, ...]) -> Callable[..., Any]:

@@ -141,8 +141,9 @@ def _segment(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray, dt: 
     ends_on_sample = len(samples) > 0 and samples[-1] == step_b
     steps = samples if ends_on_sample else np.append(samples, step_b)  # always see the end
     states = np.empty((len(steps), N_STATE))
+    # the output times as steps elapsed × dt: each input lasts exactly its ticks
     status, t, h, accepted, rejected, _ = dop853.integrate(
-        step_a * dt, y0, steps * dt, states, model, drive.kernel, rtol, atol,
+        step_a * dt, y0, (steps - step_a) * dt, states, model, drive.kernel, rtol, atol,
         dop853.TABLEAU, dop853.MAX_STEPS)
     if status != dop853.OK:
         reason = _REASONS[status].format(h=h, steps=accepted + rejected)
@@ -159,18 +160,19 @@ def _segment_scipy(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray
     ends_on_sample = len(samples) > 0 and samples[-1] == step_b
     steps = samples if ends_on_sample else np.append(samples, step_b)
     kernel_drive = drive.kernel
+    t0 = step_a * dt         # time counted from the segment's start, as the kernel counts it
     # With no current-loop lag the lagged torques stay as they are: SciPy integrates (and
     # norms) the mechanical state alone, as the compiled solver does.
     width = N_STATE if seg.params.drive_time_constant > 0.0 else N_MECHANICAL
     rest = y0[width:]
-    sol = solve_ivp(lambda t, y: rhs_vector(t, np.concatenate([y, rest]), model,
-                                            kernel_drive)[:width],
-                    (step_a * dt, step_b * dt), y0[:width], method='DOP853', rtol=rtol,
-                    atol=atol, t_eval=steps * dt)
+    sol = solve_ivp(lambda tau, y: rhs_vector(t0 + tau, np.concatenate([y, rest]), model,
+                                              kernel_drive)[:width],
+                    (0.0, (step_b - step_a) * dt), y0[:width], method='DOP853', rtol=rtol,
+                    atol=atol, t_eval=(steps - step_a) * dt)
     if sol.success:
         sol.y = np.vstack([sol.y, np.repeat(rest[:, None], sol.y.shape[1], axis=1)])
     if not sol.success:
-        t = float(sol.t[-1]) if len(sol.t) else step_a * dt
+        t = t0 + float(sol.t[-1]) if len(sol.t) else t0
         raise ReferenceFailure(f'SciPy: {sol.message}', t, 0, 1, step_a * dt, step_b * dt,
                                drive)
     states = sol.y.T if ends_on_sample else sol.y[:, :-1].T

@@ -32,6 +32,7 @@ from .params import ParameterError
 from .plant import DriveInput
 from .schedule import Schedule
 from .simulation import Controller, Run, Simulation
+from .yaml_reader import YamlReader
 
 #: The top-level keys of a scenario.
 KEYS = ('parameters', 'duration', 'actions', 'controller', 'setpoint')
@@ -51,62 +52,6 @@ CONTROLLER_KEYS = ('use', 'parameters')
 
 class ScenarioError(ValueError):
     """A scenario that cannot be run; the message names the file and the line."""
-
-
-# ---------------------------------------------------------------- YAML with lines
-
-class _Reader:
-    """Values of a composed YAML document, with the line of every node for messages."""
-
-    def __init__(self, path: Path, text: str) -> None:
-        self.path = path
-        self._loader = yaml.SafeLoader(text)
-        try:
-            self.root = self._loader.get_single_node()
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, 'problem_mark', None)
-            where = f'line {mark.line + 1}: ' if mark is not None else ''
-            problem = getattr(exc, 'problem', None) or str(exc)
-            raise ScenarioError(f'{path}: {where}not valid YAML: {problem}') from None
-
-    def error(self, node: yaml.Node | None, text: str) -> ScenarioError:
-        line = f'line {node.start_mark.line + 1}: ' if node is not None else ''
-        return ScenarioError(f'{self.path}: {line}{text}')
-
-    def value(self, node: yaml.Node) -> Any:
-        return self._loader.construct_object(node, deep=True)
-
-    def mapping(self, node: yaml.Node, what: str) -> dict[str, tuple[yaml.Node, yaml.Node]]:
-        """key → (key node, value node) of a mapping node (refused otherwise)."""
-        if not isinstance(node, yaml.MappingNode):
-            raise self.error(node, f'{what} must be a mapping (key: value)')
-        out: dict[str, tuple[yaml.Node, yaml.Node]] = {}
-        for key, value in node.value:
-            name = self.value(key)
-            if not isinstance(name, str):
-                raise self.error(key, f'{what}: a key must be a name, not {name!r}')
-            if name in out:
-                raise self.error(key, f'{what}: {name!r} is given twice')
-            out[name] = (key, value)
-        return out
-
-    def number(self, node: yaml.Node, what: str, low: float | None = None,
-               strict: bool = False) -> float:
-        value = self.value(node)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                or not math.isfinite(value):
-            raise self.error(node, f'{what} must be a finite number, not {value!r}')
-        if low is not None and (value <= low if strict else value < low):
-            raise self.error(node, f'{what} must be {">" if strict else ">="} {low:g}, '
-                             f'not {value!r}')
-        return float(value)
-
-
-def _unknown(reader: _Reader, entries: dict[str, tuple[yaml.Node, yaml.Node]],
-             known: tuple[str, ...], what: str) -> None:
-    for name, (key, _) in entries.items():
-        if name not in known:
-            raise reader.error(key, f'unknown {what} {name!r} (known: {", ".join(known)})')
 
 
 # ---------------------------------------------------------------- setpoints
@@ -158,7 +103,7 @@ class Setpoint:
         return []
 
 
-def _setpoint(reader: _Reader, node: yaml.Node) -> Setpoint:
+def _setpoint(reader: YamlReader, node: yaml.Node) -> Setpoint:
     entries = reader.mapping(node, 'setpoint')
     if 'profile' not in entries:
         raise reader.error(node, f'setpoint needs a profile: one of {", ".join(PROFILES)}')
@@ -168,7 +113,7 @@ def _setpoint(reader: _Reader, node: yaml.Node) -> Setpoint:
         raise reader.error(profile_node, f'unknown setpoint profile {profile!r} (known: '
                            f'{", ".join(PROFILES)})')
     keys = PROFILES[profile]
-    _unknown(reader, entries, ('profile', 'joint', *keys), f'key of a {profile} setpoint')
+    reader.known(entries, ('profile', 'joint', *keys), f'key of a {profile} setpoint')
     for name, default in keys.items():
         if default is None and name not in entries:
             raise reader.error(node, f'a {profile} setpoint needs {name!r}')
@@ -191,7 +136,7 @@ def _setpoint(reader: _Reader, node: yaml.Node) -> Setpoint:
     return Setpoint(profile, **values)
 
 
-def _points(reader: _Reader, node: yaml.Node) -> tuple[tuple[float, float], ...]:
+def _points(reader: YamlReader, node: yaml.Node) -> tuple[tuple[float, float], ...]:
     if not isinstance(node, yaml.SequenceNode) or not node.value:
         raise reader.error(node, 'setpoint points must be a list of [time, value] pairs')
     points: list[tuple[float, float]] = []
@@ -244,9 +189,9 @@ def resolve_callable(text: str, directory: str = '') -> Callable[..., Any]:
     return target
 
 
-def _controller(reader: _Reader, node: yaml.Node) -> ControllerSpec:
+def _controller(reader: YamlReader, node: yaml.Node) -> ControllerSpec:
     entries = reader.mapping(node, 'controller')
-    _unknown(reader, entries, CONTROLLER_KEYS, 'controller key')
+    reader.known(entries, CONTROLLER_KEYS, 'controller key')
     if 'use' not in entries:
         raise reader.error(node, "controller needs 'use': demo or module:callable")
     use_node = entries['use'][1]
@@ -261,7 +206,7 @@ def _controller(reader: _Reader, node: yaml.Node) -> ControllerSpec:
         pentries = reader.mapping(pnode, 'controller parameters')
         if use == 'demo':
             known = tuple(n for n in DemoGains.names() if n != 'joint')
-            _unknown(reader, pentries, known, 'demo controller parameter')
+            reader.known(pentries, known, 'demo controller parameter')
         parameters = {name: reader.value(value) for name, (_, value) in pentries.items()}
         if use == 'demo':
             try:
@@ -366,16 +311,11 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
     """Read and validate a scenario file (docs/scenarios.md); :class:`ScenarioError`
     naming the line of what is wrong."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding='utf-8')
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f'{path}: cannot read: {getattr(exc, "strerror", None) or exc}') \
-            from None
-    reader = _Reader(path, text)
+    reader = YamlReader.open(path, ScenarioError)
     if reader.root is None:
         raise ScenarioError(f'{path}: empty; a scenario needs at least a duration')
     top = reader.mapping(reader.root, 'a scenario')
-    _unknown(reader, top, KEYS, 'scenario key')
+    reader.known(top, KEYS, 'scenario key')
     if 'duration' not in top:
         raise reader.error(reader.root, 'a scenario needs a duration (s of simulation time)')
     duration = reader.number(top['duration'][1], 'duration', low=0.0, strict=True)
@@ -400,7 +340,7 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
                 raise reader.error(time_node, f'action at {t:g} s is after the end of the '
                                    f'scenario (duration {duration:g} s)')
             rest = {k: v for k, v in entries.items() if k != 'time'}
-            _unknown(reader, rest, ACTIONS, 'action')
+            reader.known(rest, ACTIONS, 'action')
             if len(rest) != 1:
                 raise reader.error(item, f'an action has a time and exactly one of '
                                    f'{", ".join(ACTIONS)}; this one has {len(rest)}')
@@ -436,7 +376,7 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
                     setpoint)
 
 
-def _parameters(reader: _Reader, node: yaml.Node, values: dict[str, Any],
+def _parameters(reader: YamlReader, node: yaml.Node, values: dict[str, Any],
                 what: str) -> dict[str, Any]:
     """``values`` with the parameters of a mapping node, validated as the node validates
     them; the error names the line of the parameter it is about."""
@@ -450,7 +390,7 @@ def _parameters(reader: _Reader, node: yaml.Node, values: dict[str, Any],
     return merged
 
 
-def _command(reader: _Reader, topic: str, node: yaml.Node) -> Any:
+def _command(reader: YamlReader, topic: str, node: yaml.Node) -> Any:
     """The value of a command action, as its message would carry it."""
     value = reader.value(node)
     if topic == 'cmd_effort':

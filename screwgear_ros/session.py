@@ -12,7 +12,10 @@ A tick is what the node does between two publications:
 2. the plant integrates ``settings.steps_per_publish`` RK4 steps in one compiled
    call (none once the model has diverged: the plant then stands still, state and
    time, until a reset);
-3. the outputs of the tick's last step are computed.
+3. the outputs of the tick's last step are computed, and what the joint sensors
+   measure of them (:mod:`screwgear_ros.sensors`: the outputs themselves when every
+   sensor is ideal). A reset restarts the sensors' chain; a parameter change hands them
+   its settings.
 
 Commands are validated when they take effect, against the parameters in force at
 that step (:func:`screwgear_ros.commands.apply_command`); a refused command changes
@@ -45,6 +48,7 @@ from .interface import INFO_TOPICS
 from .params import SimSettings, TableParams
 from .integrator import OBSERVED
 from .plant import OBSERVED_DELTA, OBSERVED_JOINTS, DriveInput, Outputs, Plant
+from .sensors import SensorChain
 
 
 #: Ticks per compiled call of :meth:`Session.tick_quietly` (its scratch rows: 0.5 MB).
@@ -73,10 +77,22 @@ class Tick:
     drive: DriveInput                   # input in force during the tick
     params: TableParams                 # parameters in force during the tick
     outputs: Outputs                    # at the tick's last step
-    previous_path: int                  # active path before the tick's events
+    previous: Outputs                   # at its first step, before its events
     previous_direction: int             # commanded direction before the tick's events
     fault: str | None                   # why the plant stands still, if it does
     new_fault: bool                     # the model diverged during this tick
+    measured: Outputs | None = None     # what the sensors measure of ``outputs`` (None:
+    #                                     ``outputs`` itself, every sensor ideal)
+
+    @property
+    def start_ns(self) -> int:
+        """Simulation time of ``start``, ns: the stamp of what took effect then."""
+        return self.previous.time_ns
+
+    @property
+    def previous_path(self) -> int:
+        """Active path before the tick's events."""
+        return self.previous.active_path
 
     @property
     def reversal(self) -> bool:
@@ -105,6 +121,10 @@ class Session:
         self._pending: list[Event] = []
         self._observed: np.ndarray | None = None   # tick_quietly's rows, made on first use
         self.outputs: Outputs = self.plant.outputs()
+        self.sensors = SensorChain(settings.sensors, settings.dt)
+        #: What joint_states publishes of :attr:`outputs` (the same object when every
+        #: sensor is ideal). :meth:`tick_quietly` leaves it and the sensors' chain alone.
+        self.measured: Outputs = self.sensors.measure(self.outputs)
 
     def _use(self, settings: SimSettings) -> None:
         """Settings in force from now on, and what ``tick`` derives from them (once per
@@ -124,11 +144,14 @@ class Session:
         with self._lock:
             self._pending.append(event)
 
-    def tick(self) -> Tick:
-        """Apply the queued events, integrate one tick, compute its outputs."""
+    def tick(self, command: Command | None = None) -> Tick:
+        """Apply the queued events, integrate one tick, compute its outputs.
+
+        ``command``: what ``submit(command)`` just before would do, without the queue
+        when nothing else waits in it (a closed loop's tick: its controller's answer)."""
         plant = self.plant
         start = plant.step
-        previous_path = self.outputs.active_path
+        previous = self.outputs
         previous_direction = plant.input.direction
         applied: tuple[Event, ...] = ()
         rejected: tuple[InputRejected, ...] = ()
@@ -137,9 +160,17 @@ class Session:
         # Read without the lock first: only this thread empties the queue, and an event
         # submitted just after the read is as late as one submitted after the swap.
         if self._pending:
+            if command is not None:
+                self.submit(command)
             with self._lock:
                 events, self._pending = self._pending, []
             applied, rejected, notices, commanded = self._apply(events, start)
+        elif command is not None:
+            error = self._command(command)
+            if error is None:
+                applied, commanded = (command.at(start),), True
+            else:
+                rejected = (error,)
         if commanded:                        # an accepted command restarts the timeout
             self._last_command, self.timed_out = start, False
         elif self._timeout_steps is not None:
@@ -148,9 +179,11 @@ class Session:
                 notices = (*notices, notice)
         fault = plant.fault
         self.outputs = outputs = plant.advance_outputs(self._steps)
+        self.measured = measured = self.sensors.measure(outputs)
         return Tick(start, applied, rejected, notices, plant.input, plant.params, outputs,
-                    previous_path, previous_direction, plant.fault,
-                    fault is None and plant.fault is not None)
+                    previous, previous_direction, plant.fault,
+                    fault is None and plant.fault is not None,
+                    None if measured is outputs else measured)
 
     def _apply(self, events: list[Event], start: int) -> tuple[
             tuple[Event, ...], tuple[InputRejected, ...], tuple[str, ...], bool]:
@@ -179,12 +212,14 @@ class Session:
             elif isinstance(event, ParameterChange):
                 plant.set_params(event.params)
                 self._use(event.settings)
+                self.sensors.configure(event.settings.sensors)
                 drive, notice = limit_input(plant.input, event.params)
                 if notice is not None:
                     plant.set_input(drive)
                     notices.append(notice)
             elif isinstance(event, Reset):
                 plant.reset()
+                self.sensors.restart()
             elif isinstance(event, Setpoint):
                 error = self._setpoint(event)
                 if error is not None:
@@ -240,6 +275,9 @@ class Session:
         (float64, at least n × ROW) gets tick i's outputs: θ(3) rad, ω(3) rad/s,
         effort(3) N·m, transmission error m, and the step they are at (exact in float64;
         a faulted plant's time stands still); :attr:`outputs` is the last one's.
+
+        The exact outputs only: the sensors (:attr:`measured`) do not follow these
+        ticks (replays compare the exact state; ``check_run`` measures it afresh).
 
         Stops before a tick that would do more than integrate: events are queued, or
         ``command_timeout`` comes due at its first step (:meth:`tick` does that one); and

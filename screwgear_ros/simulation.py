@@ -34,10 +34,10 @@ from .control import SetpointNotes
 from .events import Command, Event, ParameterChange, Setpoint
 from .parameter_sets import default_values, split_parameters
 from .params import ParameterError, SimSettings, TableParams
-from .pacing import sim_time_ns
 from .integrator import OBSERVED
 from .plant import OBSERVED_DELTA, OBSERVED_JOINTS
 from .session import Session, Tick
+from .simtime import sim_time_ns
 
 #: Keys of a ROS 2 parameter file whose ``ros__parameters`` table_sim takes: any node
 #: (``/**``) and the node's own name, with or without its leading slash.
@@ -91,8 +91,11 @@ def resolve(values: Mapping[str, Any] | None = None, **overrides: Any) -> tuple[
 class Observation:
     """What one tick publishes, SI units. Read-only by convention (slotted, not frozen:
     one is made a tick). ``position``, ``velocity`` and ``effort`` are per joint in
-    joint_states order (pinion 1, table, pinion 3); ``delta``, ``delta_rate`` and
-    ``mesh_force`` are mesh_state's values (mesh 1, mesh 3)."""
+    joint_states order (pinion 1, table, pinion 3): what the joint sensors measure
+    (:mod:`screwgear_ros.sensors`; the exact state when they are ideal), and
+    ``true_position``, ``true_velocity`` the exact state (~/true_joint_states);
+    ``delta``, ``delta_rate`` and ``mesh_force`` are mesh_state's values (mesh 1,
+    mesh 3)."""
 
     time: float                                # simulation time, s (step·dt)
     step: int                                  # integration steps since the start
@@ -105,13 +108,17 @@ class Observation:
     mesh_force: tuple[float, float]            # F1, F3, N
     active_path: int                           # 1 or 3
     fault: str | None                          # why the plant stands still, if it does
+    true_position: tuple[float, float, float] = (0.0, 0.0, 0.0)   # rad, exact
+    true_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)   # rad/s, exact
 
 
-def _observation(tick_outputs: Any, fault: str | None) -> Observation:
+def _observation(tick_outputs: Any, fault: str | None, measured: Any = None) -> Observation:
     o = tick_outputs
-    return Observation(o.time, o.step, o.position, o.velocity, o.effort,
+    m = o if measured is None else measured
+    return Observation(o.time, o.step, m.position, m.velocity, o.effort,
                        o.delta[0] if o.active_path == 1 else o.delta[1], o.delta,
-                       o.delta_rate, o.mesh_force, o.active_path, fault)
+                       o.delta_rate, o.mesh_force, o.active_path, fault, o.position,
+                       o.velocity)
 
 
 #: Columns of :attr:`Run.observed`, the plant's observed vector of each sample
@@ -141,6 +148,9 @@ class Run:
     #: Scheduled commands the session refused when they were to take effect (the node
     #: logs these and keeps the last valid command in force), as (step, message).
     rejected: list[tuple[int, str]] = field(default_factory=list)
+    #: (n, 6): θ and ω of the three joints as joint_states published them, measured by
+    #: the joint sensors (None: the sensors are ideal, the exact :attr:`observed` ones)
+    measured: np.ndarray | None = None
 
     @property
     def time(self) -> np.ndarray:
@@ -263,7 +273,7 @@ class Simulation:
         """Start a new run at step 0 at the preload equilibrium, at rest, with no input;
         its first observation (what the node publishes before its first tick)."""
         self._session = session = Session(self.params, self.settings)
-        return _observation(session.outputs, session.plant.fault)
+        return _observation(session.outputs, session.plant.fault, session.measured)
 
     def step(self, effort: float | None = None, *, torque: float | None = None,
              direction: int | None = None, load: float | None = None) -> Observation:
@@ -295,7 +305,7 @@ class Simulation:
             for topic, value in commands:
                 session.submit(Command(topic, value))
         tick = session.tick()
-        return _observation(tick.outputs, tick.fault)
+        return _observation(tick.outputs, tick.fault, tick.measured)
 
     def run(self, controller: Controller | None, duration: float,
             record: str | os.PathLike[str] | None = None, *,
@@ -333,6 +343,7 @@ class Simulation:
         session = self.session
         recording = None
         observed = np.empty((ticks + 1, OBSERVED))
+        measured = None if session.sensors.ideal else np.empty((ticks + 1, 6))
         # A list, made an array at the end: a store into it costs a fraction of NumPy's
         # per-element one, and holds whatever the controller answered until the session
         # has judged it (a refused answer raises InputRejected, as the node refuses it).
@@ -344,7 +355,7 @@ class Simulation:
                 from .ros.session_record import SessionRecording   # rclpy messages: to record
                 recording = SessionRecording(record, session)
             _loop(session, controller, first, ticks, observed, command, columns,
-                  sorted(events, key=lambda e: e.step), recording, rejected,
+                  sorted(events, key=lambda e: e.step), recording, rejected, measured,
                   setpoint if recording is not None else None)
         finally:
             if recording is not None:
@@ -355,24 +366,28 @@ class Simulation:
                    np.array(paths, dtype=np.int8), np.array(directions, dtype=np.int8),
                    np.array(command[:n], dtype=np.float64), session.plant.fault,
                    None if record is None else Path(record),
-                   rejected)
+                   rejected, None if measured is None else measured[:n])
 
 
 def _loop(session: Session, controller: Controller | None, first: Observation, ticks: int,
           observed: np.ndarray, command: list[Any],
           columns: tuple[list[int], list[int], list[int]], events: list[Event],
           recording: Any, rejected: list[tuple[int, str]],
+          measured: np.ndarray | None = None,
           setpoint: Callable[[float], float] | None = None) -> None:
     """The closed loop of :meth:`Simulation.run`: every sample's observed vector into
     ``observed``, its step, path and direction appended to ``columns``, the answers
     into ``command`` (each tick's outputs kept as one array copy: no object per tick
-    outlives the tick), the ``setpoint`` submitted before them when due."""
+    outlives the tick), the ``setpoint`` submitted before them when due; ``measured``:
+    the joint_states θ and ω of each sample, when the sensors are not ideal."""
     plant = session.plant
-    submit, tick_once = session.submit, session.tick
+    tick_once = session.tick
     record = recording.tick if recording is not None else None
     steps, paths, directions = columns
     vector = plant.observed
     observed[0] = vector
+    if measured is not None:
+        measured[0] = (*first.position, *first.velocity)
     steps.append(first.step)
     paths.append(first.active_path)
     directions.append(plant.input.direction)
@@ -388,26 +403,31 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
             stamp = sim_time_ns(observation.step, dt)
             target = float(setpoint(stamp * 1e-9))
             if notes.due(stamp, target):
-                submit(Setpoint(target))
+                session.submit(Setpoint(target))
         effort = None if controller is None else controller(observation)
         if effort is not None:
-            if isinstance(effort, np.generic):
+            if type(effort) is not float and isinstance(effort, np.generic):
                 effort = effort.item()
             value = [effort]
-            submit(Command.of('cmd_effort', value))
             command[i - 1] = effort
+            tick = tick_once(Command.of('cmd_effort', value))
         else:
             value = None
-        tick = tick_once()
+            tick = tick_once()
         if record is not None:
             record(tick)
         if tick.rejected:
             _refused(tick, value, rejected)
         o = tick.outputs
-        observation = Observation(o.time, o.step, o.position, o.velocity, o.effort,
+        m = tick.measured
+        if m is None:
+            m = o
+        if measured is not None:
+            measured[i] = (*m.position, *m.velocity)
+        observation = Observation(o.time, o.step, m.position, m.velocity, o.effort,
                                   o.delta[0] if o.active_path == 1 else o.delta[1],
                                   o.delta, o.delta_rate, o.mesh_force, o.active_path,
-                                  tick.fault)
+                                  tick.fault, o.position, o.velocity)
         observed[i] = vector
         steps.append(o.step)
         paths.append(o.active_path)

@@ -13,13 +13,13 @@ import numpy as np
 
 from .model import stiffest_linearization
 from .params import ParameterError, TableParams, effective_stiffness
-from .rk import RK4
+from .rk import amplification
 
 
 def rk4_amplification(z: complex) -> complex:
     """RK4's amplification factor R(z) = 1 + z + z²/2 + z³/6 + z⁴/24 for z = λ·dt
-    (the stability polynomial of :data:`screwgear_ros.rk.RK4`'s tableau)."""
-    return RK4.amplification(z)
+    (:func:`screwgear_ros.rk.amplification`)."""
+    return amplification(z)
 
 
 @lru_cache(maxsize=16)

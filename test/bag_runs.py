@@ -4,7 +4,8 @@
 :class:`~screwgear_ros.schedule.Schedule` into a :class:`~screwgear_ros.session.Session`
 and records it with the node's :class:`~screwgear_ros.ros.run_io.RunIO` (publishers none),
 so a bag is written exactly as table_sim writes it, tick by tick, as fast as the machine goes.
-:func:`copy_bag` rewrites a bag message by message (to corrupt one on purpose).
+:func:`copy_bag` rewrites a bag message by message (to corrupt one on purpose); :data:`BAGS`
+names the runs checked in under :data:`DATA`.
 """
 
 from __future__ import annotations
@@ -24,6 +25,12 @@ from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.runs import RunRecorder, TopicSpec
 from screwgear_ros.ros.session_record import record_session
 from screwgear_ros.session import Session
+
+#: The runs checked in under test/data, each a rosbag2 directory table_sim recorded; every
+#: reader, checker and replay is tried on all of them.
+DATA = Path(__file__).parent / 'data'
+BAGS = ['steady_drive', 'reversals_anti_backlash', 'reversals_conventional',
+        'load_steps_parameter_changes']
 
 
 def reversal_run(params: TableParams, settings: SimSettings, torque: float, reversal: int,

@@ -83,6 +83,15 @@ class RosProcess:
         self._close_files()
         return code, time.monotonic() - t0
 
+    def __enter__(self) -> 'RosProcess':
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        """Teardown: Ctrl-C (the node closes its bag) if still running, SIGKILL last."""
+        if self.alive():
+            self.stop(signal.SIGINT)
+        self.kill()
+
     def kill(self) -> None:
         """SIGKILL if still running (teardown of last resort)."""
         if self.alive():

@@ -2,12 +2,14 @@
 included, since a lazy import is still a dependency): no module cycle; ``runs/`` never
 reaches the ROS shell (``ros/``) or the tools (``cli/``); and no core module (outside
 ``ros/`` and ``cli/``) imports rclpy or a ROS message package, directly or through
-another module of the package.
+another module of the package. And no source line names an issue: the code says why,
+and history (which issue, what it replaced) goes stale there.
 """
 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -130,3 +132,11 @@ def test_the_cores_way_into_the_shell_is_lazy_and_still_needed(edge):
     importer, target = edge
     kinds = {lazy for t, lazy in IMPORTS[importer] if t == target}
     assert kinds == {True}, f'{importer} must import {target} only inside a function'
+
+
+def test_no_issue_numbers_in_the_package():
+    found = [f'{path.relative_to(ROOT.parent)}:{number}: {line.strip()}'
+             for path in MODULES.values()
+             for number, line in enumerate(path.read_text(encoding='utf-8').splitlines(), 1)
+             if re.search(r'\bissue [0-9]', line, re.IGNORECASE)]
+    assert not found, '\n'.join(found)

@@ -29,13 +29,10 @@ import yaml
 from mcap.records import Channel, DataEnd, Footer, Message, Schema
 from mcap.stream_reader import StreamReader
 
-from bag_runs import installed
+from bag_runs import BAGS, DATA, installed
 from screwgear_ros.cli import check_run, plot_run
 from screwgear_ros.runs import RunRecorder, TopicSpec
 
-DATA = Path(__file__).parent / 'data'
-BAGS = ['steady_drive', 'reversals_anti_backlash', 'reversals_conventional',
-        'load_steps_parameter_changes']
 SEED = 20
 CHECK_CODES = {0, 1, 2}
 PLOT_CODES = {0, 2}

@@ -12,8 +12,6 @@ with other libraries, and the project's reader agrees with them.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import yaml
@@ -22,11 +20,9 @@ from mcap_ros2.decoder import DecoderFactory
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
+from bag_runs import BAGS, DATA
 from screwgear_ros.runs.bagread import Command, ParameterChange, Reset, read_run
 
-DATA = Path(__file__).parent / 'data'
-BAGS = ['steady_drive', 'reversals_anti_backlash', 'reversals_conventional',
-        'load_steps_parameter_changes']
 STORE = get_typestore(Stores.ROS2_JAZZY)
 
 

@@ -17,15 +17,12 @@ import pytest
 from mcap.reader import make_reader
 from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import copy_bag, damaged_copy
+from bag_runs import BAGS, DATA, copy_bag, damaged_copy
 from mcap_stream import iter_messages
 from screwgear_ros.cdr import float64_template, joint_state_template
 from screwgear_ros.runs.bagread import (OUTPUT_TOPICS, BagError, _bulk, read_run,
                                         scan)
 
-DATA = Path(__file__).parent / 'data'
-BAGS = ['steady_drive', 'reversals_anti_backlash', 'reversals_conventional',
-        'load_steps_parameter_changes']
 STORE = get_typestore(Stores.ROS2_JAZZY)
 
 

@@ -82,15 +82,15 @@ def test_a_bundle_cuts_out_each_message_as_rosbags_serializes_it():
                          joint_state_template(mesh), float64_template()])
         for _ in range(100):
             t_ns = rng.randrange(0, 10 ** 13)
-            runs = [_values(rng, len(names)) for _ in range(3)] + [
+            blocks = [_values(rng, len(names)) for _ in range(3)] + [
                 _values(rng, 2) for _ in range(3)] + [_values(rng, 1)]
-            clock, joints, meshes, value = bundle.encode(t_ns, *runs)
+            clock, joints, meshes, value = bundle.encode(t_ns, *blocks)
             assert clock == bytes(STORE.serialize_cdr(
                 T['rosgraph_msgs/msg/Clock'](clock=_time(t_ns)), 'rosgraph_msgs/msg/Clock'))
-            assert joints == _rosbags_joint_state(t_ns, names, *runs[:3])
-            assert meshes == _rosbags_joint_state(t_ns, mesh, *runs[3:6])
+            assert joints == _rosbags_joint_state(t_ns, names, *blocks[:3])
+            assert meshes == _rosbags_joint_state(t_ns, mesh, *blocks[3:6])
             assert value == bytes(STORE.serialize_cdr(
-                T['std_msgs/msg/Float64'](data=runs[6][0]), 'std_msgs/msg/Float64'))
+                T['std_msgs/msg/Float64'](data=blocks[6][0]), 'std_msgs/msg/Float64'))
 
 
 def test_float64_and_clock_encodings():
@@ -219,5 +219,5 @@ def test_the_rosfree_shapes_lay_out_what_rclpys_messages_do(names):
         JointState(name=names, position=[0.0] * n, velocity=[0.0] * n, effort=[0.0] * n),
         [('header', 'stamp')], [[(k, 0), (k, n - 1)] if n else []
                                 for k in ('position', 'velocity', 'effort')]))
-    same(float64_template(), template_of(Float64(), runs=[[('data',)]]))
+    same(float64_template(), template_of(Float64(), blocks=[[('data',)]]))
     same(clock_template(), template_of(Clock(clock=Time()), [('clock',)]))

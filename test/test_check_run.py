@@ -14,15 +14,12 @@ from pathlib import Path
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import copy_bag, nudge_table_angle, record_session, truncated_copy
+from bag_runs import BAGS, DATA, copy_bag, nudge_table_angle, record_session, truncated_copy
 from bag_runs import installed_check_run as check_run
 from screwgear_ros.events import Command
 from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.schedule import Schedule
 
-DATA = Path(__file__).parent / 'data'
-BAGS = ['steady_drive', 'reversals_anti_backlash', 'reversals_conventional',
-        'load_steps_parameter_changes']
 STORE = get_typestore(Stores.ROS2_JAZZY)
 
 

@@ -47,3 +47,6 @@ def test_the_derived_tables_agree():
     assert names['run_parameters'] == '/ns/sim/run_parameters'
     assert names['setpoint'] == '/ns/setpoint'
     assert 'clock' not in interface.topic_names(clock=False)
+    assert 'true_joint_states' not in interface.topic_names()       # ideal sensors
+    assert interface.topic_names('/ns', 'sim', true_states=True)['true_joint_states'] == \
+        '/ns/sim/true_joint_states'

@@ -89,19 +89,13 @@ def table(tmp_path_factory):
     # command_timeout off: these tests hold a command for seconds of wall time; an ideal
     # torque source: the undamped table speeds up meanwhile, past where a drive line
     # would deliver less than the command these tests look for in joint_states' effort
-    proc = start_process('table_sim', params={'real_time_factor': 1.0, 'record': str(bag),
-                                              'command_timeout': 0.0,
-                                              'drive_no_load_speed': 0.0})
-    peer = Peer('test_node_io')
-    try:
+    with start_process('table_sim', params={'real_time_factor': 1.0, 'record': str(bag),
+                                            'command_timeout': 0.0,
+                                            'drive_no_load_speed': 0.0}) as proc, \
+            Peer('test_node_io') as peer:
         t = Table(peer, proc)
         t.bag = bag
         yield t
-    finally:
-        peer.close()
-        if proc.alive():
-            proc.stop(signal.SIGINT)
-        proc.kill()
 
 
 def test_joint_states_at_the_publish_rate_with_clock_on_the_same_ticks(table):

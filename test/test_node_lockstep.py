@@ -9,14 +9,15 @@ from __future__ import annotations
 
 import signal
 import time
+from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, Float64MultiArray
 from std_srvs.srv import Trigger
 
-from ros_procs import (STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process,
-                       wait_until)
+from ros_procs import (STARTUP_TIMEOUT, Peer, RosProcess, assert_clean_exit, stamp_ns,
+                       start_process, wait_until)
 from screwgear_ros.events import Command, ParameterChange, Reset
 from screwgear_ros.runs.bagread import read_run
 
@@ -28,10 +29,16 @@ def _values(msg: DiagnosticArray) -> dict[str, str]:
     return {kv.key: kv.value for kv in msg.status[0].values}
 
 
-def test_lockstep_ticks_once_per_answer_and_stays_responsive_while_waiting(tmp_path):
+def _recording_in_lockstep(tmp_path: Path) -> tuple[RosProcess, Path]:
+    """table_sim in lockstep, as fast as the answers come, recording to tmp_path/run."""
     bag = tmp_path / 'run'
-    sim = start_process('table_sim', params={'lockstep': True, 'real_time_factor': 0.0,
-                                             'record': str(bag)}, workdir=tmp_path / 'sim')
+    return start_process('table_sim', params={'lockstep': True, 'real_time_factor': 0.0,
+                                              'record': str(bag)},
+                         workdir=tmp_path / 'sim'), bag
+
+
+def test_lockstep_ticks_once_per_answer_and_stays_responsive_while_waiting(tmp_path):
+    sim, bag = _recording_in_lockstep(tmp_path)
     try:
         with Peer('test_lockstep') as peer:
             js = peer.subscribe('/joint_states', JointState)
@@ -126,9 +133,7 @@ def test_while_a_tool_publishes_on_tick_commands_do_not_answer(tmp_path):
     number of cmd_effort messages are applied, in order, at the next tick, and none of
     them releases it; the one ~/tick does. (This is what lets replay_run send several
     commands in one tick.)"""
-    bag = tmp_path / 'run'
-    sim = start_process('table_sim', params={'lockstep': True, 'real_time_factor': 0.0,
-                                             'record': str(bag)}, workdir=tmp_path / 'sim')
+    sim, bag = _recording_in_lockstep(tmp_path)
     try:
         with Peer('test_tool_ticks') as peer:
             js = peer.subscribe('/joint_states', JointState)

@@ -8,7 +8,6 @@ for a double) and a parameter file that gives two STE amplitudes and no phases.
 
 from __future__ import annotations
 
-import signal
 import time
 
 import pytest
@@ -25,19 +24,13 @@ TIMEOUT = 0.2          # command_timeout, s of simulation time
 
 @pytest.fixture(scope='module')
 def node():
-    proc = start_process('table_sim', ros_args=['-p', 'inertia_table:=46'],
-                         params={'ste_amplitudes': AMPLITUDES, 'command_timeout': TIMEOUT})
-    peer = Peer('test_node_params')
-    try:
+    with start_process('table_sim', ros_args=['-p', 'inertia_table:=46'],
+                       params={'ste_amplitudes': AMPLITUDES, 'command_timeout': TIMEOUT}) \
+            as proc, Peer('test_node_params') as peer:
         states = peer.subscribe('/joint_states', JointState)
         diag = peer.subscribe('/diagnostics', DiagnosticArray)
         states.wait_for(lambda m: True, STARTUP_TIMEOUT, 'first joint_states')
         yield proc, peer, states, diag
-    finally:
-        peer.close()
-        if proc.alive():
-            proc.stop(signal.SIGINT)
-        proc.kill()
 
 
 def _set(peer: Peer, name: str, value) -> tuple[object, float]:

@@ -305,21 +305,15 @@ class Table:
 @pytest.fixture(scope='module')
 def table(tmp_path_factory):
     bag = tmp_path_factory.mktemp('ros2_control') / 'run'
-    proc = start_process('table_sim', ros_args=['-r', f'__ns:={NS}'],
-                         params={'real_time_factor': 1.0, 'record': str(bag)})
-    peer = Peer('test_ros2_control')
-    t = None
-    try:
+    with start_process('table_sim', ros_args=['-r', f'__ns:={NS}'],
+                       params={'real_time_factor': 1.0, 'record': str(bag)}) as proc, \
+            Peer('test_ros2_control') as peer:
         t = Table(peer, proc)
-        t.bag = bag
-        yield t
-    finally:
-        if t is not None:
+        try:
+            t.bag = bag
+            yield t
+        finally:
             t.plugin.close()
-        peer.close()
-        if proc.alive():
-            proc.stop(signal.SIGINT)
-        proc.kill()
 
 
 def test_joint_states_always_fill_all_three_arrays_with_the_urdf_joint_names(table):

@@ -9,6 +9,7 @@ import pytest
 from screwgear_ros.pacing import PacerStats
 from screwgear_ros.params import TableParams
 from screwgear_ros.plant import DriveInput, Outputs, Plant
+from screwgear_ros.simtime import sim_time_ns
 from screwgear_ros.status import (ERROR, MAX_PHASE_PER_STEP, OK, WARN, Health,
                                   contact_states, diagnostic_values, mesh_frequency_ratio,
                                   mesh_phase_per_step, status_line)
@@ -18,7 +19,8 @@ DT = 50e-6
 
 
 def outputs(delta=(1e-4, -1e-4), velocity=(0.0, 0.0, 0.0), time=1.0, path=1) -> Outputs:
-    return Outputs(time=time, step=int(round(time / DT)), position=(0.0, 0.0, 0.0),
+    step = int(round(time / DT))
+    return Outputs(time=time, time_ns=sim_time_ns(step, DT), step=step, position=(0.0, 0.0, 0.0),
                    velocity=velocity, effort=(0.0, 0.0, 0.0), delta=delta,
                    delta_rate=(0.0, 0.0), mesh_force=(0.0, 0.0), active_path=path)
 

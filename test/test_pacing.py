@@ -10,7 +10,8 @@ import time
 
 import pytest
 
-from screwgear_ros.pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns, wall_period
+from screwgear_ros.pacing import AnswerGate, FactorMeter, Pacer, wall_period
+from screwgear_ros.simtime import sim_time_ns
 from screwgear_ros.ratelimit import RateLimiter
 
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 import random
 import re
-import signal
 import xml.etree.ElementTree as ET
 
 import pytest
@@ -89,18 +88,12 @@ def _ros_value(value):
 
 @pytest.fixture(scope='module')
 def node():
-    proc = start_process('table_sim', params={'command_timeout': 0.0})
-    peer = Peer('test_param_fuzz')
-    try:
+    with start_process('table_sim', params={'command_timeout': 0.0}) as proc, \
+            Peer('test_param_fuzz') as peer:
         from sensor_msgs.msg import JointState
         states = peer.subscribe('/joint_states', JointState)
         states.wait_for(lambda m: True, STARTUP_TIMEOUT, 'first joint_states')
         yield proc, peer, states
-    finally:
-        peer.close()
-        if proc.alive():
-            proc.stop(signal.SIGINT)
-        proc.kill()
 
 
 def test_every_extreme_set_at_run_time_gets_a_reply_and_the_node_lives(node):

@@ -43,7 +43,8 @@ def test_descriptors_carry_the_declared_ranges_and_read_only_flags():
             assert r.to_value == p.declaration.high, p.name
         elif p.kind is Kind.INTEGER:
             (r,) = d.integer_range
-            assert r.from_value == low == 1 and r.to_value == p.declaration.high, p.name
+            assert r.from_value == (0 if p.declaration.zero else low), p.name
+            assert r.to_value == p.declaration.high and low in (0, 1), p.name
         else:
             assert not d.floating_point_range and not d.integer_range, p.name
         if p.kind is Kind.CHOICE:

@@ -16,13 +16,10 @@ import os
 import platform
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
-DATA = Path(__file__).parent / 'data'
-BAGS = ['steady_drive', 'reversals_anti_backlash', 'reversals_conventional',
-        'load_steps_parameter_changes']
+from bag_runs import BAGS, DATA
 
 REPLAY = '''
 import json, sys

@@ -126,6 +126,49 @@ def test_compiled_dop853_agrees_with_scipy_on_the_same_segments(case):
     assert np.ptp(scipy[:, 4]) > 0.1                  # the table did move both ways
 
 
+@pytest.mark.parametrize('method', ['dop853', 'scipy'])
+def test_reference_gives_each_input_exactly_its_ticks_late_in_a_run(method):
+    """The momentum the drive puts in, by the closed form, at every tick a minute into a run.
+
+    With c_t = 0 and the `paper` mesh, I2·ω2 + (r2/r1)·I1·ω1 + (r2/r3)·I3·ω3 changes at
+    (r2/r1)·T1 + (r2/r3)·T3 − T_load (the mesh forces are internal), constant over each
+    tick: a linear invariant, which every Runge–Kutta step keeps to round-off. So the
+    reference's momentum at each tick is the sum of these rates × n·dt over the ticks
+    before it, whatever its steps, if it integrates each input for exactly its ticks.
+    Counting steps on the absolute time instead (floats 7e-15 s apart there, 7e-12 of
+    a tick) misses this by far more than round-off, and the table angle drifts.
+    """
+    p = TableParams()
+    dt, n, first, ticks = 50e-6, 20, 930_000, 120
+    r1, r2, r3 = p.radius_pinion_1, p.radius_table, p.radius_pinion_3
+    rng = np.random.default_rng(7)
+    torques = rng.uniform(0.0, 200.0, ticks)                 # a new command every tick
+    directions = np.where(np.arange(ticks) < ticks // 2, 1, -1)   # and a reversal
+    loads = rng.uniform(-50.0, 50.0, ticks)
+    segs = [Segment(first + i * n, DriveInput(float(t), int(d), float(load)), p)
+            for i, (t, d, load) in enumerate(zip(torques, directions, loads))]
+    # anti_backlash: T1 = T_p (+ the drive if d = +1), T3 = −T_p (− the drive if d = −1)
+    t1 = p.preload_torque + np.where(directions > 0, torques, 0.0)
+    t3 = -p.preload_torque - np.where(directions < 0, torques, 0.0)
+    rate = r2 / r1 * t1 + r2 / r3 * t3 - loads
+    samples = first + np.arange(ticks + 1) * n
+    y0 = Plant(p, dt).state.copy()
+    out = solve(y0, segs, dt, samples, method=method)
+
+    def momentum(y):
+        return (p.inertia_table * y[..., 4] + r2 / r1 * p.inertia_pinion_1 * y[..., 3]
+                + r2 / r3 * p.inertia_pinion_3 * y[..., 5])
+    expected = momentum(y0) + np.concatenate([[0.0], np.cumsum(rate * n * dt)])
+    assert np.ptp(out[:, 5]) > 1.0                     # the reversal did swing pinion 3
+    # ... and the drive stayed below its torque–speed line, where the rate is the command's
+    assert np.abs(out[:, 3:6:2]).max() < p.drive_no_load_speed * (1.0 - 200.0 / p.drive_stall_torque)
+    # round-off: a few units in the last place of the momentum per tick
+    bound = 1e-14 * np.abs(rate).max() * n * dt * ticks
+    error = np.abs(momentum(out) - expected)
+    print(method, 'momentum off the closed form by', error.max(), 'of a bound', bound)
+    assert error.max() < bound, (error.max(), bound)
+
+
 def test_reference_failure_is_typed_and_located():
     """A state the model cannot continue from ends in ReferenceFailure, which says why,
     when and in which segment, never in an exception from inside the solver."""

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bag_runs import copy_bag, installed
+from bag_runs import BAGS, DATA, copy_bag, installed
 from ros_procs import (STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process,
                        wait_until)
 from screwgear_ros.events import Command, ParameterChange, Reset
@@ -37,9 +37,6 @@ from screwgear_ros.runs.compare import (compare_runs, exact_comparison, format_c
 from screwgear_ros.runs.replay import load_scenario, replay_in_process, schedule_from_run
 from screwgear_ros.runs.replay_plan import plan_from_run
 
-DATA = Path(__file__).parent / 'data'
-BAGS = ['steady_drive', 'reversals_anti_backlash', 'reversals_conventional',
-        'load_steps_parameter_changes']
 #: Generous bounds for a process to finish: a hang fails the test, a slow machine does not.
 TOOL_TIMEOUT = 600.0
 WAIT = 120.0

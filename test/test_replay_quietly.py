@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bag_runs import BAGS, DATA
 from screwgear_ros.interface import topic_names
 from screwgear_ros.ros.run_io import RunIO
 from screwgear_ros.events import Command, ParameterChange, Reset
@@ -28,9 +29,6 @@ from screwgear_ros.schedule import Schedule
 from screwgear_ros import session as session_module
 from screwgear_ros.session import QUIET_TICKS_PER_CALL, ROW, Session, row_of
 
-DATA = Path(__file__).parent / 'data'
-BAGS = ['steady_drive', 'reversals_anti_backlash', 'reversals_conventional',
-        'load_steps_parameter_changes']
 
 
 def _state(session: Session) -> tuple:

@@ -1,6 +1,7 @@
-"""The Runge–Kutta step as data (screwgear_ros.rk): tableaus checked against the order
-conditions, the step's measured order for three tableaus, one step on three kinds of
-state, and the Hermite interpolant's order.
+"""The RK4 step of screwgear_ros.rk: its tableau checked against the order conditions
+(test/rk_tableaus.py), the step and its stability polynomial those of that tableau, the
+step's measured order beside two other tableaus', one step on three kinds of state, and
+the Hermite interpolant's order.
 
 Independent references: the closed form of the damped oscillator y'' + 2ζy' + y = 0
 and RK4's stability polynomial 1 + z + z²/2 + z³/6 + z⁴/24 (Taylor's series of e^z to
@@ -16,10 +17,8 @@ import numpy as np
 import pytest
 from numba import njit
 
+from rk_tableaus import EULER, MIDPOINT, RK4, Tableau, tableau_step
 from screwgear_ros import rk
-
-MIDPOINT = rk.Tableau('midpoint rule', 2, c=(0, '1/2'), a=((), ('1/2',)), b=(0, 1))
-EULER = rk.Tableau('explicit Euler', 1, c=(0,), a=((),), b=(1,))
 
 ZETA = 0.1
 WD = math.sqrt(1.0 - ZETA ** 2)
@@ -45,36 +44,32 @@ def _exact(t):
     return np.array([x, v])
 
 
-def tableau_step(tableau, fun, t, y, h, args):
-    """One step of any supported ``tableau``, interpreted (for comparing methods)."""
-    return rk._python_step(fun, tableau)(t, y, h, fun(t, y, args), args)
-
-
 def test_rk4_tableau_has_order_four_and_its_stability_polynomial():
-    residuals = rk.RK4.order_conditions()
+    residuals = RK4.order_conditions()
     assert len(residuals) == 8 and all(r == 0 for r in residuals.values())
-    assert rk.RK4.stability_coefficients() == (1, 1, Fraction(1, 2), Fraction(1, 6),
-                                               Fraction(1, 24))
+    assert RK4.stability_coefficients() == (1, 1, Fraction(1, 2), Fraction(1, 6),
+                                            Fraction(1, 24))
+    assert rk.STABILITY == tuple(float(g) for g in RK4.stability_coefficients())
     z = np.array([-2.0 + 0.5j, 2.8j, -2.785])
     expected = 1 + z + z ** 2 / 2 + z ** 3 / 6 + z ** 4 / 24
-    assert np.allclose(rk.RK4.amplification(z), expected, rtol=1e-15)
-    assert rk.RK4.weights() == ((1, 2, 2, 1), 6)
+    assert np.allclose(rk.amplification(z), expected, rtol=1e-15)
+    assert RK4.weights() == ((1, 2, 2, 1), 6)
     # the midpoint rule is second order and not third
     assert [int(k[0]) for k, r in MIDPOINT.order_conditions().items() if r != 0][0] == 3
 
 
 def test_tableaus_that_break_their_claims_are_refused():
     with pytest.raises(ValueError, match='order conditions'):
-        rk.Tableau('RK4 with a typo', 4, c=(0, '1/2', '1/2', 1),
+        Tableau('RK4 with a typo', 4, c=(0, '1/2', '1/2', 1),
                    a=((), ('1/2',), (0, '1/2'), (0, 0, 1)), b=('1/6', '1/3', '1/6', '1/3'))
     with pytest.raises(ValueError, match='sum of row'):
-        rk.Tableau('bad node', 2, c=(0, 1), a=((), ('1/2',)), b=(0, 1))
+        Tableau('bad node', 2, c=(0, 1), a=((), ('1/2',)), b=(0, 1))
     with pytest.raises(ValueError, match='slope of stage 1 alone'):          # Kutta's 3/8 rule
-        rk.Tableau('3/8 rule', 4, c=(0, '1/3', '2/3', 1),
+        Tableau('3/8 rule', 4, c=(0, '1/3', '2/3', 1),
                    a=((), ('1/3',), ('-1/3', 1), (1, -1, 1)), b=('1/8', '3/8', '3/8', '1/8'))
 
 
-@pytest.mark.parametrize('tableau', [rk.RK4, MIDPOINT, EULER], ids=lambda t: t.name)
+@pytest.mark.parametrize('tableau', [RK4, MIDPOINT, EULER], ids=lambda t: t.name)
 def test_the_step_has_the_order_of_its_tableau(tableau):
     """Global error at t = 10 of y'' + 2ζy' + y = 0 against the closed form, halving h."""
     errors = []
@@ -87,6 +82,19 @@ def test_the_step_has_the_order_of_its_tableau(tableau):
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     print(f'{tableau.name}: errors {errors}, measured order {orders}')
     assert np.all(np.abs(orders - tableau.order) < 0.1)
+
+
+def test_the_step_is_its_tableaus_bit_for_bit():
+    """rk.step, written out, against the RK4 tableau interpreted, on arrays and tuples."""
+    h = 0.01
+    y_array, y_tuple = np.array([1.0, 0.0]), (1.0, 0.0)
+    for k in range(1000):
+        expected = tableau_step(RK4, _oscillator, k * h, y_array, h, None)
+        y_array = rk.step(_oscillator, k * h, y_array, h, None)
+        assert np.array_equal(y_array, expected)
+        expected = tableau_step(RK4, _oscillator, k * h, y_tuple, h, None)
+        y_tuple = rk.step(_oscillator, k * h, y_tuple, h, None)
+        assert y_tuple == expected
 
 
 def test_one_step_on_arrays_tuples_and_in_compiled_code_gives_the_same_bits():

@@ -94,7 +94,7 @@ def test_a_subscriber_that_comes_mid_run_gets_every_tick_from_its_match_on():
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
     from ros_procs import Peer, stamp_ns, wait_until
-    from screwgear_ros.pacing import sim_time_ns
+    from screwgear_ros.simtime import sim_time_ns
     from screwgear_ros.ros.messages import OUTPUT_TYPES
 
     keys = ('clock', 'joint_states', 'mesh_state', 'transmission_error')

@@ -11,6 +11,7 @@ recording read back by the bag reader and replayed.
 from __future__ import annotations
 
 from dataclasses import replace
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -217,3 +218,51 @@ def test_the_fast_command_is_what_the_dataclass_makes():
     for topic, value in (('cmd_effort', [2.5]), ('cmd_torque', 3.0), ('cmd_direction', -1)):
         fast, made = Command.of(topic, value), Command(topic, value)
         assert vars(fast) == vars(made) and fast == made and repr(fast) == repr(made)
+
+
+def test_a_tick_given_its_command_is_a_submit_then_a_tick():
+    """tick(command) skips the queue when nothing else waits in it: a seeded closed loop
+    (valid efforts, refused ones, ticks with other events queued before the command)
+    gives the same ticks, bit for bit, as submit(command) then tick()."""
+    rng = np.random.default_rng(28)
+    queued, direct = Session(P, S), Session(P, S)
+    for k in range(300):
+        effort = float(rng.uniform(-1.2, 1.2) * P.max_torque)     # some over the limit
+        if k % 37 == 5:
+            effort = float('nan')
+        others = [Command('load_torque', float(rng.uniform(-50.0, 50.0)))] if k % 11 == 3 \
+            else [Reset()] if k == 150 else []
+        for session in (queued, direct):
+            for event in others:
+                session.submit(event)
+        queued.submit(Command('cmd_effort', [effort]))
+        a, b = queued.tick(), direct.tick(Command('cmd_effort', [effort]))
+        assert (a.start, a.applied, a.notices, a.drive, a.fault) == \
+            (b.start, b.applied, b.notices, b.drive, b.fault)
+        assert [str(e) for e in a.rejected] == [str(e) for e in b.rejected]
+        assert np.array_equal(queued.plant.observed, direct.plant.observed)
+        assert a.outputs == b.outputs and a.previous == b.previous
+    assert queued.rejected == direct.rejected and queued.rejected['cmd_effort'] > 0
+
+
+@pytest.mark.parametrize('dt', [50e-6, 1e-4 / 3.0])
+def test_outputs_and_ticks_carry_the_stamp_of_their_step(dt):
+    """Every tick's outputs carry the integer ns of their step (step·dt_ns exactly when
+    dt is whole ns, else the nearest ns), and the tick the time of its start: what the
+    node stamps its messages and records its events with."""
+    def exact_ns(step):
+        return Fraction(step) * Fraction(dt) * 10**9
+
+    settings = replace(S, dt=dt, publish_rate=1.0 / (20 * dt))
+    session = Session(P, settings, start_step=123_456_789)
+    assert abs(session.outputs.time_ns - exact_ns(session.step)) <= Fraction(1, 2) + 1e-3
+    for _ in range(5):
+        before = session.step
+        tick = session.tick()
+        assert tick.start == before
+        assert abs(tick.start_ns - exact_ns(before)) <= Fraction(1, 2) + 1e-3
+        assert abs(tick.outputs.time_ns - exact_ns(tick.outputs.step)) <= Fraction(1, 2) + 1e-3
+        assert tick.outputs.time == tick.outputs.step * dt
+        if dt == 50e-6:
+            assert tick.outputs.time_ns == tick.outputs.step * 50_000
+            assert tick.start_ns == before * 50_000

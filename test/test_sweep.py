@@ -6,6 +6,7 @@ limit is a row with its reason; a worst run's rerun file reproduces its row."""
 from __future__ import annotations
 
 import json
+import math
 import signal
 import subprocess
 import sys
@@ -359,13 +360,18 @@ def make(setpoint):
 
 def test_a_blocked_run_on_a_cluster_ends_its_worker_and_the_sweep_goes_on(tmp_path):
     """A controller that never returns (no deadline check can run): past the hard limit
-    the worker process ends, the run is a row, the restarted worker takes the rest."""
+    the worker process ends, the run is a row, the restarted worker takes the rest. A
+    blocked run among the first (one run a task) and one among the last (by then the
+    short runs go several to a task): the runs that shared its task are rows of their
+    own, and a restarted worker loads the model before its first run's clock starts."""
     from screwgear_ros.sweep.worker import hard_limit
 
-    scenario = 'parameters: {command_timeout: 0.0}\nduration: 0.3\ncontroller:\n' \
+    scenario = 'parameters: {command_timeout: 0.0}\nduration: 0.1\ncontroller:\n' \
                '  use: blocking:make\n'
+    preloads = [0.0] * 16
+    preloads[1] = preloads[12] = 350.0
     sweep = ('scenario: scenario.yaml\nmetrics: [max_abs_te_m]\ntime_limit: 1.0\n'
-             'grid:\n  preload_torque: [0.0, 350.0, 0.0, 0.0, 0.0]\n')
+             f'grid:\n  preload_torque: {preloads}\n')
     path = _sweep_dir(tmp_path, sweep, scenario)
     (path.parent / 'blocking.py').write_text(BLOCKING)
     started = time.monotonic()
@@ -373,9 +379,50 @@ def test_a_blocked_run_on_a_cluster_ends_its_worker_and_the_sweep_goes_on(tmp_pa
                      timeout=600)
     assert proc.returncode == 0, proc.stderr
     table = _table(tmp_path / 'out')
-    assert table['status'] == ['ok', 'error', 'ok', 'ok', 'ok'], table
-    assert f'hard limit of {hard_limit(1.0):g} s' in table['reason'][1]
-    assert time.monotonic() - started < 300.0
+    assert table['status'] == ['error' if p else 'ok' for p in preloads], table
+    for k in (1, 12):
+        assert f'hard limit of {hard_limit(1.0):g} s' in table['reason'][k]
+    assert time.monotonic() - started < 400.0
+
+
+def test_batches_hold_about_their_time_of_runs_and_spread_the_last(tmp_path):
+    """Cluster tasks: one run each until a run's time is known, then about
+    BATCH_SECONDS of runs (at most MAX_BATCH), never so many that the runs left would
+    leave a worker thread without one; every run once, in order."""
+    from screwgear_ros.sweep import load_sweep
+    from screwgear_ros.sweep.engine import BATCH_SECONDS, MAX_BATCH, Batches
+    from screwgear_ros.sweep.worker import Outcome, Status
+
+    values = ', '.join(f'{k // 3}.0e-6' for k in range(300))
+    sweep = load_sweep(_sweep_dir(tmp_path, 'scenario: scenario.yaml\nmetrics: '
+                                  f'[max_abs_te_m]\ngrid:\n  backlash: [{values}]\n'))
+    batches, taken = Batches(sweep.runs), []
+
+    def ran(seconds: float) -> None:
+        batches.record(Outcome(0, '', Status.OK, '', (), seconds))
+
+    taken.append(batches.take(2))
+    assert len(taken[-1]) == 1
+    ran(math.nan)                       # a run lost with its worker: no time
+    taken.append(batches.take(2))
+    assert len(taken[-1]) == 1
+    ran(BATCH_SECONDS / 4)
+    taken.append(batches.take(2))
+    assert len(taken[-1]) == 4
+    ran(BATCH_SECONDS / 4)              # the mean of the times back so far
+    ran(BATCH_SECONDS / 1000)
+    taken.append(batches.take(2))
+    assert len(taken[-1]) == int(3 / (0.5 + 0.001)) > 4
+    for _ in range(200):
+        ran(BATCH_SECONDS / 1000)
+    taken.append(batches.take(2))
+    assert len(taken[-1]) == MAX_BATCH
+    while batches.left:
+        left = len(batches.left)
+        taken.append(batches.take(3))
+        assert len(taken[-1]) == max(1, min(MAX_BATCH, left // 3))
+    assert [spec.index for batch in taken for spec in batch] == \
+        [spec.index for spec in sweep.runs]
 
 
 def test_the_worked_example_covers_its_tolerance_band_and_runs(tmp_path):

@@ -2,17 +2,28 @@
 
 Every tool ends with its documented exit code and a reason, never a traceback: the
 long-running offline tools stop on Ctrl-C through :func:`interruptible`, with one line
-that says what they had not finished, and exit :data:`EXIT_INTERRUPTED`.
+that says what they had not finished, and exit :data:`EXIT_INTERRUPTED`; the errors a
+tool's work can end in are declared as one :class:`Failures` ladder each, which prints
+the tool's own line for each and keeps its exit code.
 """
 
 from __future__ import annotations
 
 import functools
 import sys
-from typing import Callable
+from typing import Callable, Mapping
 
 #: 128 + SIGINT: what a shell reports for a command that Ctrl-C stopped.
 EXIT_INTERRUPTED = 130
+#: The tools' documented exit code for work they could not do.
+EXIT_ERROR = 2
+
+#: An exception type, or a tuple of them, as ``except`` takes it.
+Errors = type[BaseException] | tuple[type[BaseException], ...]
+#: A message: a ``str.format`` template over ``exc`` (the error), ``kind`` (its type's
+#: name), ``why`` (an OSError's strerror, else the error) and the ladder's context, or a
+#: function of the error for text that depends on more than these.
+Message = str | Callable[[BaseException], str]
 
 
 def interruptible(tool: str, unfinished: str) -> Callable[[Callable[..., int]], Callable[..., int]]:
@@ -32,4 +43,56 @@ def interruptible(tool: str, unfinished: str) -> Callable[[Callable[..., int]], 
     return wrap
 
 
-__all__ = ['EXIT_INTERRUPTED', 'interruptible']
+class Failures:
+    """A tool's error ladder as data, used as a context manager around its work.
+
+    ``ladder`` maps error types (a type or a tuple, tried in order, as ``except`` clauses
+    are) to a :data:`Message`, or to ``(message, exit code)`` where the code is not
+    :data:`EXIT_ERROR`. Any other Exception gets ``unexpected``, so the tool never ends in
+    a traceback; KeyboardInterrupt passes on to :func:`interruptible`. The error's line,
+    ``'<tool>: <message>'``, goes to stderr, and :attr:`code` holds its exit code (None
+    while nothing failed): ``with failures: ...`` then ``if failures.code is not None:
+    return failures.code``. ``context`` names the values the templates use (the input's
+    path, say).
+    """
+
+    def __init__(self, tool: str, ladder: Mapping[Errors, Message | tuple[Message, int]],
+                 *, unexpected: Message = '{kind}: {exc}', **context: object) -> None:
+        self.tool = tool
+        self.context = context
+        self.rungs: list[tuple[Errors, Message, int]] = []
+        for errors, answer in ladder.items():
+            message, code = answer if isinstance(answer, tuple) else (answer, EXIT_ERROR)
+            self.add(errors, message, code)
+        self.unexpected = unexpected
+        self.code: int | None = None
+
+    def add(self, errors: Errors, message: Message, code: int = EXIT_ERROR) -> None:
+        """One more rung below the others: for error types known only once the work has
+        begun (those of a module imported only when an option asks for it)."""
+        self.rungs.append((errors, message, code))
+
+    def message(self, exc: BaseException, message: Message) -> str:
+        if callable(message):
+            return message(exc)
+        why = (exc.strerror or exc) if isinstance(exc, OSError) else exc
+        return message.format(exc=exc, kind=type(exc).__name__, why=why, **self.context)
+
+    def __enter__(self) -> Failures:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
+                 traceback: object) -> bool:
+        if not isinstance(exc, Exception):      # none, or KeyboardInterrupt / SystemExit
+            return False
+        for errors, message, code in self.rungs:
+            if isinstance(exc, errors):
+                break
+        else:
+            message, code = self.unexpected, EXIT_ERROR
+        print(f'{self.tool}: {self.message(exc, message)}', file=sys.stderr)
+        self.code = code
+        return True
+
+
+__all__ = ['EXIT_ERROR', 'EXIT_INTERRUPTED', 'Errors', 'Failures', 'Message', 'interruptible']

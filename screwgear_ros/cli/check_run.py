@@ -25,11 +25,11 @@ import sys
 
 from tqdm import tqdm
 
-from ..model import EquilibriumNotFound
 from ..reference import ReferenceFailure
-from ..runs.bagread import BagError, read_run
+from ..runs.bagread import read_run
 from ..runs.check import check_run, format_report
 from . import interruptible
+from .bag_tool import bag_failures
 
 EXIT_OK, EXIT_FAIL, EXIT_UNUSABLE = 0, 1, 2
 
@@ -52,12 +52,13 @@ def main(argv: list[str] | None = None) -> int:
                         help='also draw |node − reference| of every signal against its '
                         'tolerance (log scale) into this figure file')
     args = parser.parse_args(argv)
-    figure_errors: tuple[type[Exception], ...] = ()
-    try:
+    failures = bag_failures('check_run', 'check', args.bag,
+                            {ReferenceFailure: 'cannot check {bag}: {exc}'})
+    with failures:
         plot = None
         if args.plot:     # matplotlib only when a figure is asked for (a quarter second)
             from ..runs import plot as plotting
-            figure_errors = (plotting.FigureFileError,)
+            failures.add(plotting.FigureFileError, '{exc}')
             plot = plotting.output_path(args.plot)
         run = read_run(args.bag, allow_truncated=args.allow_truncated)
         total = (run.end_step - run.parameters.start_step) * run.dt
@@ -66,30 +67,14 @@ def main(argv: list[str] | None = None) -> int:
                   bar_format='{l_bar}{bar}| {n:.2f}/{total:.2f} s sim [{elapsed}<{remaining}]'
                   ) as bar:
             report = check_run(run, progress=bar.update, parallel=not args.serial)
-    except BagError as exc:
-        print(exc.report('check_run', 'check', args.bag), file=sys.stderr)
-        return EXIT_UNUSABLE
-    except ReferenceFailure as exc:
-        print(f'check_run: cannot check {args.bag}: {exc}', file=sys.stderr)
-        return EXIT_UNUSABLE
-    except figure_errors as exc:
-        print(f'check_run: {exc}', file=sys.stderr)
-        return EXIT_UNUSABLE
-    except (EquilibriumNotFound, ValueError) as exc:   # ParameterError is a ValueError
-        print(f'check_run: cannot check {args.bag}: the recorded parameters cannot be '
-              f'simulated: {exc}', file=sys.stderr)
-        return EXIT_UNUSABLE
-    except Exception as exc:  # noqa: BLE001 - never a traceback (module docstring)
-        print(f'check_run: cannot check {args.bag}: unexpected {type(exc).__name__}: {exc}',
-              file=sys.stderr)
-        return EXIT_UNUSABLE
+    if failures.code is not None:
+        return failures.code
     print(format_report(report))
     if plot is not None:
-        try:
+        with failures:
             print(f'  plot: {plotting.save(plotting.check_figure(run, report), plot)}')
-        except figure_errors as exc:
-            print(f'check_run: {exc}', file=sys.stderr)
-            return EXIT_UNUSABLE
+        if failures.code is not None:
+            return failures.code
     if report.undecided:
         print(f'check_run: cannot judge {args.bag}: the reference solution\'s own error '
               '(its difference between two tolerances) reaches the tolerance of '

@@ -32,7 +32,7 @@ from ..design.linearize import OUTPUTS, OperatingPointError
 from ..params import ParameterError
 from ..simulation import ParameterFileError, file_values, resolve
 from .linearize import format_modes
-from . import interruptible
+from . import Failures, interruptible
 
 EXIT_OK, EXIT_FAULT, EXIT_ERROR = 0, 1, 2
 
@@ -79,7 +79,12 @@ def main(argv: list[str] | None = None) -> int:
     stem = Path(args.out)
     if stem.suffix in ('.csv', '.png'):
         stem = stem.with_suffix('')
-    try:
+    failures = Failures('frequency_response', {
+        (ParameterFileError, ParameterError, OperatingPointError): '{exc}',
+        FloatingPointError: ('{exc}', EXIT_FAULT),
+        OSError: 'cannot write {stem}: {why}',
+    }, stem=stem)
+    with failures:
         if not (args.low > 0.0 and args.high >= args.low and np.isfinite(args.high)):
             raise OperatingPointError(f'--from {args.low:g} and --to {args.high:g} must be '
                                       'finite with 0 < from <= to')
@@ -108,19 +113,8 @@ def main(argv: list[str] | None = None) -> int:
         csv_path, png_path = stem.with_name(stem.name + '.csv'), stem.with_name(stem.name + '.png')
         result.write_csv(csv_path)
         (loop or result).save_figure(png_path)
-    except (ParameterFileError, ParameterError, OperatingPointError) as exc:
-        print(f'frequency_response: {exc}', file=sys.stderr)
-        return EXIT_ERROR
-    except FloatingPointError as exc:
-        print(f'frequency_response: {exc}', file=sys.stderr)
-        return EXIT_FAULT
-    except OSError as exc:
-        print(f'frequency_response: cannot write {stem}: {exc.strerror or exc}',
-              file=sys.stderr)
-        return EXIT_ERROR
-    except Exception as exc:  # noqa: BLE001 - never a traceback (module docstring)
-        print(f'frequency_response: {type(exc).__name__}: {exc}', file=sys.stderr)
-        return EXIT_ERROR
+    if failures.code is not None:
+        return failures.code
     model = result.model
     for line in model.point.describe():
         print(line)

@@ -23,7 +23,7 @@ from pathlib import Path
 from ..design.linearize import LinearModel, OperatingPointError, linearize
 from ..params import ParameterError
 from ..simulation import ParameterFileError, file_values, resolve
-from . import interruptible
+from . import Failures, interruptible
 
 EXIT_OK, EXIT_ERROR = 0, 2
 
@@ -80,7 +80,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     out = Path(args.output)
     fmt = args.format or ('mat' if out.suffix == '.mat' else 'npz')
-    try:
+    if fmt == 'mat' and out.suffix != '.mat':
+        out = out.with_name(out.name + '.mat')
+    failures = Failures('linearize', {
+        (ParameterFileError, ParameterError, OperatingPointError): '{exc}',
+        OSError: 'cannot write {out}: {why}',
+    }, out=out)
+    with failures:
         params = load_params(args.params)
         model = linearize(params, args.torque, holding_load(params, args.torque, args.load,
                                                             args.direction),
@@ -92,21 +98,10 @@ def main(argv: list[str] | None = None) -> int:
                 raise OperatingPointError('--format control needs python-control '
                                           '(pip install control)') from None
             out.write_bytes(data)
-        elif fmt == 'mat':
-            if out.suffix != '.mat':
-                out = out.with_name(out.name + '.mat')
-            model.save(out)
         else:
             model.save(out)
-    except (ParameterFileError, ParameterError, OperatingPointError) as exc:
-        print(f'linearize: {exc}', file=sys.stderr)
-        return EXIT_ERROR
-    except OSError as exc:
-        print(f'linearize: cannot write {out}: {exc.strerror or exc}', file=sys.stderr)
-        return EXIT_ERROR
-    except Exception as exc:  # noqa: BLE001 - never a traceback (module docstring)
-        print(f'linearize: {type(exc).__name__}: {exc}', file=sys.stderr)
-        return EXIT_ERROR
+    if failures.code is not None:
+        return failures.code
     for line in model.point.describe():
         print(line)
     print('mesh: ' + ('its time average (stiffness k_eff, lever r, no STE)'

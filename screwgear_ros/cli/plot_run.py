@@ -12,10 +12,10 @@ import argparse
 import math
 import sys
 
-from ..model import EquilibriumNotFound
-from ..runs.bagread import BagError, read_run
+from ..runs.bagread import read_run
 from ..runs.plot import DEFAULT_NAME, FigureFileError, default_output, output_path, run_figure, save
 from . import interruptible
+from .bag_tool import bag_failures
 
 EXIT_OK, EXIT_UNUSABLE = 0, 2
 
@@ -50,24 +50,13 @@ def main(argv: list[str] | None = None) -> int:
                         help='draw only simulation times T0 to T1 s (e.g. one step response), '
                         'each panel scaled to what it shows there')
     args = parser.parse_args(argv)
-    try:
+    failures = bag_failures('plot_run', 'plot', args.bag, {FigureFileError: '{exc}'})
+    with failures:
         out = output_path(args.output) if args.output else None
         run = read_run(args.bag, allow_truncated=args.allow_truncated)
         written = save(run_figure(run, args.zoom), out or default_output(run))
-    except BagError as exc:
-        print(exc.report('plot_run', 'plot', args.bag), file=sys.stderr)
-        return EXIT_UNUSABLE
-    except FigureFileError as exc:
-        print(f'plot_run: {exc}', file=sys.stderr)
-        return EXIT_UNUSABLE
-    except (EquilibriumNotFound, ValueError) as exc:   # ParameterError is a ValueError
-        print(f'plot_run: cannot plot {args.bag}: the recorded parameters cannot be '
-              f'simulated: {exc}', file=sys.stderr)
-        return EXIT_UNUSABLE
-    except Exception as exc:  # noqa: BLE001 - never a traceback (module docstring)
-        print(f'plot_run: cannot plot {args.bag}: unexpected {type(exc).__name__}: {exc}',
-              file=sys.stderr)
-        return EXIT_UNUSABLE
+    if failures.code is not None:
+        return failures.code
     print(written)
     return EXIT_OK
 

@@ -24,7 +24,7 @@ from pathlib import Path
 from ..commands import InputRejected
 from ..metrics import format_metrics, run_metrics
 from ..scenario import ScenarioError, load_scenario
-from . import interruptible
+from . import Failures, interruptible
 
 EXIT_OK, EXIT_FAULT, EXIT_ERROR = 0, 1, 2
 
@@ -42,7 +42,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--plot', metavar='PNG', help='draw the run (as plot_run) into this '
                         'figure file')
     args = parser.parse_args(argv)
-    try:
+    failures = Failures('run_scenario', {
+        ScenarioError: '{exc}',
+        InputRejected: "{scenario}: the controller answered with a command the node "
+                       "refuses: {exc}",
+    }, unexpected='{scenario}: {kind}: {exc}', scenario=args.scenario)
+    with failures:
         scenario = load_scenario(args.scenario)
         if args.record and Path(args.record).exists():
             raise FileExistsError(f'{args.record} exists; a recording goes to a new directory')
@@ -62,16 +67,8 @@ def main(argv: list[str] | None = None) -> int:
             if plot is not None:
                 from ..runs.bagread import read_run
                 plotting.save(plotting.run_figure(read_run(record)), plot)
-    except ScenarioError as exc:
-        print(f'run_scenario: {exc}', file=sys.stderr)
-        return EXIT_ERROR
-    except InputRejected as exc:
-        print(f'run_scenario: {args.scenario}: the controller answered with a command the '
-              f'node refuses: {exc}', file=sys.stderr)
-        return EXIT_ERROR
-    except Exception as exc:  # noqa: BLE001 - never a traceback (module docstring)
-        print(f'run_scenario: {args.scenario}: {type(exc).__name__}: {exc}', file=sys.stderr)
-        return EXIT_ERROR
+    if failures.code is not None:
+        return failures.code
     ticks = len(run) - 1
     print(f'{args.scenario}: {run.time[-1]:.4f} s of simulation, {ticks} ticks in '
           f'{wall:.2f} s ({ticks / wall if wall > 0 else float("inf"):.0f} ticks/s)')

@@ -21,8 +21,8 @@ A thin shell over :class:`screwgear_ros.session.Session` (``shared/spec/interfac
 * SIGINT/SIGTERM stop the pacing thread first, then the recorder, the node, rclpy.
 
 Who owns what: ``_values`` (the parameter values in force on the ROS side) belongs to
-the executor thread: main() spins a SingleThreadedExecutor, so the parameter
-callbacks never run concurrently. The session's queue is guarded by its own lock;
+the executor thread: main() spins one single-threaded executor (``NODE_EXECUTOR``), so
+the parameter callbacks never run concurrently. The session's queue is guarded by its own lock;
 the session, the RunIO, the pacer, the rate limiter and the health record belong
 to the pacing thread, except ``RunIO.prepare``, which the parameter callback calls to
 render a change's YAML and URDF off the pacing thread before it accepts the change (the
@@ -51,6 +51,7 @@ import rclpy
 import rclpy.logging
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import ParameterException
+from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -58,10 +59,10 @@ from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
-from ..commands import carries_no_command, command_value
+from ..commands import carries_no_command
 from ..events import Command, ParameterChange, Reset, Setpoint
 from ..model import pack
-from ..pacing import AnswerGate, FactorMeter, Pacer, sim_time_ns, wall_period
+from ..pacing import AnswerGate, FactorMeter, Pacer, wall_period
 from ..interface import (ANSWER_TOPICS, ANSWERS, BY_KEY, LATCHED_OUTPUTS, RECORDED_TOPICS,
                          TICK_TOPIC)
 from ..parameter_sets import split_parameters
@@ -99,6 +100,12 @@ NAME_CHECK_PERIOD = 1.0
 NAME_CHECKS = 5
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: The executor that serves the node's callbacks. rclpy's events executor takes each
+#: arrival as it comes, in C++; the SingleThreadedExecutor rebuilds its wait set from
+#: every entity of the node (and each one's QoS event handlers) in Python at every wait,
+#: holding the interpreter lock that the pacing thread needs to tick and publish: in
+#: lockstep, where every tick waits for one arrival, that work is most of a tick's.
+NODE_EXECUTOR = EventsExecutor
 
 
 class TableSim(Node):
@@ -123,10 +130,12 @@ class TableSim(Node):
         publishers = {key: self.create_publisher(
             kind, topic, LATCHED if key in LATCHED_OUTPUTS else 10)
             for key, (topic, kind) in OUTPUT_TYPES.items()
-            if key != 'clock' or settings.publish_clock}
-        # The setpoint first and answers last: rclpy's executor serves the ready
-        # subscriptions of one wait in creation order, so a setpoint or a command that
-        # arrived with an answer is applied with it.
+            if (key != 'clock' or settings.publish_clock)
+            and (key != 'true_joint_states' or not settings.sensors.ideal)}
+        # The setpoint first and answers last: the events executor serves arrivals in
+        # their order, and an executor that serves the ready subscriptions of one wait in
+        # creation order (the SingleThreadedExecutor) then also applies a setpoint or a
+        # command that arrived with an answer.
         notes = {topic: self.create_subscription(INFO_TYPES[topic], topic,
                                                  partial(self._on_setpoint, topic), 10)
                  for topic in INFO_TYPES}
@@ -219,14 +228,13 @@ class TableSim(Node):
                 self.get_logger().warning(
                     refused + (f' ({held} more refused since the last warning)' if held else ''))
         else:
-            self._command(topic, inputs.decode(topic, data))
+            self._command(topic, inputs.value(topic, data))
         if refused is not None and self._answers(topic):
             self._gate.answer()         # an answer, if a bad one, as a rejected command is
 
-    def _command(self, topic: str, msg: Any) -> None:
-        value = command_value(topic, msg)
+    def _command(self, topic: str, value: Any) -> None:
         if not carries_no_command(topic, value):
-            self.session.submit(Command(topic, value))
+            self.session.submit(Command.of(topic, value))
         if self._answers(topic):
             self._gate.answer()
 
@@ -418,8 +426,8 @@ class TableSim(Node):
         params = session.plant.params
         level, text, values = diagnostic_values(params, out, health)
         msg = messages.diagnostics(f'{self._fqn}: simulation', 'screwgear_ros/table_sim',
-                                   level, text, values, sim_time_ns(out.step, health.dt))
-        self.io.send('diagnostics', sim_time_ns(out.step, health.dt), msg)
+                                   level, text, values, out.time_ns)
+        self.io.send('diagnostics', out.time_ns, msg)
         phase_step = mesh_phase_per_step(params, out, health.dt)
         if phase_step > MAX_PHASE_PER_STEP and self._warnings.allow('mesh_phase')[0]:
             self.get_logger().warning(
@@ -456,7 +464,7 @@ def main(args: list[str] | None = None) -> int:
             rclpy.logging.get_logger('table_sim').fatal(f'cannot start: {error}')
             return 2
         node.start()
-        spin_until(node, stop)
+        spin_until(node, stop, executor=NODE_EXECUTOR())
         node.close()                   # the recorder's last writes can still fail
         return node.exit_code()
     finally:
@@ -466,4 +474,4 @@ def main(args: list[str] | None = None) -> int:
         rclpy.try_shutdown()
 
 
-__all__ = ['TableSim', 'main']
+__all__ = ['NODE_EXECUTOR', 'TableSim', 'main']

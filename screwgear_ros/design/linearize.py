@@ -26,6 +26,10 @@ angles counted in the sense that drives the table forward, as in the model). Inp
 drive torque magnitude (N·m, cmd_torque: the active pinion's in the commanded direction)
 and the table load (N·m, load_torque). Outputs: angle and speed of the table and of each
 pinion, and the transmission error δ of the active path (m).
+
+Why one module of this length: the operating point, the contact branch and drive piece it
+puts the table on, the matrices on those branches and the modes read off them are one
+derivation; each step needs the branch choices of the one before.
 """
 
 from __future__ import annotations

@@ -9,8 +9,8 @@ ended (:meth:`ReplayClient.check`).
 
 How an event is confirmed inside the node before the next is sent: a command by a
 parameter-service round trip (the request travels from this participant after the
-messages published before it, and the node's executor serves the ready subscriptions
-of a wait before its services); a parameter change or reset by its own service reply.
+messages published before it, and the node's executor serves what arrives in the order
+it arrives); a parameter change or reset by its own service reply.
 ``Publisher.wait_for_all_acked`` would prove only the arrival, and takes up to a writer
 heartbeat period per message.
 """

@@ -45,7 +45,6 @@ from std_msgs.msg import Empty, String
 
 from .. import cdr, run_parameters
 from ..events import Command, ParameterChange, Setpoint
-from ..pacing import sim_time_ns
 from ..params import SimSettings, TableParams
 from ..plant import Outputs
 from ..session import Session, Tick
@@ -109,8 +108,11 @@ class RunIO:
         # (publish_clock is read-only), so outputs() looks nothing up per tick. The
         # clock first: it has no values, so the runs outputs() encodes are the same
         # with or without it.
+        # The exact state last (when the sensors are not ideal, the caller names its
+        # topic): joint_states then carries what the sensors measure.
         self._tick_keys = (('clock',) if 'clock' in self.topics else ()) + (
-            'joint_states', 'mesh_state', 'transmission_error')
+            'joint_states', 'mesh_state', 'transmission_error') + (
+            ('true_joint_states',) if 'true_joint_states' in self.topics else ())
         if LATCHED_OUTPUTS.intersection(self._tick_keys):
             raise ValueError('a latched topic must be published whether or not anybody '
                              'listens: not one of the per-tick topics')
@@ -185,9 +187,10 @@ class RunIO:
     def start(self, session: Session) -> None:
         """The start of a run: its parameters, the URDF, the active path and the first
         outputs."""
-        self._parameters(session, session.step, session.plant.params, session.settings)
-        self._publish_path(session.outputs.active_path, session.step, session.plant.dt)
-        self.outputs(session.outputs, session.plant.dt)
+        out = session.outputs
+        self._parameters(session, out.time_ns, session.plant.params, session.settings)
+        self._publish_path(out.active_path, out.time_ns)
+        self.outputs(out, measured=session.measured)
         self._markers(session, time.monotonic())
 
     def tick(self, session: Session, tick: Tick, lossless: bool = True) -> None:
@@ -195,11 +198,10 @@ class RunIO:
         ``lossless``: a caller with no deadline (in-process runs, the node flat out) lets
         the recorder make the tick wait for room rather than drop it; the node in real
         time passes False."""
-        dt = session.plant.dt
-        t_ns = sim_time_ns(tick.start, dt)
+        t_ns = tick.start_ns
         for event in tick.applied:
             if isinstance(event, ParameterChange):
-                self._parameters(session, tick.start, event.params, event.settings)
+                self._parameters(session, t_ns, event.params, event.settings)
                 if list(session.settings.joint_names) != self.joint_names:
                     self.joint_names = list(session.settings.joint_names)
                     self._bundle = self._tick_bundle()
@@ -213,8 +215,8 @@ class RunIO:
             else:
                 self.record('reset', t_ns, Empty())
         if tick.outputs.active_path != self._path:
-            self._publish_path(tick.outputs.active_path, tick.start, dt)
-        self.outputs(tick.outputs, dt, lossless)
+            self._publish_path(tick.outputs.active_path, t_ns)
+        self.outputs(tick.outputs, lossless, tick.measured)
         now = time.monotonic()
         if now >= self._next_recount:
             self._next_recount = now + LISTENER_RECOUNT
@@ -227,15 +229,21 @@ class RunIO:
         templates = {'clock': cdr.clock_template,
                      'joint_states': lambda: cdr.joint_state_template(self.joint_names),
                      'mesh_state': lambda: cdr.joint_state_template(messages.MESH_NAMES),
-                     'transmission_error': cdr.float64_template}
+                     'transmission_error': cdr.float64_template,
+                     'true_joint_states': lambda: cdr.joint_state_template(self.joint_names)}
         return cdr.Bundle([templates[key]() for key in self._tick_keys])
 
-    def outputs(self, out: Outputs, dt: float, lossless: bool = True) -> None:
-        """/clock, joint_states, mesh_state and transmission_error of ``out``;
-        ``lossless`` as for :meth:`tick` (:meth:`RunRecorder.write_group`'s)."""
-        t_ns = sim_time_ns(out.step, dt)
-        tick = self._bundle.encode(t_ns, out.position, out.velocity, out.effort, out.delta,
-                                   out.delta_rate, out.mesh_force, (out.transmission_error,))
+    def outputs(self, out: Outputs, lossless: bool = True,
+                measured: Outputs | None = None) -> None:
+        """/clock, joint_states (``measured``: what the sensors measure of ``out``; None:
+        ``out`` itself), mesh_state, transmission_error and ~/true_joint_states (``out``,
+        if its topic is named) of ``out``; ``lossless`` as for :meth:`tick`
+        (:meth:`RunRecorder.write_group`'s)."""
+        t_ns = out.time_ns
+        js = out if measured is None else measured
+        tick = self._bundle.encode(t_ns, js.position, js.velocity, js.effort, out.delta,
+                                   out.delta_rate, out.mesh_force, (out.transmission_error,),
+                                   out.position, out.velocity, out.effort)
         self.last_joint_states = tick[self._joint_states_at]
         matched = self._matched
         for i, (publisher, msg) in enumerate(zip(self._tick_publishers, tick)):
@@ -264,16 +272,15 @@ class RunIO:
         if self.recorder is not None:
             self.recorder.write(self.topics[key], t_ns, msg)
 
-    def _publish_path(self, path: int, step: int, dt: float) -> None:
+    def _publish_path(self, path: int, t_ns: int) -> None:
         self._path = path
-        self.send('active_path', sim_time_ns(step, dt), messages.active_path(path))
+        self.send('active_path', t_ns, messages.active_path(path))
 
-    def _parameters(self, session: Session, step: int, params: TableParams,
+    def _parameters(self, session: Session, t_ns: int, params: TableParams,
                     settings: SimSettings) -> None:
-        """Record the parameters taking effect at ``step`` (each change of a tick its own,
-        in order); publish and record their URDF if it changed."""
+        """Record the parameters taking effect at simulation time ``t_ns`` (each change of
+        a tick its own, in order); publish and record their URDF if it changed."""
         text, urdf = self._texts(session, params, settings)
-        t_ns = sim_time_ns(step, session.plant.dt)
         if self.recorder is not None:
             self.record('run_parameters', t_ns, String(data=text))
         if urdf and urdf != self.description:
@@ -307,7 +314,7 @@ class RunIO:
     def _marker_message(self, session: Session) -> tuple[int, bytes]:
         """(log time, table_markers CDR) of the session's last outputs."""
         out, params = session.outputs, session.plant.params
-        t_ns = sim_time_ns(out.step, session.plant.dt)
+        t_ns = out.time_ns
         encoder = self._marker_encoder
         if encoder is None or not encoder.draws(params, self.joint_names):
             encoder = self._marker_encoder = MarkerEncoder(params, self.joint_names)

@@ -32,7 +32,8 @@ class SessionRecording:
     def __init__(self, path: str | os.PathLike[str], session: Session, namespace: str = '',
                  **recorder_options: Any) -> None:
         self.session = session
-        self.io = RunIO(topic_names(namespace, clock=session.settings.publish_clock),
+        self.io = RunIO(topic_names(namespace, clock=session.settings.publish_clock,
+                                    true_states=not session.settings.sensors.ideal),
                         session.settings.joint_names)
         self.recorder: RunRecorder = self.io.open_recorder(path, **recorder_options)
         try:

@@ -76,9 +76,11 @@ def _ignore_stop_signals() -> None:
         signal.signal(signum, signal.SIG_IGN)
 
 
-def spin_until(node: Node, stop: threading.Event, period: float = 0.1) -> None:
-    """Serve ``node``'s callbacks until ``stop`` is set (checked every ``period`` s)."""
-    executor = SingleThreadedExecutor()
+def spin_until(node: Node, stop: threading.Event, period: float = 0.1,
+               executor: Executor | None = None) -> None:
+    """Serve ``node``'s callbacks until ``stop`` is set (checked every ``period`` s), on
+    ``executor`` (default: a new SingleThreadedExecutor)."""
+    executor = SingleThreadedExecutor() if executor is None else executor
     executor.add_node(node)
     spin_executor_until(executor, stop, period)
 

@@ -61,12 +61,12 @@ class BagError(Exception):
         self.kind = kind
         super().__init__(message)
 
-    def report(self, tool: str, verb: str, path: object) -> str:
-        """The one line a command-line tool prints: '<tool>: cannot <verb> <path>: why',
+    def report(self, verb: str, path: object) -> str:
+        """What a command-line tool says after its name: 'cannot <verb> <path>: why',
         with the way out for a truncated bag."""
         hint = (f' (use --allow-truncated to {verb} the readable part)'
                 if self.kind == 'truncated' else '')
-        return f'{tool}: cannot {verb} {path}: {self}{hint}'
+        return f'cannot {verb} {path}: {self}{hint}'
 
 
 
@@ -90,7 +90,10 @@ class RecordedRun:
     mcap_path: Path
     parameters: RunParameters               # the first run_parameters: start of the run
     events: list[tuple[int, Event]]         # (file position, event), in file order
-    joint_states: Signal                    # values: θ(3) rad, ω(3) rad/s, effort(3) N·m
+    #: The exact joint states: values θ(3) rad, ω(3) rad/s, effort(3) N·m. The bag's
+    #: ~/true_joint_states when it has them (its sensors were not all ideal), else its
+    #: joint_states (which then are exact).
+    joint_states: Signal
     transmission_error: Signal              # values: δ of the active path (1), m
     mesh_state: Signal                      # values: δ1, δ3 m, δ̇1, δ̇3 m/s, F1, F3 N
     active_path: Signal                     # values: 1 or 3
@@ -107,6 +110,9 @@ class RecordedRun:
     #: the controller's setpoint for the table joint, rad, where it was recorded (only
     #: recorded, never an event; empty in a bag from before the topic, or without one)
     setpoint: Signal = field(default_factory=lambda: _Collector().signal())
+    #: The recorded joint_states when the bag also holds ~/true_joint_states: what the
+    #: sensors measured of :attr:`joint_states` (None: joint_states are the exact ones).
+    measured: Signal | None = None
 
     @property
     def dt(self) -> float:
@@ -190,7 +196,8 @@ _LENGTH_AT = struct.calcsize('<B')
 _CHANNEL_AT = MCAP_RECORD.size
 _LOG_TIME_AT = struct.calcsize('<BQHI')
 #: Output topics of fixed layout, read in bulk (clock: log times only, nothing decoded).
-BULK_TOPICS = ('joint_states', 'transmission_error', 'mesh_state', 'clock')
+BULK_TOPICS = ('joint_states', 'transmission_error', 'mesh_state', 'clock',
+               'true_joint_states')
 
 
 def _wanted(rel: str, msgtype: str) -> str | None:
@@ -464,12 +471,39 @@ def _bulk(parts: list[np.ndarray | list[bytes]], template: Template | None, widt
     return values, stamps
 
 
+#: A message decoded one by one: (file order, topic, type name, log time, CDR bytes).
+_Message = tuple[int, str, str, int, bytes]
+#: A bulk topic's messages as scanned: (file orders, log times, raw messages) per chunk.
+_Pieces = list[tuple[np.ndarray, np.ndarray, 'np.ndarray | list[bytes]']]
+
+
 def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
     """Read a table_sim recording. Raises :class:`BagError` when it cannot be used."""
     bag_dir, mcap_path = find_mcap(path)
-    store = typestore()
     status: dict[str, Any] = {'truncated': None, 'summary': None}
     found = scan(mcap_path, status)
+    topics, names = _topics(path, found)
+    one_by_one, bulk = _routes(found)
+    reader = _Decoder(path, names)
+    first, first_order = _first_parameters(reader, one_by_one, status)
+    reader.dt_ns, reader.joints = first.settings.dt * 1e9, list(first.settings.joint_names)
+    events, active_path, setpoint = _events(reader, one_by_one, first_order, first)
+    signals, stamp_mismatches = _signals(reader, bulk)
+    if status['truncated'] and not allow_truncated:
+        raise BagError('truncated', f'{path}: {status["truncated"]}')
+    exact, measured = signals['joint_states'], None
+    if len(signals['true_joint_states']):
+        exact, measured = signals['true_joint_states'], exact
+    return RecordedRun(bag_dir, mcap_path, first, events, exact,
+                       signals['transmission_error'], signals['mesh_state'],
+                       active_path.signal(), signals['clock'], topics, found.count,
+                       status['truncated'], status['summary'], names, stamp_mismatches,
+                       setpoint.signal(), measured)
+
+
+def _topics(path: str | Path, found: Any) -> tuple[dict[str, str], dict[str, str]]:
+    """(topic → type name, relative name → topic), in order of first message; a contract
+    topic twice or with another type is an invalid bag."""
     topics: dict[str, str] = {}
     names: dict[str, str] = {}
     for channel in sorted(found.first, key=found.first.__getitem__):
@@ -484,8 +518,14 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
             raise BagError('invalid', f'{path}: topic {topic} is declared as '
                            f'{msgtype or "(no schema)"!s}, but table_sim records it as '
                            f'{CONTRACT[rel]}: the bag is inconsistent')
-    one_by_one: list[tuple[int, str, str, int, bytes]] = []
-    bulk: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray | list[bytes]]]] = {}
+    return topics, names
+
+
+def _routes(found: Any) -> tuple[list[_Message], dict[str, _Pieces]]:
+    """The kept messages split by how they are decoded: one by one (in file order), or
+    in bulk (by relative topic name)."""
+    one_by_one: list[_Message] = []
+    bulk: dict[str, _Pieces] = {}
     for channel, kept in found.kept.items():
         topic, msgtype = found.channels[channel]
         rel = _relative(topic)
@@ -496,33 +536,33 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
             one_by_one.extend(zip(order.tolist(), [topic] * len(part), [msgtype] * len(part),
                                   log_time.tolist(), part))
     one_by_one.sort(key=lambda m: m[0])
+    return one_by_one, bulk
 
-    def decode(raw: bytes, msgtype: str, topic: str) -> Any:
+
+class _Decoder:
+    """Decodes the messages of one bag, every failure a :class:`BagError` naming it:
+    ``names`` (relative name → topic) from :func:`_topics`, the step grid (``dt_ns``)
+    and the joints from the first run_parameters once read."""
+
+    def __init__(self, path: str | Path, names: dict[str, str]) -> None:
+        self.path = path
+        self.names = names
+        self.store = typestore()
+        self.dt_ns = 0.0
+        self.joints: list[str] = []
+
+    def decode(self, raw: bytes, msgtype: str, topic: str) -> Any:
         """``raw`` decoded; a message that is not valid CDR of its type is an invalid bag
         (whatever the codec raised)."""
         try:
-            return store.deserialize_cdr(raw, msgtype)
+            return self.store.deserialize_cdr(raw, msgtype)
         except Exception as exc:  # noqa: BLE001 - the codec's errors are of many types
-            raise BagError('invalid', f'{path}: a message on {topic} is not a valid {msgtype} '
-                           f'({type(exc).__name__}: {exc})') from None
+            raise BagError('invalid', f'{self.path}: a message on {topic} is not a valid '
+                           f'{msgtype} ({type(exc).__name__}: {exc})') from None
 
-    first: RunParameters | None = None
-    for order, topic, msgtype, log_time, data in one_by_one:
-        if _relative(topic) == RUN_PARAMETERS and msgtype == 'std_msgs/msg/String':
-            first = _parse(decode(data, msgtype, topic).data, topic)
-            first_order = order
-            break
-    if first is None and status['truncated']:
-        raise BagError('truncated', f'{path}: {status["truncated"]}; no run_parameters '
-                       'message is readable before that')
-    if first is None:
-        raise BagError('no_parameters', f'{path} holds no run_parameters message: the model '
-                       'cannot be rebuilt from it (recorded by something other than '
-                       "table_sim's record parameter?)")
-    dt_ns = first.settings.dt * 1e9
-    joints = list(first.settings.joint_names)
-
-    def steps_of(log_time: np.ndarray, topic: str) -> np.ndarray:
+    def steps(self, log_time: np.ndarray, topic: str) -> np.ndarray:
+        """The steps of these log times, which must lie on the step grid."""
+        dt_ns = self.dt_ns
         steps = np.rint(log_time / dt_ns)
         off = np.flatnonzero(np.abs(log_time - steps * dt_ns) > 0.5 + 1e-6 * dt_ns)
         if len(off):
@@ -530,6 +570,79 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
                            f'the step grid of dt = {dt_ns:g} ns')
         return steps.astype(np.int64)
 
+    def _sized(self, msg: Any, topic: str, n: int) -> None:
+        if not len(msg.position) == len(msg.velocity) == len(msg.effort) == n:
+            raise BagError('invalid', f'{self.path}: a message on {topic} has '
+                           f'{len(msg.position)} positions, {len(msg.velocity)} velocities '
+                           f'and {len(msg.effort)} efforts for {n} names')
+
+    def joint_state(self, raw: bytes, rel: str = 'joint_states') -> tuple[np.ndarray, int]:
+        """One joint_states (or true_joint_states) message the bulk decoder could not
+        take: its values in the recorded joints' order, and its stamp (ns)."""
+        topic = self.names[rel]
+        msg = self.decode(raw, OUTPUT_TOPICS[rel], topic)
+        try:
+            idx = [list(msg.name).index(n) for n in self.joints]
+        except ValueError:
+            raise BagError('invalid', f'{topic}: joints {list(msg.name)} do '
+                           f'not include {self.joints}') from None
+        self._sized(msg, topic, len(msg.name))
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        return np.concatenate([msg.position[idx], msg.velocity[idx], msg.effort[idx]]), stamp
+
+    def mesh_state(self, raw: bytes) -> tuple[np.ndarray, int]:
+        topic = self.names['mesh_state']
+        msg = self.decode(raw, OUTPUT_TOPICS['mesh_state'], topic)
+        self._sized(msg, topic, 2)
+        return np.concatenate([msg.position, msg.velocity, msg.effort]), 0
+
+    def float64(self, raw: bytes) -> tuple[np.ndarray, int]:
+        topic = self.names['transmission_error']
+        return np.array([self.decode(raw, OUTPUT_TOPICS['transmission_error'], topic).data]), 0
+
+    def mesh_template(self, parts: list[np.ndarray | list[bytes]]) -> Template | None:
+        """The layout of the first mesh_state message's names (the node's: one δ1, δ3)."""
+        if not parts:
+            return None
+        raw = parts[0][0].tobytes() if isinstance(parts[0], np.ndarray) else parts[0][0]
+        msg = self.decode(raw, OUTPUT_TOPICS['mesh_state'], self.names['mesh_state'])
+        return joint_state_template(list(msg.name)) if len(msg.name) == 2 else None
+
+    def layout(self, rel: str) -> tuple[Any, int, Any]:
+        """(the template of a bulk topic from its parts, values per message, the decoder
+        of one message the template does not fit)."""
+        if rel == 'joint_states':
+            return lambda parts: joint_state_template(self.joints), 9, self.joint_state
+        if rel == 'true_joint_states':
+            return (lambda parts: joint_state_template(self.joints), 9,
+                    lambda raw: self.joint_state(raw, rel))
+        if rel == 'transmission_error':
+            return lambda parts: float64_template(), 1, self.float64
+        return self.mesh_template, 6, self.mesh_state
+
+
+def _first_parameters(reader: _Decoder, one_by_one: list[_Message],
+                      status: dict[str, Any]) -> tuple[RunParameters, int]:
+    """The first run_parameters message and its file order; a bag without one cannot be
+    re-simulated."""
+    for order, topic, msgtype, _, data in one_by_one:
+        if _relative(topic) == RUN_PARAMETERS and msgtype == 'std_msgs/msg/String':
+            return _parse(reader.decode(data, msgtype, topic).data, topic), order
+    path = reader.path
+    if status['truncated']:
+        raise BagError('truncated', f'{path}: {status["truncated"]}; no run_parameters '
+                       'message is readable before that')
+    raise BagError('no_parameters', f'{path} holds no run_parameters message: the model '
+                   'cannot be rebuilt from it (recorded by something other than '
+                   "table_sim's record parameter?)")
+
+
+def _events(reader: _Decoder, one_by_one: list[_Message], first_order: int,
+            first: RunParameters
+            ) -> tuple[list[tuple[int, Event]], _Collector, _Collector]:
+    """The inputs, parameter changes and resets with their file order, and the
+    active_path and setpoint samples, from the messages decoded one by one."""
+    path = reader.path
     events: list[tuple[int, Event]] = []
     active_path = _Collector()
     setpoint = _Collector()
@@ -537,15 +650,15 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
         rel = _relative(topic)
         if order == first_order:
             continue
-        step = int(steps_of(np.array([log_time]), topic)[0])
+        step = int(reader.steps(np.array([log_time]), topic)[0])
         if rel == 'active_path':
-            value = decode(data, msgtype, topic).data
+            value = reader.decode(data, msgtype, topic).data
             if value not in (1, 3):
                 raise BagError('invalid', f'{path}: {topic} says path {value}; the paths are '
                                '1 and 3')
             active_path.add(step, order, value)
         elif rel in INPUT_TOPICS:
-            msg = decode(data, msgtype, topic)
+            msg = reader.decode(data, msgtype, topic)
             try:
                 value = command_value(rel, msg)
             except (TypeError, ValueError) as exc:
@@ -553,54 +666,21 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
                                f'value ({exc})') from None
             events.append((order, Command(rel, value, step)))
         elif rel == RUN_PARAMETERS:
-            params = _parse(decode(data, msgtype, topic).data, topic)
+            params = _parse(reader.decode(data, msgtype, topic).data, topic)
             if params.settings.dt != first.settings.dt:
                 raise BagError('invalid', f'{topic}: dt changed during the run')
             events.append((order, ParameterChange(params.params, params.settings, step)))
         elif rel == RESET:
             events.append((order, Reset(step)))
         elif rel == SETPOINT:
-            setpoint.add(step, order, decode(data, msgtype, topic).data)
+            setpoint.add(step, order, reader.decode(data, msgtype, topic).data)
+    return events, active_path, setpoint
 
-    def sized(msg: Any, topic: str, n: int) -> None:
-        if not len(msg.position) == len(msg.velocity) == len(msg.effort) == n:
-            raise BagError('invalid', f'{path}: a message on {topic} has {len(msg.position)} '
-                           f'positions, {len(msg.velocity)} velocities and {len(msg.effort)} '
-                           f'efforts for {n} names')
 
-    def joint_state(raw: bytes) -> tuple[np.ndarray, int]:
-        topic = names['joint_states']
-        msg = decode(raw, OUTPUT_TOPICS['joint_states'], topic)
-        try:
-            idx = [list(msg.name).index(n) for n in joints]
-        except ValueError:
-            raise BagError('invalid', f'{topic}: joints {list(msg.name)} do '
-                           f'not include {joints}') from None
-        sized(msg, topic, len(msg.name))
-        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        return np.concatenate([msg.position[idx], msg.velocity[idx], msg.effort[idx]]), stamp
-
-    def mesh_state(raw: bytes) -> tuple[np.ndarray, int]:
-        topic = names['mesh_state']
-        msg = decode(raw, OUTPUT_TOPICS['mesh_state'], topic)
-        sized(msg, topic, 2)
-        return np.concatenate([msg.position, msg.velocity, msg.effort]), 0
-
-    def float64(raw: bytes) -> tuple[np.ndarray, int]:
-        topic = names['transmission_error']
-        return np.array([decode(raw, OUTPUT_TOPICS['transmission_error'], topic).data]), 0
-
-    def mesh_template(parts: list[np.ndarray | list[bytes]]) -> Template | None:
-        """The layout of the first mesh_state message's names (the node's: one δ1, δ3)."""
-        if not parts:
-            return None
-        raw = parts[0][0].tobytes() if isinstance(parts[0], np.ndarray) else parts[0][0]
-        msg = decode(raw, OUTPUT_TOPICS['mesh_state'], names['mesh_state'])
-        return joint_state_template(list(msg.name)) if len(msg.name) == 2 else None
-
-    layouts = {'joint_states': (lambda parts: joint_state_template(joints), 9, joint_state),
-               'transmission_error': (lambda parts: float64_template(), 1, float64),
-               'mesh_state': (mesh_template, 6, mesh_state)}
+def _signals(reader: _Decoder, bulk: dict[str, _Pieces]
+             ) -> tuple[dict[str, Signal], list[tuple[int, int]]]:
+    """Every bulk topic's samples in file order, and the joint_states whose stamp is not
+    their log time (log time, stamp)."""
     signals: dict[str, Signal] = {}
     stamp_mismatches: list[tuple[int, int]] = []
     for rel in BULK_TOPICS:
@@ -608,25 +688,18 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
         order = np.concatenate([p[0] for p in pieces] or [np.empty(0, np.int64)])
         log_time = np.concatenate([p[1] for p in pieces] or [np.empty(0, np.int64)])
         sort = np.argsort(order, kind='stable')
-        steps = steps_of(log_time[sort], names.get(rel, rel))
+        steps = reader.steps(log_time[sort], reader.names.get(rel, rel))
         if rel == 'clock':
             signals[rel] = Signal(steps, order[sort], np.empty((len(steps), 0)))
             continue
-        make, width, one = layouts[rel]
+        make, width, one = reader.layout(rel)
         parts = [p[2] for p in pieces]
         values, stamps = _bulk(parts, make(parts), width, one)
         signals[rel] = Signal(steps, order[sort], values[sort])
-        if rel == 'joint_states':
+        if rel in ('joint_states', 'true_joint_states'):
             off = np.flatnonzero(stamps[sort] != log_time[sort])
-            stamp_mismatches = list(zip(log_time[sort][off].tolist(), stamps[sort][off].tolist()))
-    if status['truncated'] and not allow_truncated:
-        raise BagError('truncated', f'{path}: {status["truncated"]}')
-    return RecordedRun(bag_dir, mcap_path, first, events, signals['joint_states'],
-                       signals['transmission_error'], signals['mesh_state'],
-                       active_path.signal(), signals['clock'], topics, found.count,
-                       status['truncated'], status['summary'], names, stamp_mismatches,
-                       setpoint.signal())
-
+            stamp_mismatches += zip(log_time[sort][off].tolist(), stamps[sort][off].tolist())
+    return signals, sorted(stamp_mismatches)
 
 
 def _parse(text: str, topic: str) -> RunParameters:

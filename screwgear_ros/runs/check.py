@@ -6,8 +6,11 @@ changes and resets are re-integrated with the DOP853 reference solver
 restarted at every change, and the recorded joint states (θ, ω, effort of every joint),
 transmission error and mesh_state (δ, δ̇, F of both meshes, the plant's outputs of the
 reference state) are compared with it at every recorded sample; the recorded
-active_path must change where the in-process replay changes it. A run the
-reference cannot follow raises :class:`~screwgear_ros.reference.ReferenceFailure`
+active_path must change where the in-process replay changes it. A run whose joint
+sensors are not all ideal records the exact state on ``~/true_joint_states``: the
+physics is judged on it, and the recorded joint_states must then follow from it by the
+recorded sensor model (:mod:`screwgear_ros.sensors`, its noise included) bit for bit.
+A run the reference cannot follow raises :class:`~screwgear_ros.reference.ReferenceFailure`
 (why, at what simulation time, in which segment of the run); one with nothing to
 compare raises :class:`NothingToCompare`.
 
@@ -63,6 +66,7 @@ from ..reference import ATOL, RTOL, ReferenceFailure, Segment, solve
 from ..events import ParameterChange, Reset
 from .bagread import BagError, RecordedRun
 from ..session import ROW, ROW_JOINTS, ROW_TE, row_of
+from ..sensors import SensorChain
 from .replay import ReplayedOutputs, replay_in_process
 
 #: Tolerance = SAFETY × Richardson estimate of RK4's error (contact changes located).
@@ -79,6 +83,12 @@ BLOCK_SECONDS = 0.25
 #: is judged against the tighter solution, whose own error is taken to be their
 #: difference / (REFERENCE_REFINE − 1) (a global error proportional to the tolerance).
 REFERENCE_REFINE = 10.0
+#: Bits of the table encoder the table angle's error is stated against: a 26-bit encoder,
+#: what a precision rotary table carries (the realistic preset's). The simulation's own
+#: error should stay below one of its counts, or a controller would see the integrator.
+TABLE_ENCODER_BITS = 26
+#: One count of that encoder, rad.
+TABLE_ENCODER_COUNT = 2.0 * math.pi / 2**TABLE_ENCODER_BITS
 
 
 @dataclass(frozen=True)
@@ -138,17 +148,27 @@ class CheckReport:
     samples: int = 0                 # values compared, over every signal
     path_changes: int = 0            # active_path messages expected (with the start's)
     path_mismatch: str | None = None  # how the recorded active_path differs, if it does
+    #: joint_states measured by non-ideal sensors: the samples checked against the sensor
+    #: model of the exact state (0: the sensors are ideal and joint_states is exact)
+    sensor_samples: int = 0
+    sensor_mismatch: str | None = None   # where the measured joint_states first differ
 
     @property
     def ok(self) -> bool:
         return (self.samples > 0 and all(s.ok for s in self.signals)
-                and not self.stamp_mismatches and self.path_mismatch is None)
+                and not self.stamp_mismatches and self.path_mismatch is None
+                and self.sensor_mismatch is None)
+
+    @property
+    def table_angle(self) -> SignalError | None:
+        """The table position's error (the second joint of :func:`signal_names`)."""
+        return self.signals[1] if len(self.signals) > 1 else None
 
     @property
     def undecided(self) -> list[SignalError]:
         """The signals the reference cannot judge, if nothing else fails: then no verdict."""
         if (any(not s.ok and not s.undecided for s in self.signals) or self.stamp_mismatches
-                or self.path_mismatch is not None):
+                or self.path_mismatch is not None or self.sensor_mismatch is not None):
             return []
         return [s for s in self.signals if s.undecided]
 
@@ -397,6 +417,12 @@ def require_samples(run: RecordedRun) -> None:
             f'(step {start}), so there is nothing to compare{why}; table_sim records '
             'joint_states, transmission_error and mesh_state every tick and active_path '
             'at the start and at every change')
+    if run.measured is None and not all(
+            s.sensors.ideal for s in [run.parameters.settings] + [
+                e.settings for _, e in run.events if isinstance(e, ParameterChange)]):
+        raise BagError('invalid', f'{run.path}: its joint sensors are not ideal '
+                       '(run_parameters), but it holds no true_joint_states: the exact state '
+                       'was not recorded, so the physics cannot be judged')
     if not np.array_equal(run.mesh_state.steps, run.joint_states.steps[:len(run.mesh_state)]):
         raise BagError('invalid', f'{run.path}: mesh_state and joint_states samples are not '
                        'published at the same steps')
@@ -428,6 +454,65 @@ def _path_mismatch(run: RecordedRun, replayed: ReplayedOutputs) -> str | None:
                     f'the replay gives path {b[1]} at t = {b[0] * run.dt:.6f} s')
     return (f'{len(recorded)} recorded changes (with the start), the replay gives '
             f'{len(expected)}')
+
+
+def sensor_rows(run: RecordedRun) -> np.ndarray:
+    """What the run's sensors measure of its exact joint states: joint_states rows (n, 9),
+    sample by sample through :class:`~screwgear_ros.sensors.SensorChain`, restarted by
+    each recorded reset and reconfigured by each recorded parameter change at the sample
+    of the tick that applied it (the first sample recorded after it), as the node's
+    session does."""
+    exact = run.joint_states
+    chain = SensorChain(run.parameters.settings.sensors, run.dt)
+    events = [(order, e) for order, e in run.events if isinstance(e, (Reset, ParameterChange))]
+    takes = np.searchsorted(exact.order, [order for order, _ in events], side='right').tolist()
+    rows = exact.values.copy()
+    k = 0
+    for i, (step, values) in enumerate(zip(exact.steps.tolist(), exact.values.tolist())):
+        while k < len(events) and takes[k] <= i:
+            event = events[k][1]
+            if isinstance(event, Reset):
+                chain.restart()
+            else:
+                chain.configure(event.settings.sensors)
+            k += 1
+        position, velocity = chain.measure_values(step, values[0:3], values[3:6])
+        rows[i, 0:6] = (*position, *velocity)
+    return rows
+
+
+def sensor_mismatch(run: RecordedRun) -> tuple[int, str | None]:
+    """(samples compared, where the recorded joint_states first differ from
+    :func:`sensor_rows` bit for bit, or None); (0, None) for a bag whose joint_states
+    are the exact state."""
+    measured = run.measured
+    if measured is None:
+        return 0, None
+    topic = run.names.get('joint_states', 'joint_states')
+    exact = run.joint_states
+    n = min(len(exact), len(measured))
+    if len(exact) != len(measured) and not run.truncated:
+        return n, (f'{topic} has {len(measured)} samples, true_joint_states '
+                   f'{len(exact)}: the node publishes both every tick')
+    steps = exact.steps[:n]
+    off = np.flatnonzero(steps != measured.steps[:n])
+    if len(off):
+        i = int(off[0])
+        return n, (f'{topic} sample {i} is at step {measured.steps[i]}, true_joint_states '
+                   f'at step {steps[i]}')
+    expected = sensor_rows(run)[:n]
+    differs = np.flatnonzero(np.any(expected.view(np.int64)
+                                    != measured.values[:n].view(np.int64), axis=1))
+    if not len(differs):
+        return n, None
+    i = int(differs[0])
+    c = int(np.flatnonzero(expected[i].view(np.int64) != measured.values[i].view(np.int64))[0])
+    name, unit = signal_names(run)[c]
+    return n, (f'{topic} differs from what the recorded sensor model measures of '
+               f'true_joint_states from tick {i} on (step {int(steps[i])}, '
+               f't = {steps[i] * run.dt:.6f} s): {name} recorded '
+               f'{float(measured.values[i, c])!r} {unit}, the model gives '
+               f'{float(expected[i, c])!r} ({len(differs)} of {n} samples differ)')
 
 
 def check_run(run: RecordedRun, progress: Callable[[float], None] | None = None,
@@ -479,6 +564,7 @@ def check_run(run: RecordedRun, progress: Callable[[float], None] | None = None,
         report.samples += len(rec)
     report.path_changes = len(path_changes(run, rk4))
     report.path_mismatch = _path_mismatch(run, rk4)
+    report.sensor_samples, report.sensor_mismatch = sensor_mismatch(run)
     return report
 
 
@@ -513,6 +599,12 @@ def format_report(report: CheckReport) -> str:
                      f'{s.at_time:>11.4f}{s.estimate:>12.3e}{s.reference_error:>12.3e}'
                      f'{s.tolerance:>12.3e}  '
                      + ('ok' if s.ok else 'undecided' if s.undecided else 'FAIL'))
+    table = report.table_angle
+    if table is not None:
+        lines.append(f'  table angle error {table.max_error:.2e} rad = '
+                     f'{table.max_error / TABLE_ENCODER_COUNT:.3g} counts of a '
+                     f'{TABLE_ENCODER_BITS}-bit table encoder ({TABLE_ENCODER_COUNT:.2e} rad '
+                     'a count)')
     lines.append('  in-process RK4 replay of the recorded inputs: '
                  + ('identical to the recording, bit for bit' if report.replay_identical
                     else f'differs from the recording by up to {report.replay_max_diff:.3e}'))
@@ -520,6 +612,14 @@ def format_report(report: CheckReport) -> str:
                  'every change, as the replay applied the recorded events): '
                  + ('every one recorded at its step' if report.path_mismatch is None
                     else f'FAIL: {report.path_mismatch}'))
+    if report.sensor_mismatch is not None:
+        lines.append(f'  measured joint_states: FAIL: {report.sensor_mismatch}')
+    elif report.sensor_samples:
+        lines.append(f'  measured joint_states: {report.sensor_samples} samples follow from '
+                     'true_joint_states by the recorded sensor model, bit for bit (the '
+                     'signals above are the exact state)')
+    else:
+        lines.append('  joint_states: the sensors are ideal, so they are the exact state')
     lines.append(f'  {report.samples} recorded values compared')
     if report.stamp_mismatches:
         log_time, stamp = report.stamp_mismatches[0]
@@ -541,6 +641,9 @@ def format_report(report: CheckReport) -> str:
         problems.append('joint_states header stamps differ from their log times')
     if report.path_mismatch is not None:
         problems.append('active_path differs from the replay')
+    if report.sensor_mismatch is not None:
+        problems.append('joint_states do not follow from true_joint_states by the sensor '
+                        'model')
     if not report.samples:
         problems.append('nothing compared')
     lines.append('  RESULT: ' + ('PASS: every signal within its tolerance' if not problems
@@ -549,5 +652,7 @@ def format_report(report: CheckReport) -> str:
 
 
 __all__ = ['SAFETY', 'SAFETY_FIXED_STEP', 'FLOOR_REL', 'FLOOR_ABS', 'SignalError', 'signal_error', 'CheckReport',
-           'REFERENCE_REFINE', 'signal_names', 'MESH_SIGNALS', 'NothingToCompare', 'require_samples',
-           'path_changes', 'reference_outputs', 'mesh_of', 'check_run', 'format_report']
+           'REFERENCE_REFINE', 'TABLE_ENCODER_BITS', 'TABLE_ENCODER_COUNT',
+           'signal_names', 'MESH_SIGNALS', 'NothingToCompare', 'require_samples',
+           'path_changes', 'reference_outputs', 'mesh_of', 'sensor_rows', 'sensor_mismatch',
+           'check_run', 'format_report']

@@ -24,8 +24,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..events import Command, Event, ParameterChange, describe
-from .bagread import RecordedRun
-from .check import signal_names
+from .bagread import RecordedRun, Signal
+from .check import sensor_mismatch, signal_names
 from ..schedule import ros_values
 from .replay import replay_in_process
 
@@ -67,6 +67,9 @@ class Comparison:
     common: int = 0                           # samples at steps both runs have
     signals: list[SignalDifference] = field(default_factory=list)
     identical: bool = False                   # same values at every common sample
+    #: where the replay's measured joint_states first depart from what its sensors
+    #: measure of its exact state (non-ideal sensors; None: they follow it)
+    sensor_mismatch: str | None = None
 
     @property
     def nothing_compared(self) -> str | None:
@@ -80,6 +83,7 @@ class Comparison:
     @property
     def ok(self) -> bool:
         return (self.nothing_compared is None and self.first_difference is None
+                and self.sensor_mismatch is None
                 and not self.extra and not self.start_differences
                 and all(t.new_step is not None for t in self.timings))
 
@@ -207,6 +211,7 @@ def compare_runs(original: RecordedRun, new: RecordedRun) -> Comparison:
         result.signals.append(SignalDifference(name, unit, float(diff[worst]),
                                                float(a.steps[rows_a[worst]] * original.dt)))
     result.identical = same and result.common > 0
+    result.sensor_mismatch = sensor_mismatch(new)[1]
     return result
 
 
@@ -230,6 +235,8 @@ def format_comparison(c: Comparison) -> str:
                               f'first difference at step {c.first_difference.step}: '
                               f'{c.first_difference.signal} {c.first_difference.original!r} '
                               f'recorded, {c.first_difference.replayed!r} computed'))
+    if c.sensor_mismatch is not None:
+        lines.append(f'the replay\'s measured joint_states: {c.sensor_mismatch}')
     lines.append(f'difference to the original at {c.common} common samples (what the timing '
                  'above makes):')
     lines.append(f'  {"signal":<26}{"unit":<7}{"max diff":>12}{"at t [s]":>11}')
@@ -283,6 +290,10 @@ def exact_comparison(original: RecordedRun, new: RecordedRun) -> ExactComparison
     names = [name for name, _ in signal_names(original)]
     columns = [(original.joint_states, new.joint_states, names[:9]),
                (original.transmission_error, new.transmission_error, names[9:])]
+    if original.measured is not None:       # and what the sensors measured of them
+        columns.append((original.measured, new.measured or Signal(
+            np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 9))),
+            [f'measured {name}' for name in names[:9]]))
     first: Difference | None = None
     missing = None
     samples = 0

@@ -34,7 +34,7 @@ _MESSAGE_INDEX = struct.Struct('<BQHI')     # opcode, length, channel id, bytes 
 _MESSAGE_OPCODE = int(Opcode.MESSAGE)       # per message: a plain int packs faster
 _pack_message = MCAP_MESSAGE.pack
 #: A Message record's fixed fields (MCAP_MESSAGE, in its order) as NumPy columns, for
-#: :meth:`McapWriter.add_run`.
+#: :meth:`McapWriter.add_rows`.
 _MESSAGE_COLUMNS = tuple(zip(('opcode', 'length', 'channel', 'sequence', 'log_time',
                               'publish_time'),
                              [{'B': 'u1', 'H': '<u2', 'I': '<u4', 'Q': '<u8'}[code]
@@ -76,7 +76,7 @@ class McapWriter:
         self._chunk_indexes: list[ChunkIndex] = []
         self._metadata_indexes: list[MetadataIndex] = []
         self._counts: dict[int, int] = {}          # channel id → messages in written chunks
-        self._run_layouts: dict[tuple[int, ...], np.dtype] = {}   # add_run's, by data sizes
+        self._row_layouts: dict[tuple[int, ...], np.dtype] = {}   # add_rows's, by data sizes
 
     def _write(self, data: bytes | bytearray | memoryview) -> None:
         """Append ``data`` whole to the file, or, if a write fails, truncate the file
@@ -169,19 +169,19 @@ class McapWriter:
         if len(chunk) >= self._chunk_size:
             self._finish_chunk()
 
-    def add_run(self, channel_ids: Sequence[int], sequences: Sequence[tuple[int, int]],
+    def add_rows(self, channel_ids: Sequence[int], sequences: Sequence[tuple[int, int]],
                 log_times: np.ndarray, columns: Sequence[bytes], sizes: Sequence[int]) -> None:
         """Rows of messages, row i at ``log_times[i]``: in each row one message on each of
-        ``channel_ids`` in this order (what a run of ticks records), column k's data
+        ``channel_ids`` in this order (what a series of ticks records), column k's data
         ``sizes[k]`` bytes each, joined in ``columns[k]``, its sequence numbers
         ``first + i·stride`` for ``sequences[k] = (first, stride)`` (mod 2³²: MCAP's field
         is a uint32). The same records in the same order as one :meth:`add` per message,
         built as NumPy columns instead, which costs the writer thread a fraction of a
         call per message (benchmarks/bench_recording.py). Rows go into the open chunk
         until it holds ``chunk_size`` bytes, as with add()."""
-        layout = self._run_layouts.get(tuple(sizes))
+        layout = self._row_layouts.get(tuple(sizes))
         if layout is None:
-            layout = self._run_layouts[tuple(sizes)] = np.dtype(
+            layout = self._row_layouts[tuple(sizes)] = np.dtype(
                 [(f'{name}{k}', kind) for k, size in enumerate(sizes)
                  for name, kind in (*_MESSAGE_COLUMNS, ('data', f'V{size}'))])
         starts = np.cumsum([0] + [MCAP_MESSAGE.size + size for size in sizes])
@@ -189,7 +189,7 @@ class McapWriter:
         done = 0
         while done < n:
             room = self._chunk_size - len(self._chunk)
-            take = min(n - done, max(1, -(-room // row)))    # the chunk ends full, or the run
+            take = min(n - done, max(1, -(-room // row)))    # the chunk ends full, or the rows end
             t = log_times[done:done + take]
             rows = np.empty(take, layout)
             for k, (channel_id, (first, stride), size) in enumerate(

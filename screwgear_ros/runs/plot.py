@@ -74,6 +74,7 @@ class Mark(StrEnum):
     DRIVE_TORQUE = 'drive torque'
     LOAD_TORQUE = 'load torque'
     GAP = 'gap'
+    MEASURED = 'measured'       # joint_states as the joint sensors measured them
     ERROR = 'error'
     TOLERANCE = 'tolerance'
     SETPOINT = 'setpoint'
@@ -251,19 +252,28 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
     for panel, a in ax.items():
         a.set_label(panel)
 
+    # With non-ideal sensors the exact state (true_joint_states) and, over it, what
+    # joint_states reported: counts as steps, held until the next sample.
+    measured = run.measured
+    exact = '' if measured is None else ' (exact)'
     a = ax[Panel.TABLE_ANGLE]
-    a.plot(t, js.values[:, 1], color=COLORS[0], label='θ2 table')
+    a.plot(t, js.values[:, 1], color=COLORS[0], label='θ2 table' + exact)
     if Panel.TRACKING in ax:
         a.plot(*setpoint_series(run), drawstyle='steps-post', color=COLORS[1], linestyle='--',
                linewidth=1.4, gid=Mark.SETPOINT, label='setpoint\n(recorded)')
         _draw_tracking(ax[Panel.TRACKING], run)
     a.set_ylabel('table angle [rad]')
-    _legend(a)
 
-    a = ax[Panel.TABLE_SPEED]
-    a.plot(t, js.values[:, 4], color=COLORS[0], label='ω2 table')
-    a.set_ylabel('table speed [rad/s]')
+    b = ax[Panel.TABLE_SPEED]
+    b.plot(t, js.values[:, 4], color=COLORS[0], label='ω2 table' + exact)
+    b.set_ylabel('table speed [rad/s]')
+    if measured is not None:
+        for panel, column, symbol in ((a, 1, 'θ2'), (b, 4, 'ω2')):
+            panel.plot(measured.steps * run.dt, measured.values[:, column],
+                       drawstyle='steps-post', color=COLORS[3], linewidth=0.9,
+                       gid=Mark.MEASURED, label=f'{symbol} measured (joint_states)')
     _legend(a)
+    _legend(b)
 
     a = ax[Panel.DRIVE]
     times, torque, load = drive_series(run, ticks)

@@ -407,28 +407,28 @@ class RunRecorder:
         self._finish()
 
     def _write_items(self, items: list[tuple[TopicGroup, int, Sequence[Any]]]) -> None:
-        """Write queued items in order: a run of items on one group whose messages are
+        """Write queued items in order: consecutive items on one group whose messages are
         bytes of unchanging sizes (the node's ticks, one after the other) in one go
-        (:meth:`_write_run`), anything else item by item."""
+        (:meth:`_write_rows`), anything else item by item."""
         i, n = 0, len(items)
         while i < n:
             group = items[i][0]
             j = i + 1
             while j < n and items[j][0] is group:
                 j += 1
-            if j - i < 2 or not self._write_run(group, items[i:j]):
+            if j - i < 2 or not self._write_rows(group, items[i:j]):
                 for item in items[i:j]:
                     self._write_item(*item)
             i = j
 
-    def _write_run(self, group: TopicGroup, run: list[tuple[TopicGroup, int, Sequence[Any]]]
-                   ) -> bool:
-        """The items of ``run`` (all on ``group``) with :meth:`McapWriter.add_run`; False
+    def _write_rows(self, group: TopicGroup, rows: list[tuple[TopicGroup, int, Sequence[Any]]]
+                    ) -> bool:
+        """The items of ``rows`` (all on ``group``) with :meth:`McapWriter.add_rows`; False
         (nothing written) unless every message is bytes and each topic's are one size,
         or after an error (the item-by-item path counts the drops)."""
         if self._abandon or self._error is not None:
             return False
-        columns = list(zip(*(messages for _, _, messages in run)))
+        columns = list(zip(*(messages for _, _, messages in rows)))
         sizes = []
         for column in columns:
             if set(map(type, column)) != {bytes}:
@@ -441,18 +441,18 @@ class RunRecorder:
         # A topic that comes m times in the group: its r-th place gets first + r, then +m.
         sequences = [(counts[index] + indexes[:k].count(index), indexes.count(index))
                      for k, index in enumerate(indexes)]
-        n = len(run) * len(indexes)
+        n = len(rows) * len(indexes)
         added = mcap.added
         try:
-            mcap.add_run(group.channel_ids, sequences,
-                         np.array([t for _, t, _ in run], dtype=np.uint64),
-                         [b''.join(column) for column in columns], sizes)
+            mcap.add_rows(group.channel_ids, sequences,
+                          np.array([t for _, t, _ in rows], dtype=np.uint64),
+                          [b''.join(column) for column in columns], sizes)
         except Exception as exc:  # noqa: BLE001 - reported through .error
             self._fail(exc)
             self._count_drop(n - (mcap.added - added))   # the writer counts what it dropped
         else:
             for index in indexes:
-                counts[index] += len(run)
+                counts[index] += len(rows)
         self._handled += n
         return True
 

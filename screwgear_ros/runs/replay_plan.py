@@ -109,9 +109,10 @@ def plan_from_schedule(schedule: Schedule) -> LockstepPlan:
 def sending_order(group: list[Event]) -> list[tuple[Event, bool]]:
     """``group`` with, for each event, whether the node must confirm it has taken it before
     the next event is sent (or the tick is answered): every command, unless a parameter
-    change or reset follows, whose service reply confirms it. One confirmation covers one
-    message only: rclpy's executor takes one message per subscription per wait, and serves
-    a ready service in the same wait."""
+    change or reset follows, whose service reply confirms it. One confirmation is asked
+    per message: an executor that takes one message per subscription per wait (rclpy's
+    SingleThreadedExecutor) serves a ready service in the same wait, and the node's own
+    (the events executor) serves in arrival order."""
     return [(event, isinstance(event, Command)
              and (k + 1 == len(group) or isinstance(group[k + 1], Command)))
             for k, event in enumerate(group)]

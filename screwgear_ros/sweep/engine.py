@@ -1,8 +1,8 @@
 """Where a sweep's runs execute: this process (one worker, no Dask imported at all), an
 embedded Dask ``LocalCluster`` (one single-threaded worker process per core), or an
-existing Dask cluster at a scheduler address. Each yields the runs' outcomes as they
-finish; the runs and their shared inputs travel as values, so remote workers need the
-package installed but no shared filesystem.
+existing Dask cluster at a scheduler address (short runs go several to a task). Each
+yields the runs' outcomes as they finish; the runs and their shared inputs travel as
+values, so remote workers need the package installed but no shared filesystem.
 """
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ from __future__ import annotations
 import logging
 import math
 import os
-from typing import Iterator, Sequence
+from typing import Any, Iterator, Sequence
 
 from .spec import Bundle, RunSpec
-from .worker import Outcome, Status, execute, hard_limit, warm_up
+from .worker import Outcome, Status, execute, execute_batch, hard_limit, warm_up
 
 
 def cores() -> int:
@@ -31,10 +31,75 @@ def in_process(bundle: Bundle, specs: Sequence[RunSpec]) -> Iterator[Outcome]:
         yield execute(bundle, spec)
 
 
+#: A cluster task runs a batch of runs expected to take about this long in all: each
+#: task costs the scheduler, the client and the worker some CPU, and its worker waits a
+#: round trip through the client for the next one, which a lone short run would feel; a
+#: longer batch would lose more runs to Ctrl-C and spread the last runs worse.
+BATCH_SECONDS = 1.0
+MAX_BATCH = 64
+
+#: Dask settings for the embedded LocalCluster (a remote cluster keeps its own).
+LOCAL_CONFIG = {
+    # a run whose worker process ends (a crash, or the hard time limit) is a row at
+    # once: no retry of the run on another worker
+    'distributed.scheduler.allowed-failures': 0,
+    # what every Dask process does on its own while the runs take the cores: the
+    # statistical profiler sampling the worker's stacks (under the GIL the run needs),
+    # the event loop's health check, the memory and system monitors; a sweep reads none
+    # of them, and at their default rates they take a share of the cores from the runs
+    'distributed.worker.profile.enabled': False,
+    'distributed.admin.tick.interval': '1s',
+    'distributed.admin.system-monitor.interval': '2s',
+    'distributed.worker.memory.monitor-interval': '1s',
+}
+
+#: Environment of the LocalCluster's worker processes: one thread of compiled code or
+#: BLAS each, as each process has one core (Dask sets the BLAS ones itself; numba's
+#: threading layer is not covered by them).
+WORKER_ENV = {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1',
+              'NUMBA_NUM_THREADS': '1'}
+
+
+class Batches:
+    """Cuts the runs left into batches of about :data:`BATCH_SECONDS` of run time, from
+    the mean time of the runs back so far (one run a batch until the first is back),
+    and never so large that the last runs leave a worker thread idle."""
+
+    def __init__(self, specs: Sequence[RunSpec]) -> None:
+        self.left = list(reversed(specs))
+        self.times: list[float] = []
+
+    def record(self, outcome: Outcome) -> None:
+        if outcome.wall_time == outcome.wall_time:      # NaN: a worker lost under it
+            self.times.append(outcome.wall_time)
+
+    def size(self, slots: int) -> int:
+        if not self.times:
+            return 1
+        mean = sum(self.times) / len(self.times)
+        size = min(MAX_BATCH, max(1, int(BATCH_SECONDS / max(mean, 1e-6))))
+        return max(1, min(size, len(self.left) // max(slots, 1)))
+
+    def take(self, slots: int) -> list[RunSpec]:
+        return [self.left.pop() for _ in range(min(self.size(slots), len(self.left)))]
+
+
+def _lost(bundle: Bundle, spec: RunSpec, exc: BaseException) -> Outcome:
+    return Outcome(spec.index, spec.key, Status.ERROR, f'its worker process ended (a '
+                   f'crash, or blocked past the hard limit of '
+                   f'{hard_limit(bundle.time_limit):g} s): {type(exc).__name__}',
+                   tuple(math.nan for _ in bundle.metrics), math.nan)
+
+
 def on_dask(bundle: Bundle, specs: Sequence[RunSpec], workers: int,
             scheduler: str | None = None) -> Iterator[Outcome]:
     """The runs on Dask: a LocalCluster of ``workers`` processes, or the cluster of
-    ``scheduler``. Closing the iterator (Ctrl-C included) cancels what is left."""
+    ``scheduler``; in batches (:class:`Batches`), one task per live worker thread at a
+    time, so that the scheduler places each on an idle worker and a worker holds no
+    task but the one it runs. The runs of a batch whose worker process ended are run
+    again one run a task; a run whose own task ended its worker is an error row. The
+    bundle travels with each task (a few kB), so that no worker's end loses it. Closing
+    the iterator (Ctrl-C included) cancels what is left."""
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError as exc:
@@ -47,32 +112,43 @@ def on_dask(bundle: Bundle, specs: Sequence[RunSpec], workers: int,
     if scheduler:
         client = Client(scheduler, timeout='30s')
     else:
-        # a run whose worker process ends (a crash, or the hard time limit) is a row at
-        # once: no retry of the run on another worker
-        with dask.config.set({'distributed.scheduler.allowed-failures': 0}):
+        with dask.config.set(LOCAL_CONFIG):
             cluster = LocalCluster(n_workers=workers, processes=True, threads_per_worker=1,
-                                   dashboard_address=None, silence_logs=logging.CRITICAL)
+                                   dashboard_address=None, silence_logs=logging.CRITICAL,
+                                   env=WORKER_ENV)
         client = Client(cluster)
-    futures = []
+    running = as_completed()
+    batch_of: dict[Any, list[RunSpec]] = {}
     try:
-        client.run(warm_up)
-        shared = client.scatter(bundle, broadcast=True)
-        futures = [client.submit(execute, shared, spec, pure=False)
-                   for spec in specs]
-        of = dict(zip(futures, specs))
-        for future in as_completed(futures):
+        batches = Batches(specs)
+        alone: list[RunSpec] = []       # the runs of a batch whose worker ended
+
+        def submit_while_idle() -> None:
+            slots = max(1, sum(client.nthreads().values()))
+            while len(batch_of) < slots and (alone or batches.left):
+                batch = [alone.pop()] if alone else batches.take(slots)
+                future = client.submit(execute_batch, bundle, batch, pure=False)
+                batch_of[future] = batch
+                running.add(future)
+
+        submit_while_idle()
+        for future in running:
+            batch = batch_of.pop(future)
             try:
-                yield future.result()
-            except Exception as exc:  # noqa: BLE001 - a worker died under it (twice): a row
-                spec = of[future]
-                yield Outcome(spec.index, spec.key, Status.ERROR, f'its worker process '
-                              f'ended (a crash, or blocked past the hard limit of '
-                              f'{hard_limit(bundle.time_limit):g} s): {type(exc).__name__}',
-                              tuple(
-                                  math.nan for _ in bundle.metrics), math.nan)
+                results = future.result()
+            except Exception as exc:  # noqa: BLE001 - its worker died under it: see above
+                if len(batch) == 1:
+                    yield _lost(bundle, batch[0], exc)
+                else:
+                    alone.extend(reversed(batch))
+                results = []
+            for outcome in results:
+                batches.record(outcome)
+                yield outcome
+            submit_while_idle()
     finally:
-        if futures:
-            client.cancel(futures)
+        if batch_of:
+            client.cancel(list(batch_of))
         client.close()
         if cluster is not None:
             cluster.close()

@@ -7,6 +7,10 @@ of everything it depends on. Every run is validated before any starts, by the no
 own rules (:func:`~screwgear_ros.params.split_parameters`: ranges, the cross-parameter
 rules, the RK4 stability limit); an error is a :class:`SweepError` naming the file,
 the line and the entry. No Dask here: this module runs anywhere the package does.
+
+Why one module of this length: it is the one reader of the sweep format, and each of its
+checks must name the file's line (and, for a refused run, the run), so the format's rules
+stay together.
 """
 
 from __future__ import annotations
@@ -26,8 +30,9 @@ from ..declare import ParameterError, declared
 from ..metrics import Metrics
 from ..parameter_sets import split_parameters
 from ..params import SimSettings, TableParams
-from ..scenario import ScenarioError, _Reader, _unknown, load_scenario
+from ..scenario import ScenarioError, load_scenario
 from ..simulation import ParameterFileError, file_values
+from ..yaml_reader import YamlReader
 
 #: The top-level keys of a sweep file.
 KEYS = ('parameters', 'scenario', 'metrics', 'time_limit', 'grid', 'monte_carlo')
@@ -202,28 +207,15 @@ def run_seed(sweep_seed: int, index: int) -> int:
                .generate_state(1, np.uint32)[0])
 
 
-class _Sweep(_Reader):
-    def error(self, node: yaml.Node | None, text: str) -> SweepError:
-        return SweepError(str(super().error(node, text)))
-
-
 def load_sweep(path: str | Path) -> Sweep:
     """Read, resolve and validate a sweep file; :class:`SweepError` says what is wrong."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding='utf-8')
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SweepError(f'{path}: cannot read: {getattr(exc, "strerror", None) or exc}') \
-            from None
-    try:
-        reader = _Sweep(path, text)
-    except ScenarioError as exc:
-        raise SweepError(str(exc)) from None
+    reader = YamlReader.open(path, SweepError)
     if reader.root is None:
         raise SweepError(f'{path}: empty; a sweep needs a scenario, metrics and a grid or '
                          'monte_carlo')
     top = reader.mapping(reader.root, 'a sweep')
-    _unknown(reader, top, KEYS, 'sweep key')
+    reader.known(top, KEYS, 'sweep key')
     for needed in ('scenario', 'metrics'):
         if needed not in top:
             raise reader.error(reader.root, f'a sweep needs {needed!r}')
@@ -275,7 +267,7 @@ def load_sweep(path: str | Path) -> Sweep:
     names = [a.name for a in (*grid, *draws)]
     for axis in (*grid, *draws):
         if names.count(axis.name) > 1:
-            raise reader.error(None if axis.line == 0 else _Line(axis.line),
+            raise reader.error(axis.line or None,
                                f'{axis.name} is swept twice (grid and monte_carlo)')
 
     bundle = Bundle(scenario_file.name, scenario_text, sources,
@@ -283,13 +275,6 @@ def load_sweep(path: str | Path) -> Sweep:
     runs = _runs(reader, bundle, scenario, grid, draws, count, seed)
     return Sweep(str(path), bundle, grid, draws, count, seed, tuple(runs), base_file,
                  str(scenario_file.resolve()))
-
-
-class _Line:
-    """A stand-in node for messages about an entry read earlier (its line only)."""
-
-    def __init__(self, line: int) -> None:
-        self.start_mark = type('Mark', (), {'line': line - 1})()
 
 
 def _controller_sources(scenario: Any, directory: Path) -> tuple[tuple[str, str], ...]:
@@ -305,7 +290,7 @@ def _controller_sources(scenario: Any, directory: Path) -> tuple[tuple[str, str]
     return ()
 
 
-def _metrics(reader: _Reader, node: yaml.Node) -> tuple[str, ...]:
+def _metrics(reader: YamlReader, node: yaml.Node) -> tuple[str, ...]:
     value = reader.value(node)
     if isinstance(value, str):
         value = [value]
@@ -321,7 +306,7 @@ def _metrics(reader: _Reader, node: yaml.Node) -> tuple[str, ...]:
     return tuple(value)
 
 
-def _parameter_name(reader: _Reader, key: yaml.Node, name: str) -> None:
+def _parameter_name(reader: YamlReader, key: yaml.Node, name: str) -> None:
     if name in NODE_ONLY:
         raise reader.error(key, f'{name} is a setting of the node process (pacing, clock, '
                            'lockstep, recording): it has no meaning for an in-process run')
@@ -330,7 +315,7 @@ def _parameter_name(reader: _Reader, key: yaml.Node, name: str) -> None:
                            'table of the README names them)')
 
 
-def _scaled(reader: _Reader, node: yaml.Node, what: str) -> tuple[bool, yaml.Node]:
+def _scaled(reader: YamlReader, node: yaml.Node, what: str) -> tuple[bool, yaml.Node]:
     """(scale?, the node of the values): ``{scale: ...}`` multiplies the base value."""
     if isinstance(node, yaml.MappingNode):
         entries = reader.mapping(node, what)
@@ -342,7 +327,7 @@ def _scaled(reader: _Reader, node: yaml.Node, what: str) -> tuple[bool, yaml.Nod
     return False, node
 
 
-def _grid(reader: _Reader, node: yaml.Node) -> tuple[Axis, ...]:
+def _grid(reader: YamlReader, node: yaml.Node) -> tuple[Axis, ...]:
     axes = []
     for name, (key, value) in reader.mapping(node, 'grid').items():
         _parameter_name(reader, key, name)
@@ -359,9 +344,9 @@ def _grid(reader: _Reader, node: yaml.Node) -> tuple[Axis, ...]:
     return tuple(axes)
 
 
-def _monte_carlo(reader: _Reader, node: yaml.Node) -> tuple[int, int, tuple[Axis, ...]]:
+def _monte_carlo(reader: YamlReader, node: yaml.Node) -> tuple[int, int, tuple[Axis, ...]]:
     entries = reader.mapping(node, 'monte_carlo')
-    _unknown(reader, entries, MONTE_CARLO_KEYS, 'monte_carlo key')
+    reader.known(entries, MONTE_CARLO_KEYS, 'monte_carlo key')
     for needed in ('count', 'parameters'):
         if needed not in entries:
             raise reader.error(node, f'monte_carlo needs {needed!r}')
@@ -403,7 +388,7 @@ def _monte_carlo(reader: _Reader, node: yaml.Node) -> tuple[int, int, tuple[Axis
     return count, seed, tuple(axes)
 
 
-def _runs(reader: _Reader, bundle: Bundle, scenario: Any, grid: tuple[Axis, ...],
+def _runs(reader: YamlReader, bundle: Bundle, scenario: Any, grid: tuple[Axis, ...],
           draws: tuple[Axis, ...], count: int, seed: int) -> list[RunSpec]:
     """Every run, in index order (grid point major, then draw), each validated."""
     base = dict(bundle.base)
@@ -430,20 +415,20 @@ def _default(name: str) -> Any:
     return default_values()[name]
 
 
-def _validate(reader: _Reader, scenario: Any, base: dict[str, Any],
+def _validate(reader: YamlReader, scenario: Any, base: dict[str, Any],
               overrides: dict[str, Any], chosen: list[tuple[Axis, Any]], index: int) -> None:
     """The run as the node would take it: its parameters, then the scenario's parameter
     changes on top of them (each a run of the node's validation)."""
-    def where(name: str | None) -> _Line | None:
+    def where(name: str | None) -> int | None:
         for axis, _ in chosen:
             if axis.name == name:
-                return _Line(axis.line)
+                return axis.line
         for axis, _ in chosen:            # a rule of several parameters (RK4's dt limit):
             try:                          # the first swept value that breaks it alone
                 split_parameters({**base, axis.name: overrides[axis.name]})
             except ParameterError:
-                return _Line(axis.line)
-        return _Line(chosen[0][0].line) if chosen else None
+                return axis.line
+        return chosen[0][0].line if chosen else None
 
     swept = ', '.join(f'{a.column} = {v!r}' for a, v in chosen)
     try:

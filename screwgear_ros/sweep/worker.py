@@ -17,7 +17,7 @@ import time
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 from .spec import Bundle, RunSpec
 
@@ -32,7 +32,8 @@ class Status(StrEnum):
 @dataclass(frozen=True)
 class Outcome:
     """A finished run: its row (index, seed, key, status, reason, metrics in the sweep's
-    order) and the wall time it took (measured, so not part of the row)."""
+    order) and the wall and CPU time it took (measured, so not part of the row; the CPU
+    time is its thread's, which a busy machine stretches less than the wall time)."""
 
     index: int
     key: str
@@ -40,6 +41,7 @@ class Outcome:
     reason: str
     metrics: tuple[float, ...]
     wall_time: float
+    cpu_time: float = math.nan
 
     def row(self) -> dict[str, Any]:
         return {'index': self.index, 'key': self.key, 'status': self.status.value,
@@ -127,7 +129,7 @@ def _execute(bundle: Bundle, spec: RunSpec) -> Outcome:
     from ..metrics import run_metrics
     from ..simulation import Simulation
 
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.thread_time()
     nothing = tuple(math.nan for _ in bundle.metrics)
     guard = None
     try:
@@ -152,13 +154,27 @@ def _execute(bundle: Bundle, spec: RunSpec) -> Outcome:
         values, status = nothing, Status.ERROR
         reason = f'{type(exc).__name__}: {exc}'
     return Outcome(spec.index, spec.key, status, reason, values,
-                   time.perf_counter() - started)
+                   time.perf_counter() - started, time.thread_time() - cpu)
+
+
+def execute_batch(bundle: Bundle, specs: Sequence[RunSpec]) -> list[Outcome]:
+    """:func:`execute` for each of ``specs`` in turn (one cluster task for several short
+    runs, so the task's own cost is shared), in a process that has loaded the model (a
+    worker restarted after a blocked run has not)."""
+    warm_up()
+    return [execute(bundle, spec) for spec in specs]
+
+
+_WARM: list[bool] = []
 
 
 def warm_up() -> None:
-    """Load the compiled model in this process (so the first run's time is its own)."""
-    from ..simulation import Simulation
-    Simulation().reset()
+    """Load the compiled model in this process, once (so the first run's time, and its
+    time limit, are its own)."""
+    if not _WARM:
+        from ..simulation import Simulation
+        Simulation().reset()
+        _WARM.append(True)
 
 
-__all__ = ['Status', 'Outcome', 'RunTimeout', 'execute', 'warm_up']
+__all__ = ['Status', 'Outcome', 'RunTimeout', 'execute', 'execute_batch', 'warm_up']
