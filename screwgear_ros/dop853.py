@@ -5,7 +5,7 @@ and 3 (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.10), adaptive step size
 tableau is data: the published coefficients, taken at run time from SciPy's
 ``scipy.integrate._ivp.dop853_coefficients`` (A, B, C, E3, E5), so this module holds
 the algorithm only. The kernel calls the compiled model right-hand side
-:func:`screwgear_ros.model.motion` directly and allocates nothing per step (one stage
+:func:`screwgear_ros.model.state_rate` directly and allocates nothing per step (one stage
 array per call).
 
 Output: the kernel steps *exactly* onto every requested time (the step is cut to end
@@ -42,7 +42,7 @@ import scipy
 
 from .friction import FrictionPiece
 from .jit import allocating_kernel, kernel
-from .model import BY_LAW, Pieces, motion, pieces
+from .model import BY_LAW, N_MECHANICAL, N_STATE, TAU, Pieces, pieces, state_rate
 
 #: SciPy's private module of the tableau, and the names taken from it.
 TABLEAU_MODULE = 'scipy.integrate._ivp.dop853_coefficients'
@@ -82,7 +82,7 @@ OK, STEP_COLLAPSED, NON_FINITE, BUDGET = 0, 1, 2, 3
 #: Default step budget per kernel call (a safety net: far above any sane run).
 MAX_STEPS = 50_000_000
 
-N = 6
+N = N_STATE
 #: Bisection on a step's length for a friction event: the instant to 1e-15 of the step.
 EVENT_TOLERANCE = 1e-15
 EVENT_BISECTIONS = 60
@@ -90,16 +90,19 @@ EVENT_BISECTIONS = 60
 
 @kernel
 def _f(t, y, out, k, model, drive, held):
-    """out[k, :] = f(t, y) through the model's compiled equations of motion, each body's
-    bearing friction on the piece ``held`` names (the contact law and the drive line
-    pick theirs from the state, as in the model's rhs)."""
-    a1, a2, a3 = motion(t, (y[0], y[1], y[2], y[3], y[4], y[5]), model, drive, held)[:3]
-    out[k, 0] = y[3]
-    out[k, 1] = y[4]
-    out[k, 2] = y[5]
-    out[k, 3] = a1
-    out[k, 4] = a2
-    out[k, 5] = a3
+    """out[k, :] = f(t, y) through the model's compiled equations of motion and current
+    loops, each body's bearing friction on the piece ``held`` names (the contact law and
+    the drive line pick theirs from the state, as in the model's rhs)."""
+    d = state_rate(t, (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]), model, drive,
+                   held)[0]
+    out[k, 0] = d[0]
+    out[k, 1] = d[1]
+    out[k, 2] = d[2]
+    out[k, 3] = d[3]
+    out[k, 4] = d[4]
+    out[k, 5] = d[5]
+    out[k, 6] = d[6]
+    out[k, 7] = d[7]
 
 
 @kernel
@@ -109,27 +112,36 @@ def _spacing(t):
 
 
 @kernel
+def _normed(model):
+    """How many leading state entries the error norms take: all, or with no current-loop
+    lag (τ_d = 0: the lagged torques have slope 0 and stay as they are, unused) the
+    mechanical ones alone, so that norms and steps are those of the mechanical model."""
+    return N if model.p[TAU] != 0.0 else N_MECHANICAL
+
+
+@kernel
 def _initial_step(t0, y0, k, t_span, model, drive, rtol, atol, y1, held):
     """Hairer's starting step (Solving ODEs I, §II.4), k[0] = f(t0, y0) given; uses
     k[1] and y1 as scratch."""
+    n = _normed(model)
     d0 = 0.0
     d1 = 0.0
-    for i in range(N):
+    for i in range(n):
         sc = atol + rtol * abs(y0[i])
         d0 += (y0[i] / sc) ** 2
         d1 += (k[0, i] / sc) ** 2
-    d0 = math.sqrt(d0 / N)
-    d1 = math.sqrt(d1 / N)
+    d0 = math.sqrt(d0 / n)
+    d1 = math.sqrt(d1 / n)
     h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
     h0 = min(h0, t_span)
     for i in range(N):
         y1[i] = y0[i] + h0 * k[0, i]
     _f(t0 + h0, y1, k, 1, model, drive, held)
     d2 = 0.0
-    for i in range(N):
+    for i in range(n):
         sc = atol + rtol * abs(y0[i])
         d2 += ((k[1, i] - k[0, i]) / sc) ** 2
-    d2 = math.sqrt(d2 / N) / h0
+    d2 = math.sqrt(d2 / n) / h0
     big = max(d1, d2)
     if big <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
@@ -170,7 +182,7 @@ def _law(t, y, model, drive, held):
     """What a step holds at (t, y) coming from ``held``: each bearing's friction piece
     (:func:`~screwgear_ros.model.pieces`), the contact law and the drive line by the
     state (FROM_STATE)."""
-    now = pieces(t, (y[0], y[1], y[2], y[3], y[4], y[5]), model, drive, held)
+    now = pieces(t, (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]), model, drive, held)
     return Pieces(BY_LAW.branch_1, BY_LAW.branch_3, BY_LAW.drive, now.friction_1,
                   now.friction_2, now.friction_3)
 
@@ -218,6 +230,7 @@ def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps
     how many rows of ``out`` were written.
     """
     a, b, c, e3, e5 = tableau
+    normed = _normed(model)
     n_stages = b.shape[0]
     k = np.empty((n_stages + 1, N))
     y = np.empty(N)
@@ -268,7 +281,7 @@ def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps
         if finite:
             err5 = 0.0
             err3 = 0.0
-            for i in range(N):
+            for i in range(normed):
                 sc = atol + rtol * max(abs(y[i]), abs(y_new[i]))
                 s5 = 0.0
                 s3 = 0.0
@@ -280,7 +293,7 @@ def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps
             if err5 == 0.0 and err3 == 0.0:
                 err = 0.0
             else:
-                err = abs(h_step) * err5 / math.sqrt((err5 + 0.01 * err3) * N)
+                err = abs(h_step) * err5 / math.sqrt((err5 + 0.01 * err3) * normed)
         else:
             err = math.inf
         last_non_finite = not finite

@@ -10,8 +10,9 @@ is evaluated at every integration step (docs/model_notes.md §9–10 give the de
 - E_kin = ½·(I1·ω1² + I2·ω2² + I3·ω3²); V = Σ ½·K(φ_i)·f(δ_i)² over the meshes in use
   (mesh 3 only in `anti_backlash`), f the spring deflection (:func:`model.branch_penetration`);
 - W_drive = ∫ T_d·ω_a dt: the drive torque delivered on the active pinion (through the
-  torque–speed line, with the torque fluctuation) times that pinion's speed in the sense
-  it drives, i.e. T1·ω1 + T3·ω3 less the preload's share;
+  torque–speed line, with the torque fluctuation; lagged by the current loops, both
+  drives' share while a reversal hands over; with the cogging ripple) times that pinion's
+  speed in the sense it drives, i.e. T1·ω1 + T3·ω3 less the preload's share;
 - W_preload = T_p·(Δθ1 − Δθ3) and W_load = −T_load·Δθ2 (constant torques: exact);
 - a parameter change that alters the stored energy (stiffness, inertia, backlash, STE)
   does so at the step it takes effect: that step is counted as work (``retuning``);
@@ -52,7 +53,7 @@ import numpy as np
 from .events import Command, Event
 from .jit import kernel
 from .model import (B, C, MODE_CONVENTIONAL, CT, I1, I2, I3, MODE, PHASE, PHASE_TIME, R1, R3, TP,
-                    Z1, Z3, applied_torques, branch_force, branch_penetration, contact_branch,
+                    Z1, Z3, DrivePiece, pinion_torques, branch_force, branch_penetration, contact_branch,
                     PackedModel, mesh_motion, mesh_phase, mesh_stiffness_slope, pack)
 from .params import SimSettings, TableParams
 from .plant import DriveInput
@@ -80,7 +81,7 @@ class Trace:
     dt: float
     step0: int                   # integration step of the first sample
     stride: int                  # integration steps between samples
-    states: np.ndarray           # (n + 1, 6): θ1, θ2, θ3 (rad), ω1, ω2, ω3 (rad/s)
+    states: np.ndarray           # (n + 1, 8): θ1, θ2, θ3 (rad), ω1, ω2, ω3 (rad/s), L1, L3 (N·m)
     stretches: tuple[Stretch, ...]
 
     @property
@@ -155,7 +156,7 @@ def record(session: Session, ticks: int,
     plant = session.plant
     stride = session.settings.steps_per_publish
     step0 = plant.step
-    states = [plant.state.copy()]
+    states = [plant.full_state.copy()]
     spans: list[Stretch] = []
     for k in range(ticks):
         for event in events.get(k, ()):
@@ -165,7 +166,7 @@ def record(session: Session, ticks: int,
             break
         if session.settings.steps_per_publish != stride:
             raise ValueError('the session changed its steps per tick during an audited run')
-        states.append(plant.state.copy())
+        states.append(plant.full_state.copy())
         last = spans[-1] if spans else None
         if last is not None and last.drive == tick.drive and last.params == tick.params:
             spans[-1] = Stretch(last.start, k + 1, last.drive, last.params)
@@ -240,7 +241,8 @@ def _powers(t: np.ndarray, y: np.ndarray, model: PackedModel, torque: float, dir
     p = model.p
     for k in range(t.shape[0]):
         th1, th2, th3, w1, w2, w3 = y[k, 0], y[k, 1], y[k, 2], y[k, 3], y[k, 4], y[k, 5]
-        t1, t3 = applied_torques(t[k], w1, w3, torque, direction, p)
+        t1, t3, _ = pinion_torques(DrivePiece.FROM_STATE, t[k], (
+            th1, th2, th3, w1, w2, w3, y[k, 6], y[k, 7]), torque, direction, p)
         preload = 0.0 if p[MODE] == MODE_CONVENTIONAL else p[TP] * (w1 - w3)
         power[k, 0] = t1 * w1 + t3 * w3 - preload
         power[k, 2] = p[CT] * w2 * w2

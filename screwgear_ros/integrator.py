@@ -41,7 +41,7 @@ import numpy as np
 from . import rk
 from .friction import FrictionPiece
 from .jit import inline_kernel, kernel
-from .model import BY_LAW, Drive, PackedModel, motion, outputs, pieces
+from .model import BY_LAW, N_STATE, TAU, Drive, PackedModel, outputs, pieces, state_rate
 
 #: Changes located within one step before the step is finished by the plain law (a mesh
 #: chattering on its boundary; never reached by a sane run).
@@ -56,15 +56,13 @@ MAX_BISECTIONS = 60
 def _slope(t, y, args):
     """dy/dt with the meshes, the drive and the bearings held on the pieces args =
     (model, drive, held) give (a stuck body's slope is exactly 0)."""
-    a1, a2, a3 = motion(t, y, args[0], args[1], args[2])[:3]
-    return (y[3], y[4], y[5], a1, a2, a3)
+    return state_rate(t, y, args[0], args[1], args[2])[0]
 
 
 @inline_kernel
 def _law(t, y, model, drive):
     """dy/dt by the contact law and drive line themselves, and the pieces they are on."""
-    a1, a2, a3, _, _, _, _, _, held = motion(t, y, model, drive, BY_LAW)
-    return (y[3], y[4], y[5], a1, a2, a3), held
+    return state_rate(t, y, model, drive, BY_LAW)
 
 
 @kernel
@@ -89,12 +87,12 @@ def _locate(t, h, y0, f0, y1, f1, model, drive, held, after):
 @inline_kernel
 def _stick(y, held, after):
     """``y`` with the speed of each body that sticks (from a slip piece in ``held`` to
-    STUCK in ``after``) set to exactly 0."""
+    STUCK in ``after``) set to exactly 0; the drives' lagged torques as they are."""
     stuck = FrictionPiece.STUCK
     w1 = 0.0 if after.friction_1 == stuck and held.friction_1 != stuck else y[3]
     w2 = 0.0 if after.friction_2 == stuck and held.friction_2 != stuck else y[4]
     w3 = 0.0 if after.friction_3 == stuck and held.friction_3 != stuck else y[5]
-    return (y[0], y[1], y[2], w1, w2, w3)
+    return (y[0], y[1], y[2], w1, w2, w3, y[6], y[7])
 
 
 @inline_kernel
@@ -126,13 +124,21 @@ def _located_step(t0, t_end, dt, y, slope, held, model, drive):
 @kernel
 def advance(state: np.ndarray, step0: int, n: int, dt: float, model: PackedModel,
             drive: Drive, locate: bool = True) -> int:
-    """Advance ``state`` (θ1, θ2, θ3 in rad, ω1, ω2, ω3 in rad/s) in place by n RK4 steps.
+    """Advance ``state`` (θ1, θ2, θ3 in rad, ω1, ω2, ω3 in rad/s, the lagged drive torques
+    L1, L3 in N·m: :data:`~screwgear_ros.model.N_STATE` long) in place by n RK4 steps.
 
     Step k runs from t = (step0 + k)·dt to (step0 + k + 1)·dt, s. ``locate``: changes of
     contact (and of the drive line's piece) located inside the steps (module docstring),
-    else plain fixed-step RK4. Returns how many changes were located.
+    else plain fixed-step RK4. Returns how many changes were located. A state of the six
+    mechanical entries alone is advanced as one whose drive torques are 0 (τ_d = 0 only).
     """
-    y = (state[0], state[1], state[2], state[3], state[4], state[5])
+    lagged = state.shape[0] >= N_STATE
+    if not lagged and model.p[TAU] != 0.0:
+        raise ValueError('a drive time constant needs the lagged drive torques: the state '
+                         'must be N_STATE long')
+    # A mechanical state alone (6 long) runs without a lag: its drive torques stay 0.
+    y = (state[0], state[1], state[2], state[3], state[4], state[5],
+         state[6] if lagged else 0.0, state[7] if lagged else 0.0)
     located = 0
     if locate:
         slope, held = _law(step0 * dt, y, model, drive)
@@ -144,11 +150,13 @@ def advance(state: np.ndarray, step0: int, n: int, dt: float, model: PackedModel
         law = (model, drive, BY_LAW)
         for k in range(n):
             y = rk.step(_slope, (step0 + k) * dt, y, dt, law)
-    state[0], state[1], state[2], state[3], state[4], state[5] = y
+    state[0], state[1], state[2], state[3], state[4], state[5] = y[:6]
+    if lagged:
+        state[6], state[7] = y[6], y[7]
     return located
 
 
-#: Length of :func:`advance_observed`'s ``out``: the state (6), then
+#: Length of :func:`advance_observed`'s ``out``: the mechanical state (6), then
 #: :func:`screwgear_ros.model.outputs` of it (9), in their orders.
 OBSERVED = 15
 
@@ -159,7 +167,9 @@ def observe(state: np.ndarray, out: np.ndarray, t: float, model: PackedModel,
     """``out`` (float64[OBSERVED]) = the state, then :func:`~screwgear_ros.model.outputs`
     of it at time t (s)."""
     th1, th2, th3, w1, w2, w3 = state[0], state[1], state[2], state[3], state[4], state[5]
-    o = outputs(t, (th1, th2, th3, w1, w2, w3), model, drive)
+    lagged = state.shape[0] >= N_STATE
+    o = outputs(t, (th1, th2, th3, w1, w2, w3, state[6] if lagged else 0.0,
+                    state[7] if lagged else 0.0), model, drive)
     out[0], out[1], out[2], out[3], out[4], out[5] = th1, th2, th3, w1, w2, w3
     for k in range(9):
         out[6 + k] = o[k]
@@ -176,13 +186,13 @@ def advance_observed(state: np.ndarray, backup: np.ndarray, out: np.ndarray, ste
     changes located. ``out`` is then :func:`observe` of ``state`` at its step (step0 + n,
     or step0 after a fault).
     """
-    for i in range(6):
+    for i in range(state.shape[0]):
         backup[i] = state[i]
     located = advance(state, step0, n, dt, model, drive, locate)
     end = step0 + n
-    for i in range(6):
+    for i in range(state.shape[0]):
         if not math.isfinite(state[i]):
-            for j in range(6):
+            for j in range(state.shape[0]):
                 state[j] = backup[j]
             located, end = -1, step0
             break
@@ -221,7 +231,7 @@ def trajectory(state: np.ndarray, step0: int, dt: float, stride: int, out: np.nd
     located = 0
     for j in range(out.shape[0]):
         located += advance(state, step0 + j * stride, stride, dt, model, drive, locate)
-        for i in range(6):
+        for i in range(out.shape[1]):
             out[j, i] = state[i]
     return located
 

@@ -6,6 +6,12 @@ speeds in rad/s, pinion angles counted in the sense that drives the table forwar
 Input u = (torque, direction, load): drive torque magnitude T ≥ 0 in N·m on the
 active pinion, direction d = ±1, external table load T_load in N·m.
 
+The drives' current loops add two states (:data:`N_STATE` in all): y[6] and y[7], the
+torque the drive of pinion 1 and of pinion 3 applies besides the preload (N·m, signed in
+the sense that drives the table forward), each lagging its command with the time
+constant τ_d (``drive_time_constant``). With τ_d = 0 they stay 0 and are not used: the
+command acts at once.
+
 The functions are scalar and compiled with numba (``NUMBA_DISABLE_JIT=1`` runs the
 same source as plain Python). What the equations of motion take travels as named tuples,
 each declared once here and passed whole through the integrators, so a new parameter
@@ -13,7 +19,7 @@ array, input or held piece is one field of one tuple rather than a parameter of 
 kernel: the model (:class:`PackedModel`, from :func:`pack`: one packed float array and the
 STE harmonics, so the compiled code sees no Python objects), the drive input
 (:class:`Drive`) and the pieces of the law a step holds (:class:`Pieces`). The state y
-is a tuple of six floats.
+is a tuple of :data:`N_STATE` floats.
 
 Why one module of this length: the mesh law, the drive line and the equations of motion
 are one set of equations over one packed parameter layout and one set of contact
@@ -51,8 +57,15 @@ TC2, TS2, WS2 = (_AT['table_coulomb_torque'], _AT['table_static_torque'],
                  _AT['table_stribeck_speed'])
 TCP, TSP, WSP, CP = (_AT['pinion_coulomb_torque'], _AT['pinion_static_torque'],
                      _AT['pinion_stribeck_speed'], _AT['pinion_damping'])
+TAU, TCOG, NCOG = (_AT['drive_time_constant'], _AT['cogging_amplitude'],
+                   _AT['cogging_order'])
 K_EFF, MODE, PHASE, FORMULATION = range(len(KERNEL), len(KERNEL) + 4)   # derived: k_eff, enums
 N_PACKED = len(KERNEL) + 4
+
+#: Length of the state: θ1, θ2, θ3, ω1, ω2, ω3, then the lagged drive torques L1, L3.
+N_STATE = 8
+#: Of it, the mechanical state (what joint_states carries and a recording starts from).
+N_MECHANICAL = 6
 
 MODE_ANTI_BACKLASH = 0.0
 MODE_CONVENTIONAL = 1.0
@@ -339,6 +352,87 @@ def drive_torques(t: float, torque: float, direction: float,
 
 
 @kernel
+def drive_targets(piece: DrivePiece, w1: float, w3: float, torque: float, direction: float,
+                  p: np.ndarray) -> tuple[float, float]:
+    """What each drive's current loop is commanded (N·m, signed in the sense that drives
+    the table forward, preload and fluctuation excluded): the torque the drive's line
+    delivers on ``piece`` (:func:`drive_on`; a servo drive limits its torque reference by
+    the speed) on the active pinion, 0 on the other."""
+    delivered = drive_on(piece, torque, active_speed(w1, w3, direction, p), p)
+    if p[MODE] == MODE_CONVENTIONAL:
+        return direction * delivered, 0.0
+    if direction > 0.0:
+        return delivered, 0.0
+    return 0.0, -delivered
+
+
+@kernel
+def lag_state(y: tuple) -> tuple[float, float]:
+    """The drives' lagged torques L1, L3 (N·m) of state y: y[6], y[7], or 0 for a
+    mechanical state alone (six entries; the length is known when the kernel compiles)."""
+    if len(y) > 6:
+        return y[6], y[7]
+    return 0.0, 0.0
+
+
+@kernel
+def lag_rates(y: tuple, torque: float, direction: float, piece: DrivePiece,
+              p: np.ndarray) -> tuple[float, float]:
+    """dL1/dt, dL3/dt (N·m/s) of the lagged drive torques y[6], y[7]: (target − L)/τ_d
+    toward :func:`drive_targets`; 0 with τ_d = 0 (no lag, the states unused)."""
+    if p[TAU] == 0.0:
+        return 0.0, 0.0
+    m1, m3 = drive_targets(piece, y[3], y[5], torque, direction, p)
+    lag1, lag3 = lag_state(y)
+    return (m1 - lag1) / p[TAU], (m3 - lag3) / p[TAU]
+
+
+@kernel
+def lagged_torques(t: float, lag1: float, lag3: float, direction: float,
+                   p: np.ndarray) -> tuple[float, float]:
+    """(T1, T3), N·m, with τ_d > 0: the preload (the nuts', so not through the current
+    loops) plus each drive's lagged torque L1, L3, and the fluctuation T_v·sin(ω_v·t) on
+    the active pinion as :func:`drive_torques` adds it."""
+    fluctuation = 0.0 if p[TV] == 0.0 else p[TV] * math.sin(p[WV] * t)
+    if p[MODE] == MODE_CONVENTIONAL:
+        return lag1 + direction * fluctuation, 0.0
+    if direction > 0.0:
+        return p[TP] + lag1 + fluctuation, -p[TP] + lag3
+    return p[TP] + lag1, -p[TP] + lag3 - fluctuation
+
+
+@kernel
+def cogging(th1: float, th3: float, t1: float, t3: float,
+            p: np.ndarray) -> tuple[float, float]:
+    """(T1, T3) with each motor's cogging ripple T_cog·sin(n_cog·θ) added at its pinion
+    angle θ: the magnets' pull, there with or without current, so on every pinion a motor
+    drives (pinion 1 alone in `conventional` mode)."""
+    t1 = t1 + p[TCOG] * math.sin(p[NCOG] * th1)
+    if p[MODE] != MODE_CONVENTIONAL:
+        t3 = t3 + p[TCOG] * math.sin(p[NCOG] * th3)
+    return t1, t3
+
+
+@kernel
+def pinion_torques(piece: DrivePiece, t: float, y: tuple, torque: float, direction: float,
+                   p: np.ndarray) -> tuple[float, float, DrivePiece]:
+    """Torques (T1, T3), N·m, the drives apply to pinions 1 and 3 at state y with the
+    drive's line on ``piece`` (FROM_STATE: the piece the speed picks), and that piece:
+    τ_d = 0, :func:`applied_torques_on` of the command; τ_d > 0, the lagged torques y[6],
+    y[7] (:func:`lagged_torques`); then the cogging ripple (:func:`cogging`)."""
+    if p[TAU] == 0.0:
+        t1, t3, piece = applied_torques_on(piece, t, y[3], y[5], torque, direction, p)
+    else:
+        lag1, lag3 = lag_state(y)
+        t1, t3 = lagged_torques(t, lag1, lag3, direction, p)
+        if piece == DrivePiece.FROM_STATE:
+            piece = drive_piece(torque, active_speed(y[3], y[5], direction, p), p)
+    if p[TCOG] != 0.0:
+        t1, t3 = cogging(y[0], y[2], t1, t3, p)
+    return t1, t3, piece
+
+
+@kernel
 def body_torques(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
                  ) -> tuple[float, float, float, float, float, float, float, ContactBranch,
                             ContactBranch, DrivePiece]:
@@ -349,16 +443,16 @@ def body_torques(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pie
     τ1 = T1 − Q1 − c_p·θ̇1;  τ3 = T3 − Q3 − c_p·θ̇3;  τ2 = r2·(F1 + F3) − T_load − c_t·θ̇2,
 
     Q = r·F (`paper`) or the energy-consistent pinion load (:func:`mesh_load_on`); T1, T3
-    through the drive's torque–speed line (:func:`applied_torques`). In `conventional`
-    mode pinion 3 is disengaged (F3 = Q3 = 0).
+    those of :func:`pinion_torques` (through the drive's torque–speed line; lagged by the
+    current loops; with cogging). In `conventional` mode pinion 3 is disengaged
+    (F3 = Q3 = 0).
 
     Returns (τ1, τ2, τ3, T1, T3 in N·m, F1, F3 in N, branch of mesh 1, branch of mesh 3,
     drive piece).
     """
     p = model.p
     th1, th2, th3, w1, w2, w3 = y[0], y[1], y[2], y[3], y[4], y[5]
-    t1, t3, piece = applied_torques_on(held.drive, t, w1, w3, drive.torque, drive.direction,
-                                       p)
+    t1, t3, piece = pinion_torques(held.drive, t, y, drive.torque, drive.direction, p)
     f1, q1, branch_1 = mesh_load_on(th1, w1, p[R1], p[Z1], th2, w2, t, model, held.branch_1)
     if p[MODE] == MODE_CONVENTIONAL:
         f3, q3, branch_3 = 0.0, 0.0, ContactBranch.DISENGAGED
@@ -420,11 +514,20 @@ def motion(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
 
 
 @kernel
-def rhs(t: float, y: tuple, model: PackedModel,
-        drive: Drive) -> tuple[float, float, float, float, float, float]:
-    """dy/dt of the 3-DOF equations of motion (:func:`motion`), rad/s and rad/s²."""
-    a1, a2, a3 = motion(t, y, model, drive, BY_LAW)[:3]
-    return y[3], y[4], y[5], a1, a2, a3
+def state_rate(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
+               ) -> tuple[tuple, Pieces]:
+    """dy/dt (rad/s, rad/s², N·m/s) with the law on the pieces ``held`` names
+    (:func:`motion`), and the pieces it was on."""
+    m = motion(t, y, model, drive, held)
+    l1, l3 = lag_rates(y, drive.torque, drive.direction, m[8].drive, model.p)
+    return (y[3], y[4], y[5], m[0], m[1], m[2], l1, l3), m[8]
+
+
+@kernel
+def rhs(t: float, y: tuple, model: PackedModel, drive: Drive) -> tuple:
+    """dy/dt of the equations of motion (:func:`motion`) and of the current loops
+    (:func:`lag_rates`)."""
+    return state_rate(t, y, model, drive, BY_LAW)[0]
 
 
 @kernel
@@ -457,8 +560,8 @@ def outputs(t: float, y: tuple, model: PackedModel, drive: Drive
             ) -> tuple[float, float, float, float, float, float, float, float, float]:
     """What the node publishes about a state besides the state itself: the torques
     applied to pinion 1, the table (net, = I2·θ̈2) and pinion 3 (N·m; on the pinions the
-    preload and the drive torque the drive's torque–speed line delivers at this speed,
-    :func:`applied_torques`: the command itself below the line), then δ (m), δ̇ (m/s) and
+    preload and the drive torque actually applied, :func:`pinion_torques`: the command
+    itself below the drive's line with no lag), then δ (m), δ̇ (m/s) and
     the mesh force F (N) of mesh 1 and of mesh 3 (δ3 and δ̇3 also when pinion 3 is
     disengaged, with F3 = 0)."""
     p = model.p
@@ -470,8 +573,10 @@ def outputs(t: float, y: tuple, model: PackedModel, drive: Drive
 
 
 def rhs_vector(t: float, y: np.ndarray, model: PackedModel, drive: Drive) -> np.ndarray:
-    """The same right-hand side on a state vector, for SciPy solvers."""
-    return np.array(rhs(t, (y[0], y[1], y[2], y[3], y[4], y[5]), model, drive))
+    """The same right-hand side on a state vector, for SciPy solvers: N_STATE long, or the
+    mechanical state alone (the drives' lagged torques then 0), as long as ``y``."""
+    lag = (y[6], y[7]) if len(y) > N_MECHANICAL else (0.0, 0.0)
+    return np.array(rhs(t, (y[0], y[1], y[2], y[3], y[4], y[5], *lag), model, drive))[:len(y)]
 
 
 def stiffest_linearization(params: TableParams) -> np.ndarray:
@@ -676,7 +781,8 @@ __all__ = [
     'outputs',
     'stiffest_linearization', 'EquilibriumNotFound', 'NEWTON_ITERATIONS',
     'equilibrium_state', 'MODE_ANTI_BACKLASH', 'MODE_CONVENTIONAL', 'PHASE_ANGLE', 'PHASE_TIME',
-    'N_PACKED', 'I1', 'I2', 'I3', 'R1', 'R2', 'R3', 'Z1', 'Z3', 'K_EFF', 'K_A', 'PHI_K', 'C', 'B',
+    'N_PACKED', 'N_STATE', 'N_MECHANICAL', 'state_rate', 'drive_targets', 'lag_rates',
+    'lagged_torques', 'cogging', 'pinion_torques', 'lag_state', 'TAU', 'TCOG', 'NCOG', 'I1', 'I2', 'I3', 'R1', 'R2', 'R3', 'Z1', 'Z3', 'K_EFF', 'K_A', 'PHI_K', 'C', 'B',
     'TP', 'TV', 'WV', 'CT', 'WE', 'WNL', 'TS', 'MODE', 'PHASE', 'FORMULATION', 'FORM_PAPER',
     'FORM_ENERGY', 'TC2', 'TS2', 'WS2', 'TCP', 'TSP', 'WSP', 'CP',
 ]

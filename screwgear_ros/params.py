@@ -200,6 +200,19 @@ class TableParams:
         1600.0, 'T_s', 'N·m', 'torque of the drive line at standstill; a nonzero command '
         'delivers the smaller of the command and T_s·(1 − ω/ω_nl)', low=1e-3,
         high=TORQUE, kernel=True, note="400 N·m up to 180 r/min, 7.5× the paper's 24 r/min")
+    drive_time_constant: float = parameter(
+        0.0, 'τ_d', 's', "time constant of each drive's current loop: the torque at a pinion "
+        'follows its drive\'s command as a first-order lag (the preload of the nuts does '
+        'not); 0 = the command acts at once', low=1e-6, high=10.0, zero=True, kernel=True,
+        why='a current loop of 160 kHz to 0.016 Hz bandwidth; RK4 needs dt below 2.78·τ_d',
+        note='0: an ideal drive, the instant torque of the paper')
+    cogging_amplitude: float = parameter(
+        0.0, 'T_cog', 'N·m', "amplitude of each drive's output torque ripple "
+        'T_cog·sin(n_cog·θ) at its pinion angle θ (cogging)', low=0.0, high=TORQUE,
+        kernel=True)
+    cogging_order: int = parameter(
+        1, 'n_cog', '', 'harmonic of the pinion angle the cogging ripple has (periods per '
+        'pinion revolution)', low=1, high=TEETH, kernel=True)
     mode: Mode = parameter(Mode.ANTI_BACKLASH, '', '', 'both pinions under preload, or '
                            'pinion 1 alone with backlash', read_only=True)
     mesh_phase: MeshPhase = parameter(MeshPhase.ANGLE, '', '', 'what drives the mesh phase: '

@@ -21,7 +21,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .integrator import OBSERVED, advance_observed, advance_ticks, observe
-from .model import Drive, PackedModel, active_path, equilibrium_state, pack
+from .model import N_MECHANICAL, N_STATE, Drive, PackedModel, active_path, equilibrium_state, pack
 from .params import TableParams
 from .simtime import sim_time_ns
 from .stability import check_step
@@ -103,20 +103,33 @@ class Plant:
                       else np.array(initial_state, dtype=np.float64))
         self.fault: str | None = None
         # Scratch of the compiled calls: the state before a tick, the outputs after it.
-        self._backup = np.empty(6)
+        self._backup = np.empty(N_STATE)
         self._observed = np.empty(OBSERVED)
 
     @property
     def state(self) -> np.ndarray:
-        """θ1, θ2, θ3, ω1, ω2, ω3 (rad, rad/s); changed in place by every advance."""
-        return self._state
+        """θ1, θ2, θ3, ω1, ω2, ω3 (rad, rad/s): a view of the mechanical part of
+        :attr:`full_state`, changed in place by every advance."""
+        return self._state[:N_MECHANICAL]
 
     @state.setter
     def state(self, value: np.ndarray) -> None:
-        self._state = value
+        """A mechanical state (6 long: the drives' lagged torques start at 0) or a full
+        one (N_STATE long)."""
+        value = np.asarray(value, dtype=np.float64)
+        full = np.zeros(N_STATE)
+        full[:len(value)] = value
+        self._state = full
         # The compiled entry is chosen by the types of the arrays it takes: a new array
         # (of another type, maybe) goes through numba's dispatcher again once.
         self._advance: Callable[..., int] | None = None
+
+    @property
+    def full_state(self) -> np.ndarray:
+        """The whole integrated state (N_STATE long): :attr:`state`, then the torques L1,
+        L3 (N·m) the drives of pinion 1 and 3 apply through their current loops besides the
+        preload (0 while ``drive_time_constant`` is 0); changed in place by every advance."""
+        return self._state
 
     def __getstate__(self) -> dict[str, Any]:
         """The plant as a value: its compiled entry (:func:`compiled_entry`) belongs to
@@ -161,8 +174,10 @@ class Plant:
         self._drive = drive.kernel      # made once per input rather than at each call
 
     def reset(self) -> None:
-        """Back to the preload equilibrium at rest, keeping the simulation time."""
-        self.state[:] = equilibrium_state(self._params)
+        """Back to the preload equilibrium at rest, keeping the simulation time; the
+        drives' current loops start again from no torque."""
+        self._state[:N_MECHANICAL] = equilibrium_state(self._params)
+        self._state[N_MECHANICAL:] = 0.0
         self.fault = None
 
     def advance(self, n: int) -> bool:

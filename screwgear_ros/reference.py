@@ -25,7 +25,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from . import dop853
-from .model import pack, rhs_vector
+from .model import N_MECHANICAL, N_STATE, pack, rhs_vector
 from .params import TableParams
 from .plant import DriveInput
 
@@ -79,7 +79,9 @@ def solve(initial_state: np.ndarray, segments: Sequence[Segment], dt: float,
           sample_steps: np.ndarray, rtol: float = RTOL, atol: float = ATOL,
           progress: Callable[[int], None] | None = None,
           method: str = 'dop853') -> np.ndarray:
-    """States at the integration steps ``sample_steps`` (sorted ints), shape (n, 6).
+    """States at the integration steps ``sample_steps`` (sorted ints), shape (n, m), as
+    long as ``initial_state`` (m = 6: the mechanical state, the drives' lagged torques
+    starting at 0; m = N_STATE: the whole state).
 
     ``segments`` are sorted by start step and the first starts at or before the
     first sample. Time is step·dt, s. ``progress(k)`` is told each segment done.
@@ -96,8 +98,10 @@ def solve(initial_state: np.ndarray, segments: Sequence[Segment], dt: float,
     sample_steps = np.asarray(sample_steps, dtype=np.int64)
     if len(segments) == 0 or segments[0].start_step > (sample_steps[0] if len(sample_steps) else 0):
         raise ValueError('the first segment must start at or before the first sample')
-    out = np.empty((len(sample_steps), 6))
-    y = np.array(initial_state, dtype=np.float64)
+    width = len(initial_state)
+    out = np.empty((len(sample_steps), N_STATE))
+    y = np.zeros(N_STATE)
+    y[:width] = initial_state
     step = segments[0].start_step
     last_step = int(sample_steps[-1]) if len(sample_steps) else step
     integrate = _segment if method == 'dop853' else _segment_scipy
@@ -119,7 +123,7 @@ def solve(initial_state: np.ndarray, segments: Sequence[Segment], dt: float,
             out[hit] = y
         if progress is not None:
             progress(k)
-    return out
+    return out[:, :width]
 
 
 #: Why the compiled solver stopped, by its status code.
@@ -142,7 +146,7 @@ def _segment(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray, dt: 
     drive = seg.drive
     ends_on_sample = len(samples) > 0 and samples[-1] == step_b
     steps = samples if ends_on_sample else np.append(samples, step_b)  # always see the end
-    states = np.empty((len(steps), 6))
+    states = np.empty((len(steps), N_STATE))
     # the output times as steps elapsed × dt: each input lasts exactly its ticks
     status, t, h, accepted, rejected, _ = dop853.integrate(
         step_a * dt, y0, (steps - step_a) * dt, states, model, drive.kernel, rtol, atol,
@@ -163,9 +167,16 @@ def _segment_scipy(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray
     steps = samples if ends_on_sample else np.append(samples, step_b)
     kernel_drive = drive.kernel
     t0 = step_a * dt         # time counted from the segment's start, as the kernel counts it
-    sol = solve_ivp(lambda tau, y: rhs_vector(t0 + tau, y, model, kernel_drive),
-                    (0.0, (step_b - step_a) * dt), y0, method='DOP853', rtol=rtol, atol=atol,
-                    t_eval=(steps - step_a) * dt)
+    # With no current-loop lag the lagged torques stay as they are: SciPy integrates (and
+    # norms) the mechanical state alone, as the compiled solver does.
+    width = N_STATE if seg.params.drive_time_constant > 0.0 else N_MECHANICAL
+    rest = y0[width:]
+    sol = solve_ivp(lambda tau, y: rhs_vector(t0 + tau, np.concatenate([y, rest]), model,
+                                              kernel_drive)[:width],
+                    (0.0, (step_b - step_a) * dt), y0[:width], method='DOP853', rtol=rtol,
+                    atol=atol, t_eval=(steps - step_a) * dt)
+    if sol.success:
+        sol.y = np.vstack([sol.y, np.repeat(rest[:, None], sol.y.shape[1], axis=1)])
     if not sol.success:
         t = t0 + float(sol.t[-1]) if len(sol.t) else t0
         raise ReferenceFailure(f'SciPy: {sol.message}', t, 0, 1, step_a * dt, step_b * dt,

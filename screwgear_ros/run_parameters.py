@@ -23,13 +23,14 @@ EXTRA_KEYS = ('package_version', 'initial_state', 'start_step')
 #: made before them ran with (so that such a recording replays as it ran): no command
 #: timeout, the ideal torque source (the stall torque then plays no part), the paper's
 #: mesh equations, plain fixed-step RK4 (no contact location), no effort deadband, no
-#: bearing friction.
+#: bearing friction, an instant drive torque without cogging.
 INTRODUCED = {'command_timeout': 0.0, 'drive_no_load_speed': 0.0, 'effort_deadband': 0.0,
               'drive_stall_torque': TableParams.drive_stall_torque, 'mesh_formulation': 'paper',
               'contact_location': False, **{
                   f'{body}_{what}': 0.0 for body in ('table', 'pinion')
                   for what in ('coulomb_torque', 'static_torque', 'stribeck_speed')},
-              'pinion_damping': 0.0}
+              'pinion_damping': 0.0, 'drive_time_constant': 0.0,
+              'cogging_amplitude': 0.0, 'cogging_order': 1}
 _REQUIRED = ({f.name for f in fields(TableParams)} | set(EXTRA_KEYS)) - set(INTRODUCED)
 
 

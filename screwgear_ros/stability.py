@@ -35,6 +35,8 @@ def max_stable_dt(p: TableParams) -> float:
     """
     lam = np.linalg.eigvals(stiffest_linearization(p))
     lam = lam[np.abs(lam) > 1e-6 * np.max(np.abs(lam))]  # drop the rigid-body mode
+    if p.drive_time_constant > 0.0:        # each current loop: dL/dt = −L/τ_d + ...
+        lam = np.append(lam, -1.0 / p.drive_time_constant)
 
     def stable(dt: float) -> bool:
         return bool(np.all(np.abs(rk4_amplification(lam * dt)) <= 1.0 + 1e-12))
@@ -47,13 +49,15 @@ def max_stable_dt(p: TableParams) -> float:
 
 
 def check_step(p: TableParams, dt: float) -> None:
-    """Refuse a step dt, s, that RK4 cannot integrate stably at this stiffness."""
+    """Refuse a step dt, s, that RK4 cannot integrate stably at this stiffness (and drive
+    time constant)."""
     limit = max_stable_dt(p)
     if dt > limit:
         raise ParameterError(
             'dt', dt, f'RK4 is unstable above dt = {limit:.4g} s at this stiffness '
-            f'(k_eff + k_a = {effective_stiffness(p) + p.mesh_stiffness_amplitude:g} N/m); '
-            'use a smaller step')
+            f'(k_eff + k_a = {effective_stiffness(p) + p.mesh_stiffness_amplitude:g} N/m'
+            + (f', drive_time_constant {p.drive_time_constant:g} s'
+               if p.drive_time_constant > 0.0 else '') + '); use a smaller step')
 
 
 __all__ = ['rk4_amplification', 'max_stable_dt', 'check_step']

@@ -69,7 +69,9 @@ def _jacobian(params: TableParams, t: float, x: np.ndarray, torque: float, direc
     packed = pack(params)
 
     def f(y, u):
-        return np.array(rhs(t, tuple(y), packed, Drive(u[0], float(direction), u[1])))
+        # the mechanical state, then the drives' lagged torques (unused with no lag)
+        return np.array(rhs(t, (*y, 0.0, 0.0), packed,
+                            Drive(u[0], float(direction), u[1])))[:6]
 
     u = np.array([torque, load])
     scale_x = np.array([1e-9, 1e-9, 1e-9, 1e-6, 1e-6, 1e-6])

@@ -157,7 +157,7 @@ def test_rhs_is_newtons_equations(mode):
     I2·θ̈2 = r2(F1 + F3) − T_load − c_t·θ̇2 (F3 = 0 in conventional mode)."""
     p = TableParams(mode=mode, table_damping=120.0, backlash=2e-5, ste_phases=(0.5,))
     m = pack(p)
-    y = (0.013, 0.0004, -0.009, 2.1, 0.27, 1.9)
+    y = (0.013, 0.0004, -0.009, 2.1, 0.27, 1.9, 0.0, 0.0)     # no current-loop lag
     t, torque, direction, load = 0.017, 250.0, -1.0, 33.0
     out = rhs(t, y, m, Drive(torque, direction, load))
 
@@ -179,7 +179,8 @@ def test_rhs_is_newtons_equations(mode):
     else:
         t1, t3 = -torque, 0.0
     expected = (y[3], y[4], y[5], (t1 - 0.078 * f1) / 3.255e-2,
-                (0.582 * (f1 + f3) - load - 120.0 * y[4]) / 46.101, (t3 - 0.078 * f3) / 3.255e-2)
+                (0.582 * (f1 + f3) - load - 120.0 * y[4]) / 46.101, (t3 - 0.078 * f3) / 3.255e-2,
+                0.0, 0.0)
     assert out == pytest.approx(expected, rel=1e-12, abs=1e-12)
     assert f1 != 0.0 and (mode == 'conventional' or f3 != 0.0)
 
@@ -282,7 +283,7 @@ def test_energy_consistent_damping_acts_along_the_lever():
 
 @pytest.mark.parametrize('mode', ['anti_backlash', 'conventional'])
 def test_both_formulations_are_the_same_equations_in_time_phase(mode):
-    y = (0.013, 0.0004, -0.009, 2.1, 0.27, 1.9)
+    y = (0.013, 0.0004, -0.009, 2.1, 0.27, 1.9, 0.0, 0.0)     # no current-loop lag
     out = []
     for form in ('paper', 'energy_consistent'):
         m = pack(TableParams(mode=mode, mesh_phase='time', mesh_formulation=form,

@@ -44,6 +44,7 @@ import numpy as np
 
 from ..commands import load_limit
 from ..model import (NEWTON_ITERATIONS, ContactBranch, Drive, DrivePiece, Pieces, active_path,
+                     drive_targets,
                      active_speed, drive_on, drive_piece, drive_torques, equilibrium_state,
                      mesh_motion, motion, pack)
 from ..params import MeshPhase, Mode, TableParams, effective_stiffness
@@ -425,7 +426,11 @@ def _static_warnings(params: TableParams, contact: list[ContactBranch], piece: D
 
 
 def _derivative(x: np.ndarray, u: np.ndarray, point: OperatingPoint, model) -> np.ndarray:
-    accelerations = motion(0.0, (x[0], x[1], x[2], x[3], x[4], x[5]), model,
+    # The drives' current loops held at their targets: the linear model takes the drive
+    # torque as instant (its lag is a first-order filter in series with it).
+    lag1, lag3 = drive_targets(point.drive_piece, x[3], x[5], u[0], float(point.direction),
+                               model.p)
+    accelerations = motion(0.0, (x[0], x[1], x[2], x[3], x[4], x[5], lag1, lag3), model,
                            Drive(u[0], float(point.direction), u[1]),
                            Pieces(point.contact[0], point.contact[1], point.drive_piece))[:3]
     return np.concatenate([x[3:], accelerations])

@@ -59,7 +59,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..model import active_path, equilibrium_state
+from ..model import N_STATE, active_path, equilibrium_state
 from ..params import TableParams
 from ..plant import DriveInput, Plant
 from ..reference import ATOL, RTOL, ReferenceFailure, Segment, solve
@@ -225,7 +225,7 @@ def reference_outputs(run: RecordedRun, replayed: ReplayedOutputs,
     piece_of = np.array([x[0] for x in c.contexts], dtype=np.int64)[c.in_force]
     rows, mesh = _observe(run, c, np.array([states[k][s] for k, s in
                                             zip(piece_of.tolist(), steps.tolist())]
-                                           ).reshape(-1, 6))
+                                           ).reshape(-1, N_STATE))
     return rows[:, ROW_JOINTS], rows[:len(run.transmission_error), ROW_TE], mesh
 
 
@@ -249,7 +249,7 @@ def _observe(run: RecordedRun, c: _Contexts, states: np.ndarray
         plant = plants.get(id(params))
         if plant is None:
             plant = plants[id(params)] = Plant(params, run.dt)
-        plant.state[:] = states[i]
+        plant.full_state[:len(states[i])] = states[i]
         plant.step = step
         plant.set_input(drive)
         out = plant.outputs()
@@ -303,7 +303,8 @@ def _solve_piece(piece: _Piece, dt: float, progress: Callable[[float], None] | N
     samples = np.array(sorted(piece.samples), dtype=np.int64)
     last = int(samples[-1])
     block = max(1, int(round(BLOCK_SECONDS / dt)))
-    y = piece.initial_state.copy()
+    y = np.zeros(N_STATE)       # the whole state: the drives' lagged torques from 0
+    y[:len(piece.initial_state)] = piece.initial_state
     if samples[0] == piece.start_step:
         result[piece.start_step] = y.copy()
     for k, seg in enumerate(piece.segments):
