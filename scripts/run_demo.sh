@@ -4,26 +4,31 @@
 # lines show the table following a back-and-forth profile with reversals. Ctrl-C stops both.
 # The run is recorded to out/demo_<date>_<time>/; at the end its plot (plot_run) is written
 # into that directory and its path printed.
-#   bash scripts/run_demo.sh [--free-running] [--duration SECONDS]
+#   bash scripts/run_demo.sh [--free-running] [--realistic] [--duration SECONDS]
 #   (default)           lockstep: table_sim (lockstep:=true, paced at real-time factor 1)
 #                       integrates each tick only once the controller answered the last
 #                       joint_states, so the run is the same however busy the machine is,
 #                       only slower when the machine cannot keep up
 #   --free-running      table_sim runs at real time whether the controller keeps up or
 #                       not (on a busy machine a late answer can upset the loop)
+#   --realistic         the paper's table with bearing friction, encoders and a current
+#                       loop (config/realistic.yaml); the plot shows measured over exact
 #   --duration SECONDS  stop both after SECONDS of wall time (default: until Ctrl-C)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 duration=""
 sim_args=(-p lockstep:=true -p real_time_factor:=1.0)
+params=(--params-file "$root/config/paper.yaml")
 while [ $# -gt 0 ]; do
     case "$1" in
         --lockstep) shift ;;   # the default
         --free-running) sim_args=(-p lockstep:=false -p real_time_factor:=1.0); shift ;;
+        --realistic) params+=(--params-file "$root/config/realistic.yaml"); shift ;;
         --duration) duration="${2:?--duration needs SECONDS}"; shift 2 ;;
         --duration=*) duration="${1#*=}"; shift ;;
-        -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
-        *) echo "unknown argument: $1 (use --free-running, --duration SECONDS)" >&2; exit 2 ;;
+        -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
+        *) echo "unknown argument: $1 (use --free-running, --realistic, --duration SECONDS)" >&2
+           exit 2 ;;
     esac
 done
 bash "$root/scripts/setup_venv.sh"
@@ -61,7 +66,7 @@ stop() {
 }
 trap stop INT TERM EXIT
 
-table_sim --ros-args --params-file "$root/config/paper.yaml" -p "record:=$bag" \
+table_sim --ros-args "${params[@]}" -p "record:=$bag" \
     ${sim_args[@]+"${sim_args[@]}"} 8>&- &
 pids+=($!)
 demo_controller 8>&- &
