@@ -105,8 +105,8 @@ class RunIO:
         self.joint_names = list(joint_names)
         self._publishers = dict(publishers or {})
         # What every tick sends, in this order: fixed once the endpoints exist
-        # (publish_clock is read-only), so outputs() looks nothing up per tick. The
-        # clock first: it has no values, so the runs outputs() encodes are the same
+        # (publish_clock is read-only), so publish_outputs() looks nothing up per tick. The
+        # clock first: it has no values, so the blocks publish_outputs() encodes are the same
         # with or without it.
         # The exact state last (when the sensors are not ideal, the caller names its
         # topic): joint_states then carries what the sensors measure.
