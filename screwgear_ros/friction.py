@@ -68,11 +68,31 @@ def friction_piece(held: FrictionPiece, speed: float, torque: float,
         return at_rest(torque, static)
     if speed > 0.0:
         if held == FrictionPiece.SLIP_BACKWARD:       # crossed zero upwards
-            return at_rest(torque, static)
+            return through_zero(held, torque, static)
         return FrictionPiece.SLIP_FORWARD
     if held == FrictionPiece.SLIP_FORWARD:            # crossed zero downwards
-        return at_rest(torque, static)
+        return through_zero(held, torque, static)
     return FrictionPiece.SLIP_BACKWARD
+
+
+@kernel
+def through_zero(held: FrictionPiece, torque: float, static: float) -> FrictionPiece:
+    """The piece of a body whose speed has crossed zero on the slip piece ``held``, under
+    ``torque`` (N·m) where it is judged: :func:`at_rest`, but never ``held`` itself.
+
+    A crossing is always a change, so that the event search (a bisection on "the pieces
+    differ from ``held``") finds it. At the crossing itself |τ| ≤ τ_S or τ is against
+    the old sense (the body could not have slowed to zero otherwise), but a state judged
+    past it may be under a torque that has since grown beyond τ_S in the old sense: a
+    step that spans a whole short sticking episode ends there with its speed of the
+    wrong sign on its old piece. Calling that "breaking away in the old sense" would
+    hide the crossing and the episode; it is STUCK instead, and if the torque still
+    exceeds τ_S where the crossing is located the body breaks away from rest at once.
+    """
+    piece = at_rest(torque, static)
+    if piece == held:
+        return FrictionPiece.STUCK
+    return piece
 
 
 @kernel
@@ -106,4 +126,4 @@ def friction_on(piece: FrictionPiece, speed: float, torque: float, inertia: floa
     return (torque + friction) / inertia, friction
 
 
-__all__ = ['FrictionPiece', 'at_rest', 'friction_piece', 'sliding_torque', 'friction_on']
+__all__ = ['FrictionPiece', 'at_rest', 'friction_piece', 'through_zero', 'sliding_torque', 'friction_on']

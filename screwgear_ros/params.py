@@ -11,6 +11,10 @@ Beside this module: the paper's derived quantities (:mod:`~screwgear_ros.quantit
 RK4's stability limit (:mod:`~screwgear_ros.stability`), a whole validated set from a
 mapping or a parameter file (:mod:`~screwgear_ros.parameter_sets`), and the documents
 generated from these declarations (:mod:`~screwgear_ros.parameter_docs`).
+
+Why one module of this length: it is the one declaration of every parameter (value,
+unit, range, meaning); the length is the table itself, and splitting it would split
+the one place a parameter is declared.
 """
 
 from __future__ import annotations

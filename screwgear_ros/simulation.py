@@ -16,6 +16,10 @@ here as around ``table_sim`` in lockstep.
 Everything a simulation is made of (parameters, settings) is an immutable, picklable
 value, and a run depends on nothing else: the same inputs give the same bits in any
 process, in any order.
+
+Why one module of this length: the Observation a controller sees, the Run it gets
+back and the closed loop that fills one from the other share one column layout; the
+loop is the in-process API's hot path and is kept beside the arrays it writes.
 """
 
 from __future__ import annotations

@@ -319,3 +319,35 @@ def stamp_ns(msg: Any) -> int:
 
 __all__ = ['STARTUP_TIMEOUT', 'write_params_file', 'RosProcess', 'start_process',
            'assert_clean_exit', 'Inbox', 'Peer', 'wait_until', 'stamp_ns']
+
+
+#: s of wall time for a few hundred lockstep ticks on a loaded machine
+LOCKSTEP_RUN_TIMEOUT = 300.0
+
+
+def record_lockstep_demo(workdir: Path, values: Mapping[str, Any], targets: Sequence[float],
+                         dwell: float, ticks: int, tick_ns: int, name: str) -> Path:
+    """demo_controller (the rclpy node) around table_sim in lockstep (``values`` its
+    parameters) for ``ticks`` ticks of ``tick_ns``, recorded by table_sim; both stopped
+    with SIGINT and checked to exit cleanly. Returns the bag."""
+    from sensor_msgs.msg import JointState
+    bag = workdir / 'node'
+    sim = start_process('table_sim', params={**values, 'lockstep': True,
+                                             'real_time_factor': 0.0, 'record': str(bag)},
+                        workdir=workdir / 'sim')
+    ctl = None
+    try:
+        with Peer(name) as peer:
+            js = peer.subscribe('/joint_states', JointState, transform=stamp_ns)
+            ctl = start_process('demo_controller',
+                                params={'targets': list(targets), 'dwell': dwell},
+                                workdir=workdir / 'ctl')
+            js.wait_for(lambda t: t >= ticks * tick_ns, STARTUP_TIMEOUT + LOCKSTEP_RUN_TIMEOUT,
+                        f'{ticks} lockstep ticks')
+        assert_clean_exit(sim, signal.SIGINT)
+        assert_clean_exit(ctl, signal.SIGINT)
+    finally:
+        sim.kill()
+        if ctl is not None:
+            ctl.kill()
+    return bag

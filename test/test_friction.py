@@ -16,6 +16,8 @@ import numpy as np
 import pytest
 
 from bag_runs import installed_check_run
+from screwgear_ros import Simulation
+from screwgear_ros.control import DemoController, DemoGains
 from screwgear_ros.events import Command
 from screwgear_ros.friction import (FrictionPiece, at_rest, friction_on, friction_piece,
                                     sliding_torque)
@@ -24,6 +26,7 @@ from screwgear_ros.params import ParameterError, SimSettings, TableParams
 from screwgear_ros.plant import Plant
 from screwgear_ros.ros.session_record import record_session
 from screwgear_ros.runs.bagread import read_run
+from screwgear_ros.runs.check import check_run, format_report
 from screwgear_ros.schedule import Schedule
 
 COULOMB, STATIC, STRIBECK = 3.0, 5.0, 0.02      # N·m, N·m, rad/s
@@ -70,10 +73,17 @@ def test_pieces():
     assert friction_piece(FrictionPiece.FROM_STATE, 1e-9, -100.0, STATIC) == F
     assert friction_piece(FrictionPiece.FROM_STATE, -1e-9, 100.0, STATIC) == B
     # the speed reaching or crossing zero: sticks, or slips on in the sense of the torque
-    for held, speed in ((F, 0.0), (F, -1e-12), (B, 0.0), (B, 1e-12)):
+    for held, speed, reversed_ in ((F, 0.0, B), (F, -1e-12, B), (B, 0.0, F), (B, 1e-12, F)):
         assert friction_piece(held, speed, 0.5 * STATIC, STATIC) == S
-        assert friction_piece(held, speed, -2.0 * STATIC, STATIC) == B
-        assert friction_piece(held, speed, 2.0 * STATIC, STATIC) == F
+        pushed = 2.0 * STATIC if reversed_ == F else -2.0 * STATIC
+        assert friction_piece(held, speed, pushed, STATIC) == reversed_
+    # a speed that reached zero under a torque beyond τ_S in its old sense: breaks away
+    # from rest; one that crossed zero is a change all the same (its crossing is an event
+    # to locate), so it is judged stuck and breaks away from rest where it is located
+    assert friction_piece(F, 0.0, 2.0 * STATIC, STATIC) == F
+    assert friction_piece(B, 0.0, -2.0 * STATIC, STATIC) == B
+    assert friction_piece(F, -1e-12, 2.0 * STATIC, STATIC) == S
+    assert friction_piece(B, 1e-12, -2.0 * STATIC, STATIC) == S
     # no static torque: no friction, whatever else
     for held in FrictionPiece:
         assert friction_piece(held, 0.0, 0.0, 0.0) == FrictionPiece.NONE
@@ -289,3 +299,33 @@ def test_a_recorded_run_with_friction_checks_against_the_reference(tmp_path):
     assert stuck > 20
     assert result.returncode == 0, result.stdout + result.stderr
     assert 'RESULT: PASS' in result.stdout
+
+
+def test_a_sticking_episode_inside_one_reference_step_is_located(tmp_path):
+    """A table held at a small target by the demo controller on catalogue bearings
+    (τ_S 4 N·m, τ_C 3 N·m on the table; hundredths of a N·m on the pinions) sticks and
+    slips at speeds of µrad/s; a pinion sticks for a fraction of a millisecond, shorter
+    than the reference's step at its tolerance. Its speed then crosses zero inside the
+    step and the torque has grown past τ_S in the old sense by the step's end: that
+    crossing must still be located (the reference otherwise runs the slip law through
+    the whole episode, and disagrees with itself at another tolerance and with RK4)."""
+    dt = 50e-6
+    params = TableParams(table_coulomb_torque=3.0, table_static_torque=4.0,
+                         table_stribeck_speed=0.005, pinion_coulomb_torque=0.05,
+                         pinion_static_torque=0.07, pinion_stribeck_speed=0.5)
+    encoders = {}
+    for joint, counts, noise in (('table', 2 ** 26, 3e-8), ('pinion_1', 2 ** 20, 2e-6),
+                                 ('pinion_3', 2 ** 20, 2e-6)):
+        encoders.update({f'encoder_counts_{joint}': counts, f'position_noise_{joint}': noise,
+                         f'measurement_delay_{joint}': 1,
+                         f'velocity_filter_cutoff_{joint}': 500.0})
+    settings = SimSettings(dt=dt, sensor_seed=1, **encoders)
+    controller = DemoController(DemoGains(targets=(0.001,), dwell=1e9), dt=dt)
+    Simulation(params, settings).run(controller, 3.0, record=tmp_path / 'hold')
+    run = read_run(tmp_path / 'hold')
+    stuck = int(np.sum(run.joint_states.values[:, 5] == 0.0))
+    report = check_run(run, parallel=False)
+    print(f'pinion 3 stuck at {stuck} of {len(run.joint_states.values)} samples')
+    print(format_report(report))
+    assert stuck > 20
+    assert report.ok, format_report(report)

@@ -15,7 +15,6 @@ bag without (read from the figure's axes and lines, not its pixels).
 from __future__ import annotations
 
 import math
-import signal
 from pathlib import Path
 
 import numpy as np
@@ -24,10 +23,9 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
-from sensor_msgs.msg import JointState
 
 from bag_runs import installed
-from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
+from ros_procs import record_lockstep_demo, stamp_ns
 from screwgear_ros import Simulation
 from screwgear_ros.control import SETPOINT_REPEAT, DemoController
 from screwgear_ros.events import Command, Setpoint
@@ -45,7 +43,6 @@ VALUES = {'table_damping': 0.0, 'command_timeout': 0.0, 'publish_rate': 1000.0}
 TARGETS, DWELL = (0.03, -0.03), 0.25
 TICKS = 600                    # 0.6 s at 1 kHz: two target jumps
 TICK_NS = 1_000_000
-RUN_TIMEOUT = 300.0            # s of wall time for TICKS lockstep ticks on a loaded machine
 TOOL_TIMEOUT = 600.0
 
 
@@ -73,27 +70,8 @@ def table_angles(bag: Path) -> tuple[np.ndarray, np.ndarray]:
 def demo_bag(tmp_path_factory) -> Path:
     """demo_controller (the rclpy node) around table_sim in lockstep for TICKS ticks,
     recorded by table_sim."""
-    workdir = tmp_path_factory.mktemp('setpoint_demo')
-    bag = workdir / 'demo'
-    sim = start_process('table_sim', params={**VALUES, 'lockstep': True,
-                                             'real_time_factor': 0.0, 'record': str(bag)},
-                        workdir=workdir / 'sim')
-    ctl = None
-    try:
-        with Peer('test_setpoint') as peer:
-            js = peer.subscribe('/joint_states', JointState, transform=stamp_ns)
-            ctl = start_process('demo_controller',
-                                params={'targets': list(TARGETS), 'dwell': DWELL},
-                                workdir=workdir / 'ctl')
-            js.wait_for(lambda t: t >= TICKS * TICK_NS, STARTUP_TIMEOUT + RUN_TIMEOUT,
-                        f'{TICKS} lockstep ticks')
-        assert_clean_exit(sim, signal.SIGINT)
-        assert_clean_exit(ctl, signal.SIGINT)
-    finally:
-        sim.kill()
-        if ctl is not None:
-            ctl.kill()
-    return bag
+    return record_lockstep_demo(tmp_path_factory.mktemp('setpoint_demo'), VALUES, TARGETS,
+                                DWELL, TICKS, TICK_NS, 'test_setpoint')
 
 
 def test_the_demo_controllers_setpoint_reaches_the_bag(demo_bag):

@@ -20,7 +20,8 @@ from rosbags.typesys import Stores, get_typestore
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
+from ros_procs import (STARTUP_TIMEOUT, Peer, assert_clean_exit, record_lockstep_demo, stamp_ns,
+                       start_process)
 from screwgear_ros import Simulation
 from screwgear_ros.simulation import Observation
 
@@ -116,24 +117,8 @@ def test_the_demo_controller_gives_the_same_bits_in_process_and_as_a_node(tmp_pa
     from screwgear_ros.control import DemoController
     targets, dwell, ticks = [0.03, -0.03], 0.25, 600
     values = {**VALUES, 'table_damping': 0.0}     # the demo's tuning: no bearing loss
-    bag = tmp_path / 'node'
-    sim = start_process('table_sim', params={**values, 'lockstep': True,
-                                             'real_time_factor': 0.0, 'record': str(bag)},
-                        workdir=tmp_path / 'sim')
-    ctl = None
-    try:
-        with Peer('test_demo_identity') as peer:
-            js = peer.subscribe('/joint_states', JointState, transform=stamp_ns)
-            ctl = start_process('demo_controller', params={'targets': targets, 'dwell': dwell},
-                                workdir=tmp_path / 'ctl')
-            js.wait_for(lambda t: t >= ticks * TICK_NS, STARTUP_TIMEOUT + RUN_TIMEOUT,
-                        f'{ticks} lockstep ticks')
-        assert_clean_exit(sim, signal.SIGINT)
-        assert_clean_exit(ctl, signal.SIGINT)
-    finally:
-        sim.kill()
-        if ctl is not None:
-            ctl.kill()
+    bag = record_lockstep_demo(tmp_path, values, targets, dwell, ticks, TICK_NS,
+                               'test_demo_identity')
     simulation = Simulation.from_values(values)
     controller = DemoController(targets=targets, dwell=dwell, dt=simulation.settings.dt)
     simulation.run(controller, ticks * 1e-3, record=tmp_path / 'in_process')

@@ -31,6 +31,10 @@ Choices where the plant is not a plain linear system:
 * **Trust.** ``coherence`` is the fraction of the detrended output's variance the fitted
   sinusoid explains (1: the output is a sinusoid at the drive frequency; lower: harmonics,
   subharmonics, impacts or an unsettled transient, where the plant is not linear).
+
+Why one module of this length: the excitation, the per-frequency runs and the fit
+are one measurement whose choices (bias, start at the crest, detrending, the hold
+correction) depend on each other; split, each part would need the others' reasons.
 """
 
 from __future__ import annotations

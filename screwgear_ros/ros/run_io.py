@@ -105,8 +105,8 @@ class RunIO:
         self.joint_names = list(joint_names)
         self._publishers = dict(publishers or {})
         # What every tick sends, in this order: fixed once the endpoints exist
-        # (publish_clock is read-only), so outputs() looks nothing up per tick. The
-        # clock first: it has no values, so the runs outputs() encodes are the same
+        # (publish_clock is read-only), so publish_outputs() looks nothing up per tick. The
+        # clock first: it has no values, so the blocks publish_outputs() encodes are the same
         # with or without it.
         # The exact state last (when the sensors are not ideal, the caller names its
         # topic): joint_states then carries what the sensors measure.
@@ -190,7 +190,7 @@ class RunIO:
         out = session.outputs
         self._parameters(session, out.time_ns, session.plant.params, session.settings)
         self._publish_path(out.active_path, out.time_ns)
-        self.outputs(out, measured=session.measured)
+        self.publish_outputs(out, measured=session.measured)
         self._markers(session, time.monotonic())
 
     def tick(self, session: Session, tick: Tick, lossless: bool = True) -> None:
@@ -216,7 +216,7 @@ class RunIO:
                 self.record('reset', t_ns, Empty())
         if tick.outputs.active_path != self._path:
             self._publish_path(tick.outputs.active_path, t_ns)
-        self.outputs(tick.outputs, lossless, tick.measured)
+        self.publish_outputs(tick.outputs, lossless, tick.measured)
         now = time.monotonic()
         if now >= self._next_recount:
             self._next_recount = now + LISTENER_RECOUNT
@@ -233,8 +233,8 @@ class RunIO:
                      'true_joint_states': lambda: cdr.joint_state_template(self.joint_names)}
         return cdr.Bundle([templates[key]() for key in self._tick_keys])
 
-    def outputs(self, out: Outputs, lossless: bool = True,
-                measured: Outputs | None = None) -> None:
+    def publish_outputs(self, out: Outputs, lossless: bool = True,
+                        measured: Outputs | None = None) -> None:
         """/clock, joint_states (``measured``: what the sensors measure of ``out``; None:
         ``out`` itself), mesh_state, transmission_error and ~/true_joint_states (``out``,
         if its topic is named) of ``out``; ``lossless`` as for :meth:`tick`
