@@ -89,8 +89,9 @@ def test_warmup_finds_every_kernel_module_and_compiled_now_imports_none():
             'every = {k.py_func.__module__ for k in warmup.kernels()}\n'
             'print(json.dumps([sorted(before), unloaded, sorted(every)]))\n')
     before, unloaded, every = json.loads(_run(code, NUMBA_DISABLE_JIT='0'))
-    assert before == ['screwgear_ros.integrator', 'screwgear_ros.model']
+    assert before == ['screwgear_ros.friction', 'screwgear_ros.integrator', 'screwgear_ros.model']
     assert unloaded == ['screwgear_ros.dop853', 'screwgear_ros.normalized',
                         'screwgear_ros.floquet']
     assert every == sorted(f'screwgear_ros.{m}'
-                           for m in ('model', 'integrator', 'normalized', 'dop853', 'floquet'))
+                           for m in ('friction', 'model', 'integrator', 'normalized', 'dop853',
+                                     'floquet'))
