@@ -41,7 +41,7 @@ import numpy as np
 import scipy
 
 from .friction import FrictionPiece
-from .jit import allocating_kernel, kernel
+from .jit import allocating_kernel, inline_kernel, kernel
 from .model import BY_LAW, N_MECHANICAL, N_STATE, TAU, Pieces, pieces, state_rate
 
 #: SciPy's private module of the tableau, and the names taken from it.
@@ -207,6 +207,17 @@ def _event(t, y, h, k, tableau, y_stage, y_new, model, drive, held, after):
     return hi, after
 
 
+@inline_kernel
+def _store(out, tau_out, done, tau, y):
+    """Every output time not after ``tau`` (elapsed from the start) still to fill gets the
+    state ``y``; returns how many are filled."""
+    while done < tau_out.shape[0] and tau_out[done] <= tau:
+        for i in range(N):
+            out[done, i] = y[i]
+        done += 1
+    return done
+
+
 @allocating_kernel
 def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps):
     """Integrate y' = rhs(t, y) of the model (a :class:`~screwgear_ros.model.PackedModel`)
@@ -242,10 +253,7 @@ def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps
     t = t0
     done = 0
     n_out = tau_out.shape[0]
-    while done < n_out and tau_out[done] <= tau:    # outputs at the start
-        for i in range(N):
-            out[done, i] = y[i]
-        done += 1
+    done = _store(out, tau_out, done, tau, y)     # outputs at the start
     if done == n_out:
         return OK, t, 0.0, 0, 0, done
     tau_end = tau_out[n_out - 1]
@@ -322,10 +330,7 @@ def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps
                 _f(t, y, k, 0, model, drive, held)
                 accepted += 1
                 last_rejected = False
-                while done < n_out and tau_out[done] <= tau:
-                    for i in range(N):
-                        out[done, i] = y[i]
-                    done += 1
+                done = _store(out, tau_out, done, tau, y)
                 continue
             if err == 0.0:
                 factor = MAX_FACTOR
@@ -343,10 +348,7 @@ def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps
                 k[0, i] = k[n_stages, i]
             accepted += 1
             last_rejected = False
-            while done < n_out and tau_out[done] <= tau:
-                for i in range(N):
-                    out[done, i] = y[i]
-                done += 1
+            done = _store(out, tau_out, done, tau, y)
         else:
             if math.isfinite(err):
                 factor = max(MIN_FACTOR, SAFETY * err ** ERROR_EXPONENT)
