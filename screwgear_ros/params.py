@@ -278,6 +278,41 @@ class TableParams:
         return {p.name: plain(getattr(self, p.name)) for p in declared(TableParams)}
 
 
+# One declaration per sensor quantity; each joint's fields below are made by these.
+def _encoder_counts(joint: str, k: str) -> Any:
+    return parameter(
+        0, f'N{k}', 'counts/rev', f'encoder counts per revolution of {joint}: joint_states '
+        'reports its angle in whole counts and its speed as their backward difference over '
+        'the tick; 0 = ideal (the exact angle and speed)', low=1, high=MAX_COUNTS, zero=True,
+        read_only=True, why='a 30-bit encoder, finer than any table encoder sold')
+
+
+def _position_noise(joint: str, k: str) -> Any:
+    return parameter(
+        0.0, f'σ_θ{k}', 'rad', f'white noise (standard deviation) on the angle of {joint} '
+        'before it is counted', low=0.0, high=1.0, read_only=True)
+
+
+def _velocity_noise(joint: str, k: str) -> Any:
+    return parameter(
+        0.0, f'σ_ω{k}', 'rad/s', f'white noise (standard deviation) on the speed of {joint}',
+        low=0.0, high=1e3, read_only=True)
+
+
+def _measurement_delay(joint: str, k: str) -> Any:
+    return parameter(
+        0, f'k{k}', 'ticks', f'joint_states reports the angle and speed of {joint} this many '
+        'publish ticks late', low=0, high=MAX_DELAY, read_only=True,
+        why='the delay line is kept per joint')
+
+
+def _velocity_filter_cutoff(joint: str, k: str) -> Any:
+    return parameter(
+        0.0, f'f_c{k}', 'Hz', 'cutoff of the first-order low-pass on the measured speed of '
+        f'{joint} (α = 1 − exp(−2π·f_c·Δt) per sample); 0 = off', low=1e-3, high=1e6,
+        zero=True, read_only=True)
+
+
 @dataclass(frozen=True)
 class SimSettings:
     """How the node runs the model: step, pacing, outputs, recording."""
@@ -311,63 +346,21 @@ class SimSettings:
                                              'fixed for a run: a recording and the tools that '
                                              'read it know its joints by one set of names',
                                              read_only=True)
-    encoder_counts_pinion_1: int = parameter(
-        0, 'N1', 'counts/rev', 'encoder counts per revolution of pinion 1: joint_states '
-        'reports its angle in whole counts and its speed as their backward difference over '
-        'the tick; 0 = ideal (the exact angle and speed)', low=1, high=MAX_COUNTS, zero=True,
-        read_only=True, why='a 30-bit encoder, finer than any table encoder sold')
-    position_noise_pinion_1: float = parameter(
-        0.0, 'σ_θ1', 'rad', 'white noise (standard deviation) on the angle of pinion 1 '
-        'before it is counted', low=0.0, high=1.0, read_only=True)
-    velocity_noise_pinion_1: float = parameter(
-        0.0, 'σ_ω1', 'rad/s', 'white noise (standard deviation) on the speed of pinion 1',
-        low=0.0, high=1e3, read_only=True)
-    measurement_delay_pinion_1: int = parameter(
-        0, 'k1', 'ticks', 'joint_states reports the angle and speed of pinion 1 this many '
-        'publish ticks late', low=0, high=MAX_DELAY, read_only=True,
-        why='the delay line is kept per joint')
-    velocity_filter_cutoff_pinion_1: float = parameter(
-        0.0, 'f_c1', 'Hz', 'cutoff of the first-order low-pass on the measured speed of '
-        'pinion 1 (α = 1 − exp(−2π·f_c·Δt) per sample); 0 = off', low=1e-3, high=1e6,
-        zero=True, read_only=True)
-    encoder_counts_table: int = parameter(
-        0, 'N2', 'counts/rev', 'encoder counts per revolution of the table: joint_states '
-        'reports its angle in whole counts and its speed as their backward difference over '
-        'the tick; 0 = ideal (the exact angle and speed)', low=1, high=MAX_COUNTS, zero=True,
-        read_only=True, why='a 30-bit encoder, finer than any table encoder sold')
-    position_noise_table: float = parameter(
-        0.0, 'σ_θ2', 'rad', 'white noise (standard deviation) on the angle of the table '
-        'before it is counted', low=0.0, high=1.0, read_only=True)
-    velocity_noise_table: float = parameter(
-        0.0, 'σ_ω2', 'rad/s', 'white noise (standard deviation) on the speed of the table',
-        low=0.0, high=1e3, read_only=True)
-    measurement_delay_table: int = parameter(
-        0, 'k2', 'ticks', 'joint_states reports the angle and speed of the table this many '
-        'publish ticks late', low=0, high=MAX_DELAY, read_only=True,
-        why='the delay line is kept per joint')
-    velocity_filter_cutoff_table: float = parameter(
-        0.0, 'f_c2', 'Hz', 'cutoff of the first-order low-pass on the measured speed of '
-        'the table (α = 1 − exp(−2π·f_c·Δt) per sample); 0 = off', low=1e-3, high=1e6,
-        zero=True, read_only=True)
-    encoder_counts_pinion_3: int = parameter(
-        0, 'N3', 'counts/rev', 'encoder counts per revolution of pinion 3: joint_states '
-        'reports its angle in whole counts and its speed as their backward difference over '
-        'the tick; 0 = ideal (the exact angle and speed)', low=1, high=MAX_COUNTS, zero=True,
-        read_only=True, why='a 30-bit encoder, finer than any table encoder sold')
-    position_noise_pinion_3: float = parameter(
-        0.0, 'σ_θ3', 'rad', 'white noise (standard deviation) on the angle of pinion 3 '
-        'before it is counted', low=0.0, high=1.0, read_only=True)
-    velocity_noise_pinion_3: float = parameter(
-        0.0, 'σ_ω3', 'rad/s', 'white noise (standard deviation) on the speed of pinion 3',
-        low=0.0, high=1e3, read_only=True)
-    measurement_delay_pinion_3: int = parameter(
-        0, 'k3', 'ticks', 'joint_states reports the angle and speed of pinion 3 this many '
-        'publish ticks late', low=0, high=MAX_DELAY, read_only=True,
-        why='the delay line is kept per joint')
-    velocity_filter_cutoff_pinion_3: float = parameter(
-        0.0, 'f_c3', 'Hz', 'cutoff of the first-order low-pass on the measured speed of '
-        'pinion 3 (α = 1 − exp(−2π·f_c·Δt) per sample); 0 = off', low=1e-3, high=1e6,
-        zero=True, read_only=True)
+    encoder_counts_pinion_1: int = _encoder_counts('pinion 1', '1')
+    position_noise_pinion_1: float = _position_noise('pinion 1', '1')
+    velocity_noise_pinion_1: float = _velocity_noise('pinion 1', '1')
+    measurement_delay_pinion_1: int = _measurement_delay('pinion 1', '1')
+    velocity_filter_cutoff_pinion_1: float = _velocity_filter_cutoff('pinion 1', '1')
+    encoder_counts_table: int = _encoder_counts('the table', '2')
+    position_noise_table: float = _position_noise('the table', '2')
+    velocity_noise_table: float = _velocity_noise('the table', '2')
+    measurement_delay_table: int = _measurement_delay('the table', '2')
+    velocity_filter_cutoff_table: float = _velocity_filter_cutoff('the table', '2')
+    encoder_counts_pinion_3: int = _encoder_counts('pinion 3', '3')
+    position_noise_pinion_3: float = _position_noise('pinion 3', '3')
+    velocity_noise_pinion_3: float = _velocity_noise('pinion 3', '3')
+    measurement_delay_pinion_3: int = _measurement_delay('pinion 3', '3')
+    velocity_filter_cutoff_pinion_3: float = _velocity_filter_cutoff('pinion 3', '3')
     sensor_seed: int = parameter(
         0, '', '', 'seed of the sensor noise: the noise of a sample is a function of the '
         'seed, the joint and the sample\'s integration step only (screwgear_ros/sensors.py), '
