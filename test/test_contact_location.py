@@ -16,15 +16,18 @@ from __future__ import annotations
 
 import functools
 
+import numba
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
 from bag_runs import reversal_run
 from screwgear_ros import run_parameters
+from screwgear_ros.friction import FrictionPiece
 from screwgear_ros.model import (B, C, R1, R3, TS, WNL, Z1, Z3, ContactBranch, Drive,
-                                 DrivePiece, Pieces, active_speed, contact_branches, drive_piece,
-                                 equilibrium_state, mesh_motion, motion, pack, rhs_vector)
+                                 DrivePiece, PackedModel, Pieces, active_speed, contact_branches,
+                                 drive_piece, equilibrium_state, mesh_motion, motion, pack,
+                                 rhs_vector)
 from screwgear_ros.params import SimSettings, TableParams
 from screwgear_ros.session import Session
 
@@ -63,33 +66,88 @@ def _session_run(p: TableParams, dt: float, locate: bool) -> tuple[np.ndarray, n
 
 
 # ------------------------------------------------------------------ the reference
+#
+# SciPy calls the right-hand side at every stage of every step and the switching function
+# at every step, so both are compiled here and take plain numbers and arrays: called from
+# Python with the model's named tuples, numba would type every field of them at each call,
+# which costs far more than the equations. Not cached: a cached copy would keep the model
+# kernels it was linked with after the model changed.
 
-def _inside(branch: ContactBranch, delta: float, rate: float, k: float, c: float,
-            b: float) -> float:
+_BRANCHES, _DRIVE_PIECES = tuple(ContactBranch), tuple(DrivePiece)
+
+
+@numba.njit(cache=False)
+def _member(members: tuple, value: int):
+    """The member of an enum (given as the tuple of its members) with this value, the last
+    (FROM_STATE) for none: compiled code cannot call the enum class."""
+    for member in members:
+        if member == value:
+            return member
+    return members[-1]
+
+
+@numba.njit(cache=False)
+def _held(branch_1: int, branch_3: int, drive: int) -> Pieces:
+    """The pieces the reference holds, from their values: the contact branches of mesh 1
+    and mesh 3 and the drive piece; each bearing's friction picked from the state."""
+    return Pieces(_member(_BRANCHES, branch_1), _member(_BRANCHES, branch_3),
+                  _member(_DRIVE_PIECES, drive), FrictionPiece.FROM_STATE,
+                  FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE)
+
+
+@numba.njit(cache=False)
+def _held_rate(t: float, y: np.ndarray, p: np.ndarray, ste_amp: np.ndarray,
+               ste_phase: np.ndarray, direction: float, branch_1: int, branch_3: int,
+               drive: int) -> tuple:
+    """dy/dt of the mechanical state y, the law held on the pieces given by value
+    (:func:`_held`): the model's :func:`motion`, TORQUE in ``direction`` and no load."""
+    a = motion(t, (y[0], y[1], y[2], y[3], y[4], y[5]), PackedModel(p, ste_amp, ste_phase),
+               Drive(TORQUE, direction, 0.0), _held(branch_1, branch_3, drive))
+    return y[3], y[4], y[5], a[0], a[1], a[2]
+
+
+@numba.njit(cache=False)
+def _inside(branch: int, delta: float, rate: float, k: float, c: float, b: float) -> float:
     """A switching function, N: > 0 while a mesh stays on ``branch`` of the contact law
     of model.md §2, crossing 0 where it leaves (gap edges |δ| = b as K·(|δ| − b); a flank
     loses contact where K·(δ ∓ b) + c·δ̇ reaches 0)."""
     spring_fwd, spring_rev = k * (delta - b), k * (delta + b)
-    if branch is ContactBranch.GAP:
+    if branch == ContactBranch.GAP:
         return min(-spring_fwd, spring_rev)
-    if branch is ContactBranch.FORWARD:
+    if branch == ContactBranch.FORWARD:
         return min(spring_fwd, spring_fwd + c * rate)
-    if branch is ContactBranch.FORWARD_LIFTING:
+    if branch == ContactBranch.FORWARD_LIFTING:
         return min(spring_fwd, -(spring_fwd + c * rate))
-    if branch is ContactBranch.REVERSE:
+    if branch == ContactBranch.REVERSE:
         return min(-spring_rev, -(spring_rev + c * rate))
-    if branch is ContactBranch.REVERSE_LIFTING:
+    if branch == ContactBranch.REVERSE_LIFTING:
         return min(-spring_rev, spring_rev + c * rate)
     return np.inf
 
 
-def _drive_inside(piece: DrivePiece, speed: float, p: np.ndarray) -> float:
+@numba.njit(cache=False)
+def _drive_inside(piece: int, speed: float, p: np.ndarray) -> float:
     """The same for the drive (N·m): on the command while it is below the line
     T_s·(1 − ω/ω_nl), on the line while the command is above it."""
     if p[WNL] <= 0.0:
         return np.inf
     margin = p[TS] * (1.0 - speed / p[WNL]) - TORQUE
-    return margin if piece is DrivePiece.COMMAND else -margin
+    return margin if piece == DrivePiece.COMMAND else -margin
+
+
+@numba.njit(cache=False)
+def _switching(t: float, y: np.ndarray, p: np.ndarray, ste_amp: np.ndarray,
+               ste_phase: np.ndarray, direction: float, branch_1: int, branch_3: int,
+               drive: int) -> float:
+    """The least of the switching functions of the held pieces (arguments as
+    :func:`_held_rate`): > 0 while the state stays on all of them."""
+    m = PackedModel(p, ste_amp, ste_phase)
+    value = _drive_inside(drive, active_speed(y[3], y[5], direction, p), p)
+    for branch, th, w, r, z in ((branch_1, y[0], y[3], p[R1], p[Z1]),
+                                (branch_3, y[2], y[5], p[R3], p[Z3])):
+        _, _, delta, rate, k = mesh_motion(th, w, r, z, y[1], y[4], t, m)
+        value = min(value, _inside(branch, delta, rate, k, p[C], p[B]))
+    return value
 
 
 def reference(p: TableParams, y0: np.ndarray, rtol: float = 1e-12,
@@ -101,19 +159,8 @@ def reference(p: TableParams, y0: np.ndarray, rtol: float = 1e-12,
     y, t, changes = np.array(y0, dtype=np.float64), 0.0, 0
 
     def held(direction, pieces):
-        def f(tt, yy):
-            a = motion(tt, tuple(yy), m, Drive(TORQUE, direction, 0.0), Pieces(*pieces))[:3]
-            return np.array([yy[3], yy[4], yy[5], *a])
-        return f
-
-    def switching(tt, yy, pieces, direction):
-        values = [_drive_inside(DrivePiece(pieces[2]),
-                                active_speed(yy[3], yy[5], direction, m.p), m.p)]
-        for branch, th, w, r, z in ((pieces[0], yy[0], yy[3], m.p[R1], m.p[Z1]),
-                                    (pieces[1], yy[2], yy[5], m.p[R3], m.p[Z3])):
-            _, _, delta, rate, k = mesh_motion(th, w, r, z, yy[1], yy[4], tt, m)
-            values.append(_inside(ContactBranch(branch), delta, rate, k, m.p[C], m.p[B]))
-        return min(values)
+        """What :func:`_held_rate` and :func:`_switching` take after (t, y)."""
+        return (m.p, m.ste_amp, m.ste_phase, direction, *(int(piece) for piece in pieces))
 
     def pieces_at(tt, yy, direction):
         """Branches of the contact law and piece of the drive line at (tt, yy)."""
@@ -123,13 +170,17 @@ def reference(p: TableParams, y0: np.ndarray, rtol: float = 1e-12,
     for start, stop, direction in ((0.0, REVERSAL, 1.0), (REVERSAL, END, -1.0)):
         branches = pieces_at(t, y, direction)
         while t < stop:
+            args = held(direction, branches)
             # a restart sits on the boundary it just crossed, to rounding: start inside
-            lift = 2.0 * max(0.0, -switching(t, y, branches, direction)) + 1e-300
+            lift = 2.0 * max(0.0, -_switching(t, y, *args)) + 1e-300
 
-            def event(tt, yy, branches=branches, lift=lift, direction=direction):
-                return switching(tt, yy, branches, direction) + lift
+            def rate(tt, yy, args=args):
+                return _held_rate(tt, yy, *args)
+
+            def event(tt, yy, args=args, lift=lift):
+                return _switching(tt, yy, *args) + lift
             event.terminal, event.direction = True, -1
-            sol = solve_ivp(held(direction, branches), (t, stop), y, method='DOP853',
+            sol = solve_ivp(rate, (t, stop), y, method='DOP853',
                             rtol=rtol, atol=atol, events=event, dense_output=True,
                             max_step=MAX_STEP)
             assert sol.success, sol.message
@@ -141,7 +192,7 @@ def reference(p: TableParams, y0: np.ndarray, rtol: float = 1e-12,
                 changes += 1
                 probe, after = 1e-8, branches
                 while after == branches:
-                    ahead = solve_ivp(held(direction, branches), (t, t + probe), y,
+                    ahead = solve_ivp(rate, (t, t + probe), y,
                                       method='DOP853', rtol=rtol, atol=atol).y[:, -1]
                     after = pieces_at(t + probe, ahead, direction)
                     probe *= 4.0

@@ -13,6 +13,8 @@ import functools
 import sys
 from typing import Callable, Mapping
 
+#: The tools' exit code for work done (and, where a tool gives a verdict, a good one).
+EXIT_OK = 0
 #: 128 + SIGINT: what a shell reports for a command that Ctrl-C stopped.
 EXIT_INTERRUPTED = 130
 #: The tools' documented exit code for work they could not do.
@@ -95,4 +97,5 @@ class Failures:
         return True
 
 
-__all__ = ['EXIT_ERROR', 'EXIT_INTERRUPTED', 'Errors', 'Failures', 'Message', 'interruptible']
+__all__ = ['EXIT_ERROR', 'EXIT_INTERRUPTED', 'EXIT_OK', 'Errors', 'Failures', 'Message',
+           'interruptible']

@@ -28,10 +28,11 @@ from tqdm import tqdm
 from ..reference import ReferenceFailure
 from ..runs.bagread import read_run
 from ..runs.check import check_run, format_report
-from . import interruptible
+from . import EXIT_ERROR, EXIT_OK, interruptible
 from .bag_tool import bag_failures
 
-EXIT_OK, EXIT_FAIL, EXIT_UNUSABLE = 0, 1, 2
+#: Some signal outside its tolerance.
+EXIT_FAIL = 1
 
 
 @interruptible('check_run', 'nothing was judged; the bag is untouched')
@@ -80,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
               '(its difference between two tolerances) reaches the tolerance of '
               f'{", ".join(s.name for s in report.undecided)}, so neither PASS nor FAIL '
               'holds', file=sys.stderr)
-        return EXIT_UNUSABLE
+        return EXIT_ERROR
     return EXIT_OK if report.ok else EXIT_FAIL
 
 

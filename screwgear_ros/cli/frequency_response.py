@@ -32,9 +32,10 @@ from ..design.linearize import OUTPUTS, OperatingPointError
 from ..params import ParameterError
 from ..simulation import ParameterFileError, file_values, resolve
 from .linearize import format_modes
-from . import Failures, interruptible
+from . import EXIT_OK, Failures, interruptible
 
-EXIT_OK, EXIT_FAULT, EXIT_ERROR = 0, 1, 2
+#: The model diverged during a measurement.
+EXIT_FAULT = 1
 
 
 @interruptible('frequency_response', 'no CSV or figure was written')

@@ -23,9 +23,7 @@ from pathlib import Path
 from ..design.linearize import LinearModel, OperatingPointError, linearize
 from ..params import ParameterError
 from ..simulation import ParameterFileError, file_values, resolve
-from . import Failures, interruptible
-
-EXIT_OK, EXIT_ERROR = 0, 2
+from . import EXIT_OK, Failures, interruptible
 
 
 def load_params(path: str | None):

@@ -14,10 +14,8 @@ import sys
 
 from ..runs.bagread import read_run
 from ..runs.plot import DEFAULT_NAME, FigureFileError, default_output, output_path, run_figure, save
-from . import interruptible
+from . import EXIT_OK, interruptible
 from .bag_tool import bag_failures
-
-EXIT_OK, EXIT_UNUSABLE = 0, 2
 
 
 def _span(text: str) -> tuple[float, float]:

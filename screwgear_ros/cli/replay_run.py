@@ -72,8 +72,10 @@ from ..runs.compare import compare_runs, exact_comparison, format_comparison, fo
 from ..runs.replay import load_scenario, schedule_from_run
 from ..schedule import Schedule, differences
 from ..runs.replay_plan import LockstepPlan, plan_from_run, plan_from_schedule
+from . import EXIT_ERROR, EXIT_OK
 
-EXIT_OK, EXIT_DIFFERENT, EXIT_ERROR = 0, 1, 2
+#: ``--compare`` found a difference.
+EXIT_DIFFERENT = 1
 
 
 def _parser() -> argparse.ArgumentParser:

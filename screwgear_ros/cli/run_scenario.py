@@ -24,9 +24,10 @@ from pathlib import Path
 from ..commands import InputRejected
 from ..metrics import format_metrics, run_metrics
 from ..scenario import ScenarioError, load_scenario
-from . import Failures, interruptible
+from . import EXIT_OK, Failures, interruptible
 
-EXIT_OK, EXIT_FAULT, EXIT_ERROR = 0, 1, 2
+#: The model diverged (the metrics say when).
+EXIT_FAULT = 1
 
 
 @interruptible('run_scenario', 'the run was cut short; a --record bag is closed with the '

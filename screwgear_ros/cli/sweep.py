@@ -26,7 +26,10 @@ from typing import Any
 
 import yaml
 
-EXIT_OK, EXIT_INCOMPLETE, EXIT_ERROR = 0, 1, 2
+from . import EXIT_ERROR, EXIT_OK
+
+#: Stopped before every run had its row (rerun to resume).
+EXIT_INCOMPLETE = 1
 
 
 def _arguments(argv: list[str] | None) -> argparse.Namespace:
