@@ -27,7 +27,9 @@ lockstep against the floor). Timings on a shared machine are noisy: the in-proce
 (physics alone, then in-process) is measured ``--pairs`` times, alternating, and each
 pair gives a ratio; both are also timed in this thread's CPU time, which does not count
 the time other processes take the core from it (the ratio a quiet machine would show,
-less its cache effects). Compare the ratios of one run, run twice.
+less its cache effects), and their difference is what the Python around the physics (the
+controller, the tick's bookkeeping, the samples kept) costs a tick. Compare the ratios of
+one run, run twice.
 """
 
 from __future__ import annotations
@@ -259,6 +261,7 @@ def main() -> int:
     in_process(200)
     seen: dict[str, list[float]] = {'physics': [], 'in_process': [], 'ratio': [],
                                     'physics_cpu': [], 'in_process_cpu': [], 'ratio_cpu': [],
+                                    'python_cpu': [],
                                     'lockstep': [], 'ping_pong': [], 'ping_pong_single': [],
                                     'flat_out': []}
     for k in range(max(args.pairs, args.repeat)):
@@ -270,6 +273,7 @@ def main() -> int:
             seen['physics_cpu'].append(a_cpu)
             seen['in_process_cpu'].append(b_cpu)
             seen['ratio_cpu'].append(b_cpu / a_cpu)
+            seen['python_cpu'].append(1e6 * (1.0 / b_cpu - 1.0 / a_cpu))
         if k < args.repeat and not args.no_dds:
             seen['lockstep'].append(lockstep(args.window))
             seen['ping_pong'].append(ping_pong(args.window))
@@ -285,6 +289,7 @@ def main() -> int:
     print(f'in-process, thread CPU time               ticks/s '
           f'{spread(seen["in_process_cpu"])}')
     print(f'  ratio to the physics alone, CPU time            {spread(seen["ratio_cpu"], 2)}')
+    print(f'  Python around the physics, CPU µs a tick        {spread(seen["python_cpu"], 1)}')
     if not args.no_dds:
         lock, floor = statistics.median(seen['lockstep']), statistics.median(seen['ping_pong'])
         inproc = statistics.median(seen['in_process'])

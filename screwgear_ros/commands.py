@@ -99,12 +99,12 @@ def apply_direction(current: DriveInput, value: int) -> DriveInput:
     return replace(current, direction=int(value))
 
 
-def _signed_drive(topic: str, current: DriveInput, value: Any, max_torque: float,
-                  shown: Any, deadband: float) -> DriveInput:
-    """A signed drive torque: the sign sets the direction, |value| the torque. Within
-    ``deadband`` (N·m, effort_deadband) it is zero torque and keeps the direction in
-    force: a controller at rest whose effort flips sign by rounding noise commands no
-    reversal."""
+def _signed(topic: str, value: Any, max_torque: float, shown: Any,
+            deadband: float) -> tuple[float, int]:
+    """A signed drive torque as (torque, direction): the sign sets the direction, |value|
+    the torque. Within ``deadband`` (N·m, effort_deadband) it is zero torque and
+    direction 0, which keeps the direction in force: a controller at rest whose effort
+    flips sign by rounding noise commands no reversal."""
     effort = value
     # A float within the limit (so finite) is valid as it is: the common case, checked in
     # one comparison; anything else gets the full checks and their messages.
@@ -117,10 +117,24 @@ def _signed_drive(topic: str, current: DriveInput, value: Any, max_torque: float
             raise InputRejected(topic, shown, f'|effort| must be <= {max_torque:g} N·m '
                                 '(max_torque)')
     magnitude = abs(effort)
-    # DriveInput.of: a closed loop folds one of these into the input every tick.
     if magnitude <= deadband:
-        return DriveInput.of(0.0, current.direction, current.load)
-    return DriveInput.of(magnitude, 1 if effort > 0.0 else -1, current.load)
+        return 0.0, 0
+    return magnitude, 1 if effort > 0.0 else -1
+
+
+def _signed_drive(topic: str, current: DriveInput, value: Any, max_torque: float,
+                  shown: Any, deadband: float) -> DriveInput:
+    """The input in force with a signed drive torque (:func:`_signed`) folded in."""
+    torque, direction = _signed(topic, value, max_torque, shown, deadband)
+    # DriveInput.of: a closed loop folds one of these into the input every tick.
+    return DriveInput.of(torque, direction or current.direction, current.load)
+
+
+def effort_drive(value: Any, max_torque: float, deadband: float = 0.0) -> tuple[float, int]:
+    """cmd_effort's one value as (drive torque, direction; 0: the direction in force
+    stays), validated as :func:`apply_effort` validates it (the same InputRejected): what
+    a closed loop's answer folds into the input, without making the input itself."""
+    return _signed('cmd_effort', value, max_torque, [value], deadband)
 
 
 def apply_effort(current: DriveInput, values: Sequence[float], max_torque: float,
@@ -253,5 +267,5 @@ def carries_no_command(topic: str, value: Any) -> bool:
 
 __all__ = ['apply_command', 'limit_input', 'INPUT_TOPICS', 'COMMANDED_JOINT', 'COMMAND_INTERFACE',
            'JointCommand', 'InputRejected', 'apply_torque', 'apply_direction', 'apply_effort',
-           'apply_joint_command', 'apply_load', 'load_limit', 'command_value',
+           'apply_joint_command', 'apply_load', 'effort_drive', 'load_limit', 'command_value',
            'carries_no_command']

@@ -96,8 +96,9 @@ class Plant:
         self.contact_location = bool(contact_location)
         self.contact_changes = 0        # located inside steps so far (contact_location)
         self.step = 0
-        self._input = DriveInput()
-        self._path = active_path(params.mode, self._input.direction)   # of both
+        self._input: DriveInput | None = DriveInput()     # None: made from _drive when read
+        self._direction = self._input.direction
+        self._path = active_path(params.mode, self._direction)   # of both
         self._drive = self._input.kernel
         self.state = (equilibrium_state(params) if initial_state is None
                       else np.array(initial_state, dtype=np.float64))
@@ -142,8 +143,22 @@ class Plant:
 
     @property
     def input(self) -> DriveInput:
-        """The input in force (:meth:`set_input` changes it)."""
-        return self._input
+        """The input in force (:meth:`set_input`, :meth:`set_drive` change it)."""
+        drive = self._input
+        if drive is None:
+            kernel = self._drive
+            self._input = drive = DriveInput.of(kernel.torque, self._direction, kernel.load)
+        return drive
+
+    @property
+    def direction(self) -> int:
+        """The commanded direction in force, +1 or −1 (``input.direction``)."""
+        return self._direction
+
+    @property
+    def active_path(self) -> int:
+        """The path the input in force drives (1 or 3): what :class:`Outputs` say."""
+        return self._path
 
     @property
     def time(self) -> float:
@@ -162,16 +177,29 @@ class Plant:
         self._params = params
         self._model = pack(params)
         self._advance = None
-        self._path = active_path(params.mode, self._input.direction)
+        self._path = active_path(params.mode, self._direction)
 
     def set_input(self, drive: DriveInput) -> None:
         """Apply a validated input from the next step on."""
         # The path depends on the mode (fixed between set_params) and the direction
         # only: most commands (one a tick, in a closed loop) keep the direction.
-        if drive.direction != self._input.direction:
+        if drive.direction != self._direction:
             self._path = active_path(self._params.mode, drive.direction)
+            self._direction = drive.direction
         self._input = drive
         self._drive = drive.kernel      # made once per input rather than at each call
+
+    def set_drive(self, torque: float, direction: int) -> None:
+        """``set_input(DriveInput(torque, direction, input.load))`` for a validated
+        drive torque (a float) and direction (0: the one in force), as a closed loop's
+        answer sets it every tick: the :class:`DriveInput` is made only when
+        :attr:`input` is read."""
+        if direction and direction != self._direction:
+            self._path = active_path(self._params.mode, direction)
+            self._direction = direction
+        kernel = self._drive
+        self._drive = _DRIVE(Drive, (torque, float(self._direction), kernel.load))
+        self._input = None
 
     def reset(self) -> None:
         """Back to the preload equilibrium at rest, keeping the simulation time; the
@@ -253,6 +281,10 @@ class Plant:
         return Outputs(step * self.dt, sim_time_ns(step, self.dt), step, (th1, th2, th3),
                        (w1, w2, w3), (t1, table, t3), (d1, d3), (dd1, dd3), (f1, f3),
                        self._path)
+
+
+#: Drive(...) without the named tuple's Python-level ``__new__`` (the same tuple).
+_DRIVE = tuple.__new__
 
 
 def compiled_entry(dispatcher: Any, args: tuple[Any, ...]) -> Callable[..., Any]:

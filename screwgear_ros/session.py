@@ -17,6 +17,10 @@ A tick is what the node does between two publications:
    sensor is ideal). A reset restarts the sensors' chain; a parameter change hands them
    its settings.
 
+A closed loop's tick, whose one event is its controller's answer, is
+:meth:`Session.tick_effort`: the same tick, without the objects a tick makes for
+callers that log or record it.
+
 Commands are validated when they take effect, against the parameters in force at
 that step (:func:`screwgear_ros.commands.apply_command`); a refused command changes
 nothing and is counted. A parameter change that lowers a limit below the input in
@@ -39,10 +43,11 @@ from __future__ import annotations
 import math
 import threading
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
-from .commands import INPUT_TOPICS, InputRejected, apply_command, limit_input
+from .commands import INPUT_TOPICS, InputRejected, apply_command, effort_drive, limit_input
 from .events import Command, Event, ParameterChange, Reset, Setpoint
 from .interface import INFO_TOPICS
 from .params import SimSettings, TableParams
@@ -120,11 +125,9 @@ class Session:
         self._lock = threading.Lock()          # guards _pending only
         self._pending: list[Event] = []
         self._observed: np.ndarray | None = None   # tick_quietly's rows, made on first use
-        self.outputs: Outputs = self.plant.outputs()
+        self._outputs: Outputs | None = self.plant.outputs()
         self.sensors = SensorChain(settings.sensors, settings.dt)
-        #: What joint_states publishes of :attr:`outputs` (the same object when every
-        #: sensor is ideal). :meth:`tick_quietly` leaves it and the sensors' chain alone.
-        self.measured: Outputs = self.sensors.measure(self.outputs)
+        self._measure()
 
     def _use(self, settings: SimSettings) -> None:
         """Settings in force from now on, and what ``tick`` derives from them (once per
@@ -138,6 +141,33 @@ class Session:
     def step(self) -> int:
         """Integration steps since the start of simulation time."""
         return self.plant.step
+
+    @property
+    def outputs(self) -> Outputs:
+        """The outputs of the last tick (before the first: of the start)."""
+        outputs = self._outputs
+        if outputs is None:      # a tick_effort left them in the plant: made when read
+            self._outputs = outputs = self.plant.last_outputs()
+        return outputs
+
+    @property
+    def measured(self) -> Outputs:
+        """What joint_states publishes of :attr:`outputs` (the same object when every
+        sensor is ideal). :meth:`tick_quietly` leaves the sensors' chain alone (sensors
+        that are not ideal: this stays what they measured last)."""
+        measured = self._measured
+        return self.outputs if measured is None else measured
+
+    def _measure(self) -> None:
+        """The sensors' sample of the tick just done (:attr:`measured`; None: ideal
+        sensors, the outputs themselves, left to be made when read)."""
+        sensors = self.sensors
+        if sensors.ideal:
+            self._measured = None
+        else:
+            outputs = self.outputs
+            measured = sensors.measure(outputs)
+            self._measured = None if measured is outputs else measured
 
     def submit(self, event: Event) -> None:
         """Queue ``event``; it takes effect at the first step of the next tick. Any thread."""
@@ -178,12 +208,38 @@ class Session:
             if notice is not None:
                 notices = (*notices, notice)
         fault = plant.fault
-        self.outputs = outputs = plant.advance_outputs(self._steps)
-        self.measured = measured = self.sensors.measure(outputs)
+        self._outputs = outputs = plant.advance_outputs(self._steps)
+        self._measure()
         return Tick(start, applied, rejected, notices, plant.input, plant.params, outputs,
                     previous, previous_direction, plant.fault,
-                    fault is None and plant.fault is not None,
-                    None if measured is outputs else measured)
+                    fault is None and plant.fault is not None, self._measured)
+
+    def tick_effort(self, effort: Any) -> Tick | None:
+        """``tick(Command.of('cmd_effort', [effort]))``: a closed loop's tick, answered
+        by its controller's signed drive torque ``effort``.
+
+        When that tick only takes the answer (nothing else is queued, the answer is
+        valid, the plant is running) it does to the session, its plant and sensors
+        exactly what :meth:`tick` does, without making the objects tick makes for it
+        (its Tick, the stamped command; :attr:`outputs` is made when read), and returns
+        None: :attr:`outputs`, :attr:`measured`, :attr:`Plant.observed` and
+        :attr:`Plant.fault` (the plant may have faulted in it) say what it made.
+        Otherwise it is :meth:`tick` itself, and returns its Tick."""
+        plant = self.plant
+        if self._pending or plant.fault is not None:
+            return self.tick(Command.of('cmd_effort', [effort]))
+        params = plant.params
+        try:
+            torque, direction = effort_drive(effort, params.max_torque, params.effort_deadband)
+        except InputRejected:                # tick refuses it, counts it and says why
+            return self.tick(Command.of('cmd_effort', [effort]))
+        plant.set_drive(torque, direction)
+        self._last_command, self.timed_out = plant.step, False
+        plant.advance(self._steps)
+        self._outputs = None
+        if not self.sensors.ideal:
+            self._measure()
+        return None
 
     def _apply(self, events: list[Event], start: int) -> tuple[
             tuple[Event, ...], tuple[InputRejected, ...], tuple[str, ...], bool]:
@@ -294,8 +350,8 @@ class Session:
         if n <= 0:
             return 0
         if plant.fault is not None:          # standing still: every tick the same row
-            self.outputs = plant.advance_outputs(self._steps)
-            values[:n, :ROW] = row_of(self.outputs)
+            self._outputs = plant.advance_outputs(self._steps)
+            values[:n, :ROW] = row_of(self._outputs)
             return n
         if self._observed is None:
             self._observed = np.empty((QUIET_TICKS_PER_CALL, OBSERVED))
@@ -312,7 +368,7 @@ class Session:
             if plant.fault is not None:      # the last tick faulted: its time stood still
                 rows[k - 1, ROW_STEP] = plant.step
             done += k
-        self.outputs = plant.last_outputs()
+        self._outputs = plant.last_outputs()
         return done
 
 

@@ -386,6 +386,10 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
     the joint_states θ and ω of each sample, when the sensors are not ideal."""
     plant = session.plant
     tick_once = session.tick
+    # A recorded tick is the full Tick the recording writes; else the session's fast
+    # path for a tick that takes one answer (None: it did, and only that).
+    answer = session.tick_effort if recording is None else \
+        (lambda effort: tick_once(Command.of('cmd_effort', [effort])))
     record = recording.tick if recording is not None else None
     steps, paths, directions = columns
     vector = plant.observed
@@ -399,6 +403,7 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
     due = events[0].step if events else None
     pending = 0
     notes, dt = SetpointNotes(), session.settings.dt
+    plant_dt, ideal = plant.dt, session.sensors.ideal
     for i in range(1, ticks + 1):
         if due is not None and due <= observation.step:
             pending, due = _submit_due(session, events, pending, recording)
@@ -412,38 +417,43 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
         if effort is not None:
             if type(effort) is not float and isinstance(effort, np.generic):
                 effort = effort.item()
-            value = [effort]
             command[i - 1] = effort
-            tick = tick_once(Command.of('cmd_effort', value))
+            tick = answer(effort)
         else:
-            value = None
             tick = tick_once()
-        if record is not None:
-            record(tick)
-        if tick.rejected:
-            _refused(tick, value, rejected)
-        o = tick.outputs
-        m = tick.measured
-        if m is None:
-            m = o
+        if tick is not None:
+            if record is not None:
+                record(tick)
+            if tick.rejected:
+                _refused(tick, effort, rejected)
+            ideal = session.sensors.ideal       # a parameter change may have changed them
+        # The observation from the observed vector itself (its columns above), rather
+        # than through the session's Outputs, which the fast tick does not make.
+        th1, th2, th3, w1, w2, w3, e1, e2, e3, d1, r1, f1, d3, r3, f3 = vector.tolist()
+        step, path = plant.step, plant.active_path
+        position, velocity = (th1, th2, th3), (w1, w2, w3)
+        if ideal:
+            shown_position, shown_velocity = position, velocity
+        else:
+            m = session.measured
+            shown_position, shown_velocity = m.position, m.velocity
         if measured is not None:
-            measured[i] = (*m.position, *m.velocity)
-        observation = Observation(o.time, o.step, m.position, m.velocity, o.effort,
-                                  o.delta[0] if o.active_path == 1 else o.delta[1],
-                                  o.delta, o.delta_rate, o.mesh_force, o.active_path,
-                                  tick.fault, o.position, o.velocity)
+            measured[i] = (*shown_position, *shown_velocity)
+        observation = Observation(step * plant_dt, step, shown_position, shown_velocity,
+                                  (e1, e2, e3), d1 if path == 1 else d3, (d1, d3),
+                                  (r1, r3), (f1, f3), path, plant.fault, position, velocity)
         observed[i] = vector
-        steps.append(o.step)
-        paths.append(o.active_path)
-        directions.append(tick.drive.direction)
+        steps.append(step)
+        paths.append(path)
+        directions.append(plant.direction)
 
 
-def _refused(tick: Tick, value: list[Any] | None, rejected: list[tuple[int, str]]) -> None:
-    """Refusals of a tick: the controller's answer raises (the session validated it as
-    the node does; the tick ran with the last valid command, as in the node), a
-    scheduled command's is kept in ``rejected``."""
+def _refused(tick: Tick, effort: Any, rejected: list[tuple[int, str]]) -> None:
+    """Refusals of a tick: the controller's answer ``effort`` (None: it gave none)
+    raises (the session validated it as the node does; the tick ran with the last valid
+    command, as in the node), a scheduled command's is kept in ``rejected``."""
     for error in tick.rejected:
-        if value is not None and error.topic == 'cmd_effort' and error.value == value:
+        if effort is not None and error.topic == 'cmd_effort' and error.value == [effort]:
             raise error
         rejected.append((tick.start, str(error)))
 

@@ -190,6 +190,28 @@ def test_the_fast_drive_input_is_what_the_dataclass_makes():
             fast.torque = 1.0          # type: ignore[misc]
 
 
+@pytest.mark.parametrize('mode', ['anti_backlash', 'conventional'])
+def test_set_drive_is_set_input_of_the_same_input(mode):
+    """set_drive(torque, direction) (a closed loop's answer, every tick) leaves the plant
+    as set_input(DriveInput(torque, direction, load in force)) does: the input read back,
+    its direction and path, and the bits of the steps after; direction 0 keeps the one
+    in force."""
+    params = TableParams(mode=mode, table_damping=8867.0)
+    fast, made = Plant(params, DT), Plant(params, DT)
+    for plant in (fast, made):
+        plant.set_input(DriveInput(0.0, 1, 25.0))
+    for torque, direction in [(150.0, 1), (80.5, -1), (0.0, 0), (300.0, 0), (12.0, 1)]:
+        kept = made.input.direction if direction == 0 else direction
+        fast.set_drive(torque, direction)
+        made.set_input(DriveInput(torque, kept, made.input.load))
+        assert fast.input == made.input and type(fast.input.direction) is int
+        assert (fast.direction, fast.active_path) == (kept, made.outputs().active_path)
+        fast.advance_outputs(40)
+        made.advance_outputs(40)
+        assert fast.full_state.tobytes() == made.full_state.tobytes()
+        assert fast.observed.tobytes() == made.observed.tobytes()
+
+
 def test_a_state_array_put_in_the_plant_is_the_one_integrated():
     """Assigning ``plant.state`` after the plant has run (its compiled call is then
     chosen) integrates from the assigned values (copied into a new state array), exactly

@@ -10,6 +10,7 @@ recording read back by the bag reader and replayed.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from fractions import Fraction
 
@@ -243,6 +244,94 @@ def test_a_tick_given_its_command_is_a_submit_then_a_tick():
         assert np.array_equal(queued.plant.observed, direct.plant.observed)
         assert a.outputs == b.outputs and a.previous == b.previous
     assert queued.rejected == direct.rejected and queued.rejected['cmd_effort'] > 0
+
+
+@pytest.mark.parametrize('params, settings', [
+    (P.replace(effort_deadband=5.0), replace(S, command_timeout=0.03)),
+    (P, replace(S, encoder_counts_table=4096, position_noise_pinion_1=1e-4,
+                velocity_noise_pinion_3=0.01, velocity_filter_cutoff_table=200.0,
+                measurement_delay_pinion_1=2, sensor_seed=7)),
+], ids=['deadband-timeout', 'sensors'])
+def test_a_closed_loop_tick_is_the_tick_given_its_command(params, settings):
+    """tick_effort(e), the closed loop's fast tick, leaves the session exactly as
+    tick(Command('cmd_effort', [e])) does (state bits, step, input, path, outputs, what
+    the sensors measure, refusals counted, the timeout), for a seeded loop of
+    valid answers, ones in the deadband, refused ones (too large, NaN, not a number),
+    ints and NumPy floats, silent ticks, and other events queued before the answer; it
+    returns None only for a tick that took the answer and nothing else, else the same
+    Tick."""
+    rng = np.random.default_rng(2028)
+    fast, full = Session(params, settings), Session(params, settings)
+    limit, band = params.max_torque, params.effort_deadband
+    lowered = ParameterChange(params.replace(max_torque=0.5 * limit), settings)
+    plain = timeouts = 0
+    for k in range(400):
+        pick = rng.integers(12)
+        effort = (float(rng.uniform(-1.2, 1.2) * limit) if pick < 6 else
+                  float(rng.uniform(-band, band)) if pick == 6 else
+                  int(rng.integers(-limit, limit)) if pick == 7 else
+                  np.float64(rng.uniform(-limit, limit)) if pick == 8 else
+                  [math.nan, math.inf, 'ten', True][k % 4] if pick == 9 else None)
+        others = ([Command('load_torque', float(rng.uniform(-50.0, 50.0)))] if k % 11 == 3
+                  else [Reset()] if k in (150, 330) else [lowered] if k == 200
+                  else [Command('cmd_direction', -1)] if k % 29 == 7 else [])
+        if 100 <= k < 160:                   # long enough without a command to time out
+            effort, others = None, others if k == 150 else []
+        for session in (fast, full):
+            for event in others:
+                session.submit(event)
+        start = full.step
+        if effort is None:
+            a, b = fast.tick(), full.tick()
+        else:
+            a, b = fast.tick_effort(effort), full.tick(Command('cmd_effort', [effort]))
+        if a is None:
+            plain += 1
+            assert not others and b.applied == (Command('cmd_effort', [effort], start),)
+            assert b.rejected == () and b.notices == ()
+        else:
+            assert (a.start, a.applied, a.notices, a.drive, a.fault, a.new_fault,
+                    a.outputs, a.previous, a.measured) == \
+                (b.start, b.applied, b.notices, b.drive, b.fault, b.new_fault, b.outputs,
+                 b.previous, b.measured)
+            assert [str(e) for e in a.rejected] == [str(e) for e in b.rejected]
+        assert fast.plant.full_state.tobytes() == full.plant.full_state.tobytes()
+        assert fast.plant.observed.tobytes() == full.plant.observed.tobytes()
+        assert (fast.step, fast.plant.fault, fast.timed_out, fast.rejected) == \
+            (full.step, full.plant.fault, full.timed_out, full.rejected)
+        assert fast.plant.input == full.plant.input == b.drive
+        assert (fast.plant.direction, fast.plant.active_path) == \
+            (b.drive.direction, b.outputs.active_path)
+        assert fast.outputs == full.outputs == b.outputs
+        assert fast.measured == full.measured
+        timeouts += any('command_timeout' in notice for notice in b.notices)
+    assert plain > 100 and full.rejected['cmd_effort'] > 20
+    assert timeouts == 1 if settings.command_timeout < 0.05 else timeouts == 0
+
+
+def test_a_closed_loop_tick_in_which_the_model_diverges_is_the_full_ticks():
+    """The principal parametric resonance (as above), answered with a zero effort every
+    tick: tick_effort's plant faults at the tick tick's does, with the same state put
+    back, and from then on tick_effort is tick (the plant stands still)."""
+    unstable = TableParams(mode='conventional', backlash=0.0, mesh_phase='time',
+                           mesh_stiffness_amplitude=8.0e6, mesh_damping=0.0)
+    unstable = unstable.replace(mesh_frequency=2.0 * natural_frequency(unstable))
+    fast, full = Session(unstable, S), Session(unstable, S)
+    for _ in range(20_000):
+        assert fast.tick_effort(0.0) is None
+        tick = full.tick(Command('cmd_effort', [0.0]))
+        assert fast.plant.full_state.tobytes() == full.plant.full_state.tobytes()
+        if tick.new_fault:
+            break
+    assert fast.plant.fault == full.plant.fault and 'non-finite' in fast.plant.fault
+    assert fast.step == full.step and fast.outputs == full.outputs
+    assert fast.plant.observed.tobytes() == full.plant.observed.tobytes()
+    a, b = fast.tick_effort(100.0), full.tick(Command('cmd_effort', [100.0]))
+    assert a is not None and (a.start, a.applied, a.drive, a.outputs, a.fault) == \
+        (b.start, b.applied, b.drive, b.outputs, b.fault)
+    assert fast.step == full.step == tick.start
+
+
 
 
 @pytest.mark.parametrize('dt', [50e-6, 1e-4 / 3.0])

@@ -197,6 +197,50 @@ def test_a_recorded_run_passes_check_run(tmp_path):
     assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
+@pytest.mark.parametrize('values', [
+    {'effort_deadband': 2.0, 'command_timeout': 0.02},
+    {'encoder_counts_table': 4096, 'position_noise_pinion_1': 1e-4, 'sensor_seed': 3,
+     'velocity_filter_cutoff_table': 300.0, 'measurement_delay_table': 2}],
+    ids=['deadband-timeout', 'sensors'])
+def test_a_run_gives_the_bits_it_records(values, tmp_path):
+    """A run that is not recorded ticks the session's fast closed-loop tick, a recorded
+    one the full Tick the recording writes (which the lockstep node's bits are compared
+    with): both give the same samples, with the drive reversing, silent ticks, answers
+    in the deadband, scheduled commands (one refused) and a reset. The controller sees
+    what the session's outputs and sensors say of each sample."""
+    from screwgear_ros.events import Command, Reset
+    from screwgear_ros.simulation import Observation
+    seen = []
+
+    def pd(o):
+        session = sim.session
+        out, measured = session.outputs, session.measured
+        seen.append(o == Observation(
+            out.time, out.step, measured.position, measured.velocity, out.effort,
+            out.transmission_error, out.delta, out.delta_rate, out.mesh_force,
+            out.active_path, session.plant.fault, out.position, out.velocity))
+        if 40 <= o.step // 20 < 70:
+            return None                               # silent: command_timeout may act
+        if o.step // 20 % 17 == 5:
+            return 0.5                                # within the deadband of one case
+        target = 0.01 if o.time < 0.1 else -0.01
+        wanted = 3000.0 * (target - o.position[1]) - 200.0 * o.velocity[1]
+        return max(-300.0, min(300.0, wanted))
+
+    events = [Command('load_torque', 40.0, step=1_000), Command('cmd_torque', 1e6, step=2_400),
+              Reset(step=3_000)]
+    sim = Simulation.from_values(table_damping=8867.0, **values)
+    plain = sim.run(pd, 0.2, events=events)
+    recorded = sim.run(pd, 0.2, record=tmp_path / 'bag', events=events)
+    for name in ('step', 'observed', 'path', 'direction', 'command', 'measured'):
+        a, b = getattr(plain, name), getattr(recorded, name)
+        assert (a is None and b is None) or a.tobytes() == b.tobytes(), name
+    assert plain.rejected == recorded.rejected and len(plain.rejected) == 1
+    assert {-1, 1} <= set(plain.direction.tolist()) and np.isnan(plain.command).any()
+    assert (plain.measured is None) == ('sensor_seed' not in values)
+    assert len(seen) == 2 * (len(plain) - 1) and all(seen)
+
+
 @pytest.mark.parametrize('answer', ['ten', [1.0], True, math.inf])
 def test_an_answer_that_is_no_number_ends_the_run_with_the_nodes_refusal(answer):
     """Whatever the controller returns is judged by the session as the node judges a
