@@ -556,7 +556,7 @@ def pieces(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces) -
 
 
 @kernel
-def outputs(t: float, y: tuple, model: PackedModel, drive: Drive
+def effort_and_meshes(t: float, y: tuple, model: PackedModel, drive: Drive
             ) -> tuple[float, float, float, float, float, float, float, float, float]:
     """What the node publishes about a state besides the state itself: the torques
     applied to pinion 1, the table (net, = I2·θ̈2) and pinion 3 (N·m; on the pinions the

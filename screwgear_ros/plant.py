@@ -1,7 +1,7 @@
 """The simulated table as one object: state, step counter, current input, outputs.
 
 :class:`Plant` is what the node (and in-process replays and tests) drive: set the
-input, ``advance(n)``, read :meth:`Plant.outputs`. It holds no ROS. Simulation time
+input, ``advance(n)``, read :meth:`Plant.compute_outputs`. It holds no ROS. Simulation time
 is ``step·dt`` exactly; the plant, which owns the step and dt, stamps every
 :class:`Outputs` with it once, in seconds and in the integer nanoseconds of the
 messages' stamps (:func:`~screwgear_ros.simtime.sim_time_ns`): nothing downstream
@@ -234,7 +234,7 @@ class Plant:
         """``ticks`` calls of :meth:`advance_outputs` (n steps each) in one compiled call
         (:func:`screwgear_ros.integrator.advance_ticks`, the same calls bit for bit), for
         replays: row i of ``rows`` (float64, at least ticks × OBSERVED) gets tick i's
-        observed vector (the state, then :func:`~screwgear_ros.model.outputs` of it;
+        observed vector (the state, then :func:`~screwgear_ros.model.effort_and_meshes` of it;
         :data:`OBSERVED_DELTA` has where δ1 and δ3 are). Stops after a tick that faults
         (:attr:`fault` then says why). Returns the ticks done, 0 if the plant already
         stands still."""
@@ -251,29 +251,30 @@ class Plant:
         return done
 
     def advance_outputs(self, n: int) -> Outputs:
-        """:meth:`advance` n steps, then :meth:`outputs`, in one compiled call
+        """:meth:`advance` n steps, then :meth:`compute_outputs`, in one compiled call
         (:func:`screwgear_ros.integrator.advance_observed` computes the outputs of the
         state it leaves): what a tick does."""
         if self.advance(n):
             return self.last_outputs()
-        return self.outputs()
+        return self.compute_outputs()
 
-    def outputs(self) -> Outputs:
+    def compute_outputs(self) -> Outputs:
         """Joint and mesh quantities of the current state (and input)."""
         observe(self._state, self._observed, self.time, self._model, self._drive)
         return self.last_outputs()
 
     @property
     def observed(self) -> np.ndarray:
-        """The observed vector the last advance (or :meth:`outputs`) left (OBSERVED wide:
-        the state, then its outputs), read-only; valid until the next advance. For a
-        caller that keeps every tick's outputs: one array copy instead of an object."""
+        """The observed vector the last advance (or :meth:`compute_outputs`) left
+        (OBSERVED wide: the state, then its outputs), read-only; valid until the next
+        advance. For a caller that keeps every tick's outputs: one array copy instead of
+        an object."""
         view = self._observed.view()
         view.flags.writeable = False
         return view
 
     def last_outputs(self) -> Outputs:
-        """The outputs the last advance (or :meth:`outputs`) observed, without computing
+        """The outputs the last advance (or :meth:`compute_outputs`) observed, without computing
         them again."""
         th1, th2, th3, w1, w2, w3, t1, table, t3, d1, dd1, f1, d3, dd3, f3 = \
             self._observed.tolist()

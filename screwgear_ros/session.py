@@ -125,7 +125,7 @@ class Session:
         self._lock = threading.Lock()          # guards _pending only
         self._pending: list[Event] = []
         self._observed: np.ndarray | None = None   # tick_quietly's rows, made on first use
-        self._outputs: Outputs | None = self.plant.outputs()
+        self._outputs: Outputs | None = self.plant.compute_outputs()
         self.sensors = SensorChain(settings.sensors, settings.dt)
         self._measure()
 
@@ -143,7 +143,7 @@ class Session:
         return self.plant.step
 
     @property
-    def outputs(self) -> Outputs:
+    def last_outputs(self) -> Outputs:
         """The outputs of the last tick (before the first: of the start)."""
         outputs = self._outputs
         if outputs is None:      # a tick_effort left them in the plant: made when read
@@ -152,11 +152,11 @@ class Session:
 
     @property
     def measured(self) -> Outputs:
-        """What joint_states publishes of :attr:`outputs` (the same object when every
+        """What joint_states publishes of :attr:`last_outputs` (the same object when every
         sensor is ideal). :meth:`tick_quietly` leaves the sensors' chain alone (sensors
         that are not ideal: this stays what they measured last)."""
         measured = self._measured
-        return self.outputs if measured is None else measured
+        return self.last_outputs if measured is None else measured
 
     def _measure(self) -> None:
         """The sensors' sample of the tick just done (:attr:`measured`; None: ideal
@@ -165,7 +165,7 @@ class Session:
         if sensors.ideal:
             self._measured = None
         else:
-            outputs = self.outputs
+            outputs = self.last_outputs
             measured = sensors.measure(outputs)
             self._measured = None if measured is outputs else measured
 
@@ -181,7 +181,7 @@ class Session:
         when nothing else waits in it (a closed loop's tick: its controller's answer)."""
         plant = self.plant
         start = plant.step
-        previous = self.outputs
+        previous = self.last_outputs
         previous_direction = plant.input.direction
         applied: tuple[Event, ...] = ()
         rejected: tuple[InputRejected, ...] = ()
@@ -221,8 +221,8 @@ class Session:
         When that tick only takes the answer (nothing else is queued, the answer is
         valid, the plant is running) it does to the session, its plant and sensors
         exactly what :meth:`tick` does, without making the objects tick makes for it
-        (its Tick, the stamped command; :attr:`outputs` is made when read), and returns
-        None: :attr:`outputs`, :attr:`measured`, :attr:`Plant.observed` and
+        (its Tick, the stamped command; :attr:`last_outputs` is made when read), and returns
+        None: :attr:`last_outputs`, :attr:`measured`, :attr:`Plant.observed` and
         :attr:`Plant.fault` (the plant may have faulted in it) say what it made.
         Otherwise it is :meth:`tick` itself, and returns its Tick."""
         plant = self.plant
@@ -330,7 +330,7 @@ class Session:
         ticks per compiled call (:meth:`Plant.advance_ticks`). Row i of ``values``
         (float64, at least n × ROW) gets tick i's outputs: θ(3) rad, ω(3) rad/s,
         effort(3) N·m, transmission error m, and the step they are at (exact in float64;
-        a faulted plant's time stands still); :attr:`outputs` is the last one's.
+        a faulted plant's time stands still); :attr:`last_outputs` is the last one's.
 
         The exact outputs only: the sensors (:attr:`measured`) do not follow these
         ticks (replays compare the exact state; ``check_run`` measures it afresh).
@@ -355,7 +355,7 @@ class Session:
             return n
         if self._observed is None:
             self._observed = np.empty((QUIET_TICKS_PER_CALL, OBSERVED))
-        delta = OBSERVED_DELTA[self.outputs.active_path]     # no event: the path stays
+        delta = OBSERVED_DELTA[self.last_outputs.active_path]     # no event: the path stays
         done = 0
         while done < n and plant.fault is None:
             step0 = plant.step

@@ -277,7 +277,7 @@ class Simulation:
         """Start a new run at step 0 at the preload equilibrium, at rest, with no input;
         its first observation (what the node publishes before its first tick)."""
         self._session = session = Session(self.params, self.settings)
-        return _observation(session.outputs, session.plant.fault, session.measured)
+        return _observation(session.last_outputs, session.plant.fault, session.measured)
 
     def step(self, effort: float | None = None, *, torque: float | None = None,
              direction: int | None = None, load: float | None = None) -> Observation:

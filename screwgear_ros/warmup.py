@@ -94,8 +94,8 @@ def warm() -> int:
             session.submit(Command('cmd_effort', [10.0]))
             session.tick()
             session.tick_quietly(2, np.empty((2, ROW)))     # replays, check_run
-            contact_states(session.plant.params, session.outputs)     # diagnostics, markers
-            mesh_frequency_ratio(session.plant.params, session.outputs)
+            contact_states(session.plant.params, session.last_outputs)     # diagnostics, markers
+            mesh_frequency_ratio(session.plant.params, session.last_outputs)
     from . import dop853, floquet, normalized
     normalized.response(normalized.NormalizedParams(), 1.0)
     dop853.warm()                    # check_run's reference solver

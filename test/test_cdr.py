@@ -146,7 +146,7 @@ def _reversals(params: TableParams, torque: float, steps: int = 400) -> list[Out
     """Outputs every 40 steps of ``steps`` forward at ``torque``, then as many reversed,
     then forward again: both active paths, and in conventional mode the backlash gap."""
     plant = Plant(params, 5e-5)
-    found = [plant.outputs()]
+    found = [plant.compute_outputs()]
     for direction in (1, -1, 1):
         plant.set_input(DriveInput(torque, direction, 0.0))
         found += [plant.advance_outputs(40) for _ in range(steps // 40)]
@@ -180,7 +180,7 @@ def test_the_free_bytes_are_exactly_those_no_decoder_reads():
     bag reader ignores): a byte there, flipped, still decodes in rosbags to the message
     of the template; any other byte outside the stamps and values, flipped, does not."""
     markers = MarkerEncoder(TableParams(), NAMES)
-    markers.encode(Plant(TableParams(), 5e-5).outputs(), 0)
+    markers.encode(Plant(TableParams(), 5e-5).compute_outputs(), 0)
     templates = [float64_template(), clock_template(), *markers._templates.values()] + [
         joint_state_template(names) for names in
         (NAMES, ['a'], ['mesh_1', 'mesh_3'], ['ab', 'abc', 'abcd', 'abcde'], [])]

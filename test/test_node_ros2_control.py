@@ -120,7 +120,7 @@ def test_the_marks_turn_as_the_urdf_links_do():
     urdf = yourdfpy.URDF.load(Path(__file__).parents[1] / 'urdf/screwgear_table.urdf',
                               load_meshes=False, build_scene_graph=True)
     rng = np.random.default_rng(7)
-    base = Plant(TableParams(), 5e-5).outputs()
+    base = Plant(TableParams(), 5e-5).compute_outputs()
     for _ in range(5):
         angles = tuple(float(a) for a in rng.uniform(-20.0, 20.0, 3))
         urdf.update_cfg(dict(zip(JOINTS, angles)))
@@ -139,7 +139,7 @@ def test_contact_colours_follow_the_meshes():
     from screwgear_ros.ros.markers import table_markers
     from screwgear_ros.ros.messages import stamp
     params = TableParams()
-    out = Plant(params, 5e-5).outputs()                     # preload: both on a flank
+    out = Plant(params, 5e-5).compute_outputs()                     # preload: both on a flank
 
     def colours(p, o):
         found = by_key(table_markers(p, JOINTS, o, stamp(0)).markers)

@@ -61,7 +61,7 @@ def test_contact_states_follow_the_backlash_law(backlash):
 
 
 def test_the_preload_equilibrium_holds_both_flanks():
-    assert contact_states(P, Plant(P, DT).outputs()) == ('forward flank', 'reverse flank')
+    assert contact_states(P, Plant(P, DT).compute_outputs()) == ('forward flank', 'reverse flank')
 
 
 def test_mesh_phase_per_step_is_teeth_times_pinion_speed_times_dt():
@@ -88,7 +88,7 @@ def test_a_healthy_run_is_ok_and_reports_counts():
     assert level == OK and message == 'running'
     assert v['rejected_inputs'] == '3' and v['rejected_cmd_torque'] == '2'
     assert v['fault'] == ''
-    v = dict(diagnostic_values(P, Plant(P, DT).outputs(), health())[2])
+    v = dict(diagnostic_values(P, Plant(P, DT).compute_outputs(), health())[2])
     assert v['mesh_1_contact'] == 'forward flank' and v['mesh_3_contact'] == 'reverse flank'
 
 
@@ -137,8 +137,8 @@ def test_status_line_shows_time_factor_angle_speed_path_and_te():
     plant = Plant(P, DT)
     plant.set_input(DriveInput(100.0, -1, 0.0))
     plant.advance(2000)
-    line = status_line(plant.outputs(), 0.998)
-    out = plant.outputs()
+    line = status_line(plant.compute_outputs(), 0.998)
+    out = plant.compute_outputs()
     for part in ('t =     0.100 s', 'x 1.00', f'{out.position[1]:+.6f} rad', 'path 3',
                  f'{out.transmission_error * 1e6:+9.3f} um'):
         assert part in line

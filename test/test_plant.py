@@ -29,7 +29,7 @@ def test_time_is_step_times_dt_and_reset_keeps_it():
     assert plant.step == 7000 and plant.time == 7000 * DT
     assert np.array_equal(plant.state, rest)
     assert plant.input == DriveInput(300.0, 1, 0.0)     # reset is about the state only
-    out = plant.outputs()
+    out = plant.compute_outputs()
     assert out.time == 7000 * DT and out.step == 7000
 
 
@@ -64,7 +64,7 @@ def test_non_finite_state_stops_at_the_last_finite_state():
     assert plant.fault is not None and 'non-finite' in plant.fault
     assert np.array_equal(plant.state, good_state)
     assert plant.step == good_step
-    out = plant.outputs()
+    out = plant.compute_outputs()
     assert all(math.isfinite(v) for v in (*out.position, *out.velocity, *out.effort,
                                           *out.delta, *out.delta_rate, *out.mesh_force))
     assert not plant.advance(1)                         # stays stopped
@@ -82,7 +82,7 @@ def test_outputs_are_consistent_with_the_model(mode):
     plant.advance(299)
     speed_before = plant.state[4]
     plant.advance(1)
-    out = plant.outputs()
+    out = plant.compute_outputs()
     th1, th2, th3 = out.position
     eps1 = 1.5384e-3 * math.sin(24 * th1 + 0.3)
     eps3 = 1.5384e-3 * math.sin(24 * th3 + 0.3)
@@ -140,7 +140,7 @@ def test_two_plants_fed_the_same_inputs_agree_bit_for_bit():
             if plant.step in schedule:
                 plant.set_input(schedule[plant.step])
             plant.advance(chunk)
-            outs.append(plant.outputs())
+            outs.append(plant.compute_outputs())
         return outs
 
     a, b = run(20), run(20)
@@ -150,9 +150,10 @@ def test_two_plants_fed_the_same_inputs_agree_bit_for_bit():
 
 def test_one_call_ticks_equal_advance_then_outputs_and_the_model_itself():
     """advance_outputs (integrate, check, observe in one compiled call) gives exactly what
-    advance() then outputs() give, and outputs() is model.outputs of the state, also
-    across input changes, conventional mode and the fault path."""
-    from screwgear_ros.model import outputs as model_outputs
+    advance() then compute_outputs() give, and compute_outputs() is
+    model.effort_and_meshes of the state, also across input changes, conventional mode
+    and the fault path."""
+    from screwgear_ros.model import effort_and_meshes as model_outputs
     for mode in ('anti_backlash', 'conventional'):
         p = TableParams(mode=mode, table_damping=8867.0)
         fused, split = Plant(p, DT), Plant(p, DT)
@@ -163,7 +164,7 @@ def test_one_call_ticks_equal_advance_then_outputs_and_the_model_itself():
             for _ in range(40):
                 a = fused.advance_outputs(20)
                 assert split.advance(20)
-                b = split.outputs()
+                b = split.compute_outputs()
                 assert a == b
             m = fused._model
             expected = model_outputs(fused.time, tuple(float(v) for v in fused.full_state), m,
@@ -205,7 +206,7 @@ def test_set_drive_is_set_input_of_the_same_input(mode):
         fast.set_drive(torque, direction)
         made.set_input(DriveInput(torque, kept, made.input.load))
         assert fast.input == made.input and type(fast.input.direction) is int
-        assert (fast.direction, fast.active_path) == (kept, made.outputs().active_path)
+        assert (fast.direction, fast.active_path) == (kept, made.compute_outputs().active_path)
         fast.advance_outputs(40)
         made.advance_outputs(40)
         assert fast.full_state.tobytes() == made.full_state.tobytes()
@@ -226,7 +227,7 @@ def test_a_state_array_put_in_the_plant_is_the_one_integrated():
     a.advance(40)
     b.advance(40)
     assert np.array_equal(a.state, b.state) and not np.array_equal(moved, a.state)
-    assert a.outputs() == b.outputs()
+    assert a.compute_outputs() == b.compute_outputs()
 
 
 def test_a_plant_that_ran_copies_and_pickles_and_the_copy_runs_on_bit_for_bit():

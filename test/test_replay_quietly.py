@@ -34,7 +34,7 @@ from screwgear_ros.session import QUIET_TICKS_PER_CALL, ROW, Session, row_of
 def _state(session: Session) -> tuple:
     p = session.plant
     return (p.state.tolist(), p.step, p.input, p.params, p.fault, p.contact_changes,
-            session.timed_out, session.outputs, dict(session.rejected))
+            session.timed_out, session.last_outputs, dict(session.rejected))
 
 
 def _both(schedule: Schedule, ticks: int) -> tuple[np.ndarray, np.ndarray, int, int]:
@@ -148,7 +148,7 @@ def test_replay_in_process_equals_a_replay_by_tick_alone(name: str) -> None:
         session = Session(start.params, settings, np.asarray(start.initial_state),
                           start.start_step * refine)
         rows = np.empty((len(run.joint_states), ROW))
-        rows[0] = row_of(session.outputs)
+        rows[0] = row_of(session.last_outputs)
         k = 0
         for i in range(1, len(rows)):
             while k < len(run.events) and run.events[k][0] < run.joint_states.order[i]:

@@ -214,7 +214,7 @@ def test_a_run_gives_the_bits_it_records(values, tmp_path):
 
     def pd(o):
         session = sim.session
-        out, measured = session.outputs, session.measured
+        out, measured = session.last_outputs, session.measured
         seen.append(o == Observation(
             out.time, out.step, measured.position, measured.velocity, out.effort,
             out.transmission_error, out.delta, out.delta_rate, out.mesh_force,

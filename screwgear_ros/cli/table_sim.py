@@ -371,10 +371,10 @@ class TableSim(Node):
                 self.get_logger().warning(
                     f'lockstep: waiting for the controller since {now - started:.0f} s: '
                     f'no {ANSWERS} has answered joint_states at t = '
-                    f'{self.session.outputs.time:.6f} s')
+                    f'{self.session.last_outputs.time:.6f} s')
             if noticed and meter.elapsed() >= DIAGNOSTICS_PERIOD:
                 self._health.waiting = now - started
-                meter.update(self.session.outputs.time)
+                meter.update(self.session.last_outputs.time)
                 self._publish_diagnostics()
         if noticed:
             self._health.waiting = 0.0
@@ -413,7 +413,7 @@ class TableSim(Node):
 
     def _publish_diagnostics(self) -> None:
         health, session = self._health, self.session
-        out = session.outputs
+        out = session.last_outputs
         health.rejected = dict(session.rejected)
         for topic, refused in dict(self._refused).items():    # the executor's count
             health.rejected[topic] = health.rejected.get(topic, 0) + refused

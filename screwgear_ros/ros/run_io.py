@@ -187,7 +187,7 @@ class RunIO:
     def start(self, session: Session) -> None:
         """The start of a run: its parameters, the URDF, the active path and the first
         outputs."""
-        out = session.outputs
+        out = session.last_outputs
         self._parameters(session, out.time_ns, session.plant.params, session.settings)
         self._publish_path(out.active_path, out.time_ns)
         self.publish_outputs(out, measured=session.measured)
@@ -313,7 +313,7 @@ class RunIO:
 
     def _marker_message(self, session: Session) -> tuple[int, bytes]:
         """(log time, table_markers CDR) of the session's last outputs."""
-        out, params = session.outputs, session.plant.params
+        out, params = session.last_outputs, session.plant.params
         t_ns = out.time_ns
         encoder = self._marker_encoder
         if encoder is None or not encoder.draws(params, self.joint_names):

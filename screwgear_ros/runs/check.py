@@ -252,7 +252,7 @@ def _observe(run: RecordedRun, c: _Contexts, states: np.ndarray
         plant.full_state[:len(states[i])] = states[i]
         plant.step = step
         plant.set_input(drive)
-        out = plant.outputs()
+        out = plant.compute_outputs()
         rows[i] = row_of(out)
         mesh[i] = (*out.delta, *out.delta_rate, *out.mesh_force)
     return rows, mesh

@@ -77,7 +77,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
     if samples.steps[0] != start.start_step:
         raise BagError('invalid', f'the first joint_states is at step {samples.steps[0]}, '
                        f'the run starts at step {start.start_step}')
-    rows[0] = row_of(session.outputs)
+    rows[0] = row_of(session.last_outputs)
     events, k = run.events, 0
     # The sample whose tick takes each event: the first sample recorded after it.
     takes = np.searchsorted(samples.order, [order for order, _ in events], side='right')
