@@ -40,26 +40,29 @@ def _commands() -> np.ndarray:
     return 0.25 + 0.15 * np.sin(2.0 * math.pi * k / 53.0) + 0.05 * np.cos(2.0 * math.pi * k / 17.0)
 
 
-def _params() -> TableParams:
+def _params(static: float = STATIC, ripple: float = RIPPLE,
+            ripple_hz: float = RIPPLE_HZ) -> TableParams:
     # pinion 1 in the middle of a 1 cm gap (it never reaches a flank); the ideal torque
     # source (no drive line); Coulomb friction (no Stribeck curve): closed forms
     return TableParams(mode='conventional', backlash=1e-2, ste_amplitudes=(), ste_phases=(),
-                       pinion_coulomb_torque=COULOMB, pinion_static_torque=STATIC,
+                       pinion_coulomb_torque=COULOMB, pinion_static_torque=static,
                        pinion_stribeck_speed=0.0, drive_no_load_speed=0.0,
-                       torque_fluctuation_amplitude=RIPPLE,
-                       torque_fluctuation_frequency=2.0 * math.pi * RIPPLE_HZ)
+                       torque_fluctuation_amplitude=ripple,
+                       torque_fluctuation_frequency=2.0 * math.pi * ripple_hz)
 
 
 class _Exact:
     """Pinion 1's motion from the law, event by event, with closed forms on each piece."""
 
-    def __init__(self, inertia: float) -> None:
-        self.inertia = inertia
-        self.wv = 2.0 * math.pi * RIPPLE_HZ
+    def __init__(self, params: TableParams) -> None:
+        self.inertia = params.inertia_pinion_1
+        self.wv = params.torque_fluctuation_frequency
+        self.ripple = params.torque_fluctuation_amplitude
+        self.static = params.pinion_static_torque
         self.episodes: list[tuple[float, float]] = []      # (stick, breakaway) times
 
     def torque(self, t: float, command: float) -> float:
-        return command + RIPPLE * math.sin(self.wv * t)
+        return command + self.ripple * math.sin(self.wv * t)
 
     def _solutions(self, x: float, a: float, b: float) -> list[float]:
         """Every t in (a, b) with sin(ω_v·t) = x."""
@@ -89,8 +92,8 @@ class _Exact:
         """(θ, ω) at t on the slip piece of ``sense`` from (t0, θ0, ω0)."""
         i, wv, c = self.inertia, self.wv, command - sense * COULOMB
         dt = t - t0
-        w = w0 + (c * dt - RIPPLE / wv * (math.cos(wv * t) - math.cos(wv * t0))) / i
-        th = th0 + w0 * dt + (0.5 * c * dt * dt - RIPPLE / wv * (
+        w = w0 + (c * dt - self.ripple / wv * (math.cos(wv * t) - math.cos(wv * t0))) / i
+        th = th0 + w0 * dt + (0.5 * c * dt * dt - self.ripple / wv * (
             (math.sin(wv * t) - math.sin(wv * t0)) / wv - math.cos(wv * t0) * dt)) / i
         return th, w
 
@@ -100,8 +103,8 @@ class _Exact:
             t = self.t
             if self.piece == 0.0:        # stuck: until |τ| passes τ_S
                 turns = self._solutions(1.0, t, end) + self._solutions(-1.0, t, end)
-                up = self._first(lambda s: self.torque(s, command) - STATIC, t, end, turns)
-                down = self._first(lambda s: -self.torque(s, command) - STATIC, t, end,
+                up = self._first(lambda s: self.torque(s, command) - self.static, t, end, turns)
+                down = self._first(lambda s: -self.torque(s, command) - self.static, t, end,
                                    turns)
                 hits = [x for x in (up, down) if x is not None]
                 if not hits:
@@ -112,7 +115,7 @@ class _Exact:
                 self.episodes.append((self.stuck_at, self.t))
                 continue
             sense, th0, w0 = self.piece, self.th, self.w
-            extrema = self._solutions((sense * COULOMB - command) / RIPPLE, t, end)
+            extrema = self._solutions((sense * COULOMB - command) / self.ripple, t, end)
             cross = self._first(lambda s: -sense * self.slip(t, th0, w0, sense, command, s)[1],
                                 t, end, extrema)
             if cross is None:
@@ -122,12 +125,14 @@ class _Exact:
             self.th = self.slip(t, th0, w0, sense, command, cross)[0]
             self.t, self.w = cross, 0.0
             tau = self.torque(cross, command)
-            self.piece = 0.0 if abs(tau) <= STATIC else math.copysign(1.0, tau)
+            self.piece = 0.0 if abs(tau) <= self.static else math.copysign(1.0, tau)
             self.stuck_at = cross
 
-    def run(self, commands: np.ndarray) -> np.ndarray:
-        """(θ1, ω1) at the end of every step, from rest at t = 0."""
-        self.t, self.th, self.w, self.piece, self.stuck_at = 0.0, 0.0, 0.0, 0.0, 0.0
+    def run(self, commands: np.ndarray, speed: float = 0.0) -> np.ndarray:
+        """(θ1, ω1) at the end of every step, from θ1 = 0 at t = 0 at ``speed`` (at rest,
+        or slipping in its sense)."""
+        self.t, self.th, self.w, self.stuck_at = 0.0, 0.0, speed, None
+        self.piece = math.copysign(1.0, speed) if speed != 0.0 else 0.0
         out = []
         for k, command in enumerate(commands):
             for j in range(1, TICK + 1):
@@ -142,8 +147,8 @@ def _short_episodes(exact: _Exact) -> int:
                if a is not None and math.floor(a / DT) == math.floor(b / DT))
 
 
-def _rk4(params: TableParams, commands: np.ndarray) -> np.ndarray:
-    plant = Plant(params, DT, initial_state=np.zeros(6))
+def _rk4(params: TableParams, commands: np.ndarray, speed: float = 0.0) -> np.ndarray:
+    plant = Plant(params, DT, initial_state=np.array([0.0, 0.0, 0.0, speed, 0.0, 0.0]))
     rows = np.empty((TICK, OBSERVED))
     out = []
     for command in commands:
@@ -157,7 +162,7 @@ def _rk4(params: TableParams, commands: np.ndarray) -> np.ndarray:
 def test_the_event_solution_has_short_episodes():
     """The constructed run does what it is for: the law's own solution sticks many times,
     some episodes wholly inside one step."""
-    exact = _Exact(_params().inertia_pinion_1)
+    exact = _Exact(_params())
     exact.run(_commands())
     assert len(exact.episodes) > 50
     assert _short_episodes(exact) >= 3, exact.episodes
@@ -169,7 +174,7 @@ def test_rk4_locates_sticking_episodes_inside_a_step():
     (τ_S − τ_C)·(episode)/I in the speed, orders of magnitude above that."""
     params = _params()
     commands = _commands()
-    exact = _Exact(params.inertia_pinion_1).run(commands)
+    exact = _Exact(params).run(commands)
     rk4 = _rk4(params, commands)
     scale = np.max(np.abs(exact[:, 1]))
     error = np.max(np.abs(rk4[:, 1] - exact[:, 1])) / scale
@@ -183,7 +188,7 @@ def test_the_reference_locates_sticking_episodes_inside_its_steps():
     many spanning a short episode), follows the law's own solution to its tolerance."""
     params = _params()
     commands = _commands()
-    exact = _Exact(params.inertia_pinion_1).run(commands)[TICK - 1::TICK]
+    exact = _Exact(params).run(commands)[TICK - 1::TICK]
     segments = [Segment(k * TICK, DriveInput(float(c), 1), params)
                 for k, c in enumerate(commands)]
     steps = np.arange(1, TICKS + 1) * TICK
@@ -192,6 +197,28 @@ def test_the_reference_locates_sticking_episodes_inside_its_steps():
     error = np.max(np.abs(ref[:, 3] - exact[:, 1])) / scale
     print(f'reference against the event solution: speed {error:.2e} (relative)')
     assert error < 1e-9
+
+
+def test_rk4_locates_a_dip_through_zero_that_returns_inside_its_step():
+    """Pinion 1 slips forward slowly, the drive torque below τ_C and rising fast (a 500 Hz
+    ripple from its zero): the speed reaches zero after a few µs, the body sticks, breaks
+    away at about 18 µs when the torque passes τ_S, all inside the first 50 µs step. The
+    slip law run on through the episode would dip below zero and be back above it by the
+    step's end, so the pieces at the step's end show nothing; the episode is located
+    from the interpolant's dip, and RK4 follows the law's own solution."""
+    params = _params(static=COULOMB + 0.1, ripple=4.0, ripple_hz=500.0)
+    commands = np.full(1, COULOMB - 0.126)         # N·m, a tick of 20 steps
+    speed = 1e-5                                   # rad/s
+    exact_solution = _Exact(params)
+    exact = exact_solution.run(commands, speed)
+    (stuck, breakaway), = exact_solution.episodes[:1]
+    assert 0.0 < stuck < breakaway < DT                  # the case: inside step 1
+    assert exact[0, 1] > 0.0
+    rk4 = _rk4(params, commands, speed)
+    error = np.max(np.abs(rk4[:, 1] - exact[:, 1])) / np.max(np.abs(exact[:, 1]))
+    print(f'episode {stuck * 1e6:.2f}-{breakaway * 1e6:.2f} µs; RK4 against the event '
+          f'solution: speed {error:.2e} (relative)')
+    assert error < 1e-6
 
 
 @pytest.mark.parametrize('sense', [1.0, -1.0])
