@@ -1,15 +1,18 @@
 """What the joint sensors cost a tick: the in-process closed loop with every sensor ideal
-(the anchor) against the same loop with every sensor feature on, in one run.
+(the anchor) against the same loop with every sensor feature on, and with the whole
+realistic preset on, in one run.
 
     . scripts/env.sh && python -P benchmarks/bench_sensors.py [--pairs 9] [--ticks 4000]
 
 Both loops are ``Simulation.run`` closed by the same PD law on the measured table angle
 (dt 50 µs, 1 kHz: 20 RK4 steps a tick). "Sensors on": a 26-bit table encoder and 20-bit
 pinion encoders, position and speed noise on every joint, a one-tick delay on the
-table and a 500 Hz speed filter on every joint. The pair is measured ``--pairs`` times,
-alternating; each pair gives a ratio (the figure to compare between runs: a shared
-machine moves the absolute times). Prints µs a tick of each, the difference (what the
-sensors add to a tick) and the ratio, as medians with their range.
+table and a 500 Hz speed filter on every joint. "Realistic": config/realistic.yaml, all
+of it (bearing friction with stick-slip on all three bodies, its encoders, the 1 kHz
+current loops). The three are measured ``--pairs`` times, in turn; each round gives
+ratios to the ideal loop (the figures to compare between runs: a shared machine moves
+the absolute times). Prints µs a tick of each, the difference (what the sensors add to
+a tick) and the ratios, as medians with their range.
 """
 
 from __future__ import annotations
@@ -17,8 +20,14 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
+from pathlib import Path
 
+import yaml
+
+from screwgear_ros.parameter_sets import ros_parameters
 from screwgear_ros.simulation import Simulation
+
+PRESET = Path(__file__).resolve().parents[1] / 'config' / 'realistic.yaml'
 
 BASE = {'command_timeout': 0.0, 'publish_rate': 1000.0}
 SENSORS = {
@@ -54,17 +63,23 @@ def main() -> int:
     args = parser.parse_args()
     ideal = Simulation.from_values(BASE)
     on = Simulation.from_values({**BASE, **SENSORS})
-    per_tick(ideal, 100)
-    per_tick(on, 100)                    # compiled kernels and first allocations
-    plain, sensed = [], []
+    with open(PRESET, encoding='utf-8') as stream:
+        realistic = Simulation.from_values({**ros_parameters(yaml.safe_load(stream)), **BASE})
+    for sim in (ideal, on, realistic):
+        per_tick(sim, 100)               # compiled kernels and first allocations
+    plain, sensed, everything = [], [], []
     for _ in range(args.pairs):
         plain.append(per_tick(ideal, args.ticks))
         sensed.append(per_tick(on, args.ticks))
+        everything.append(per_tick(realistic, args.ticks))
     print(f'closed loop, {args.ticks} ticks, {args.pairs} pairs (median, range)')
     print(f'  sensors ideal        {spread(plain)} µs/tick')
     print(f'  every sensor on      {spread(sensed)} µs/tick')
     print(f'  sensors add          {spread([b - a for a, b in zip(plain, sensed)])} µs/tick')
     print(f'  ratio on / ideal     {spread([b / a for a, b in zip(plain, sensed)])}')
+    print(f'  realistic preset     {spread(everything)} µs/tick (friction, sensors, current '
+          'loop)')
+    print(f'  ratio preset / ideal {spread([b / a for a, b in zip(plain, everything)])}')
     return 0
 
 

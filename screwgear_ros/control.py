@@ -24,7 +24,8 @@ table holds its target (``|error| <= hold_error`` and ``|speed| <= hold_speed``)
 torque is then 0 and the effort a zero signed like the direction in force (a zero effort
 keeps table_sim's direction). The integral acts only within ``integral_zone`` of the
 target, on an error the path in force pushes against (a load it holds), never deeper into
-its torque limit; a path switch clears it (it was the other path's torque). Integrating
+its torque limit, and unwinds (never past zero) once the table is past the target; a path
+switch clears it (it was the other path's torque). Integrating
 an error the path in force cannot act on would only wind up and overshoot the target.
 
 Time is taken from integer nanosecond stamps, as the node's joint_states carry them, so
@@ -145,9 +146,16 @@ class DemoLaw:
         drive = wanted * self.direction      # > 0: the path in force can give it
         # conditional integration: near the target, only an error the path in force
         # pushes against (a load it holds), and never deeper into its torque limit
-        if abs(error) < g.integral_zone and 0.0 < gap <= MAX_GAP \
-                and error * self.direction > 0.0 and drive < g.max_torque:
-            self.integral += error * gap
+        if abs(error) < g.integral_zone and 0.0 < gap <= MAX_GAP:
+            if error * self.direction > 0.0 and drive < g.max_torque:
+                self.integral += error * gap
+            elif self.integral * self.direction > 0.0:
+                # past the target: unwind what the path in force was given, never beyond
+                # zero (it cannot pull back); a kept integral would push the table on
+                # through a bearing's breakaway torque, away from the target
+                self.integral += error * gap
+                if self.integral * self.direction < 0.0:
+                    self.integral = 0.0
             if g.ki > 0.0:
                 limit = 0.5 * g.max_torque / g.ki
                 self.integral = min(limit, max(-limit, self.integral))

@@ -25,7 +25,11 @@ torque), the event is located by bisection on the step's length, each trial a fu
 DOP853 step from the step's start (so the event state has the method's accuracy, not an
 interpolant's); the step ends there, a body that sticks gets its speed set to exactly 0,
 and integration goes on from there on the new pieces, a stuck body's angle and speed
-frozen (its slope is exactly 0).
+frozen (its slope is exactly 0). A step may also leave a piece and come back to it (a
+speed through zero and back, a holding torque beyond τ_S and back) while the pieces at
+its end match those of its start; the error control sees neither (the law is smooth on
+each piece, a holding torque is no state). So an accepted step is searched inside for
+both (:func:`_inside`) and such an event located the same way.
 
 Failure is a status, never an exception from compiled code: the step size collapsing
 below 10 × the spacing of floating-point numbers at t (the solution changes faster
@@ -40,7 +44,7 @@ import math
 import numpy as np
 import scipy
 
-from .friction import FrictionPiece
+from .friction import FrictionPiece, speed_dip
 from .jit import allocating_kernel, inline_kernel, kernel
 from .model import BY_LAW, N_MECHANICAL, N_STATE, TAU, Pieces, pieces, state_rate
 
@@ -188,12 +192,12 @@ def _law(t, y, model, drive, held):
 
 
 @kernel
-def _event(t, y, h, k, tableau, y_stage, y_new, model, drive, held, after):
-    """The first instant t + s·h (0 < s ≤ 1) at which a bearing leaves its piece in
+def _event(t, y, h, k, tableau, y_stage, y_new, model, drive, held, top, after):
+    """The first instant t + s·h (0 < s ≤ top ≤ 1) at which a bearing leaves its piece in
     ``held`` within the accepted step of h from (t, y), by bisection on s, each trial a
     step of s·h from (t, y) (k[0] = f(t, y) kept; k and y_new are scratch): s, and the
-    pieces there (``after``: those at s = 1)."""
-    lo, hi = 0.0, 1.0
+    pieces there (``after``: those at s = top)."""
+    lo, hi = 0.0, top
     for _ in range(EVENT_BISECTIONS):
         if hi - lo <= EVENT_TOLERANCE:
             break
@@ -205,6 +209,59 @@ def _event(t, y, h, k, tableau, y_stage, y_new, model, drive, held, after):
         else:
             hi, after = mid, now
     return hi, after
+
+
+@kernel
+def _inside(t, y, h, k, tableau, y_stage, y_new, model, drive, held):
+    """Where a bearing may leave its piece and come back inside the accepted step of h
+    from (t, y) to y_new, which the pieces at the step's end cannot show: a slipping
+    body's speed through zero and back (the first extremum past zero of its speed's
+    cubic Hermite interpolant from the slopes k[0] and k[N_STAGES] at the ends,
+    :func:`~screwgear_ros.friction.speed_dip`), or a stuck body's holding torque beyond
+    τ_S and back (the holding torque is no state, so the error control does not follow
+    it; it is looked at in the step's stage states, kept in k). Each candidate, earliest
+    first, is confirmed by a trial step to it. Returns (s, the pieces there) with the
+    pieces changed at s, or (1.0, ``held``) with y_new as it was (k[1:N_STAGES] and
+    y_new are scratch)."""
+    a, b, c = tableau[0], tableau[1], tableau[2]
+    e = b.shape[0]                  # k[e]: the slope at the step's end
+    dip = min(speed_dip(held.friction_1, y[3], k[0, 3], y_new[3], k[e, 3], h),
+              speed_dip(held.friction_2, y[4], k[0, 4], y_new[4], k[e, 4], h),
+              speed_dip(held.friction_3, y[5], k[0, 5], y_new[5], k[e, 5], h))
+    flagged = 0                     # bit s: stage s's state is on other pieces
+    stuck = FrictionPiece.STUCK
+    if held.friction_1 == stuck or held.friction_2 == stuck or held.friction_3 == stuck:
+        for s in range(1, e):
+            for i in range(N):
+                acc = 0.0
+                for j in range(s):
+                    acc += a[s, j] * k[j, i]
+                y_stage[i] = y[i] + h * acc
+            if _law(t + c[s] * h, y_stage, model, drive, held) != held:
+                flagged |= 1 << s
+    if dip >= 1.0 and flagged == 0:
+        return 1.0, held
+    found, now = 1.0, held
+    while True:
+        top, pick = dip, -1         # the earliest candidate left
+        for s in range(1, e):
+            if flagged & (1 << s) and c[s] < top:
+                top, pick = c[s], s
+        if top >= 1.0:
+            break
+        if pick < 0:
+            dip = 1.0
+        else:
+            flagged &= ~(1 << pick)
+        _stages(t, y, top * h, k, tableau, y_stage, y_new, model, drive, held)
+        now = _law(t + top * h, y_new, model, drive, held)
+        if now != held:
+            found = top
+            break
+    _stages(t, y, h, k, tableau, y_stage, y_new, model, drive, held)   # the step's end again
+    if found >= 1.0:
+        return 1.0, held        # no candidate was the step's own
+    return found, now
 
 
 @inline_kernel
@@ -307,12 +364,16 @@ def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps
         last_non_finite = not finite
         if err <= 1.0:
             after = _law(t_new, y_new, model, drive, held)
+            top = 1.0
+            if after == held:           # a piece left and regained inside the step?
+                top, after = _inside(t, y, h_step, k, tableau, y_stage, y_new, model,
+                                     drive, held)
             if after != held:
                 # a bearing sticks or breaks away inside the step: end the step there
                 # (its length the float difference of its ends, as every step's), stop a
                 # body that sticks exactly, go on from there on the new pieces
                 s_event, after = _event(t, y, h_step, k, tableau, y_stage, y_new, model,
-                                        drive, held, after)
+                                        drive, held, top, after)
                 tau_new = tau + s_event * h_step
                 _stages(t, y, tau_new - tau, k, tableau, y_stage, y_new, model, drive, held)
                 stuck = FrictionPiece.STUCK

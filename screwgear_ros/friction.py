@@ -96,6 +96,51 @@ def through_zero(held: FrictionPiece, torque: float, static: float) -> FrictionP
 
 
 @kernel
+def speed_dip(piece: FrictionPiece, w0: float, a0: float, w1: float, a1: float,
+              h: float) -> float:
+    """The first θ in (0, 1) at which a body on slip piece ``piece`` has, on the cubic
+    Hermite interpolant of its speed over a step of h seconds (ω0, ω̇0 at its start, ω1,
+    ω̇1 at its end: :func:`screwgear_ros.rk.hermite`), an extremum on the wrong side of
+    zero; 1.0 if there is none (or the body is not slipping).
+
+    A speed that crosses zero and comes back inside one step ends the step with its sign
+    and its piece unchanged, so the check at the step's end cannot see it; but the law
+    stops the body at the first crossing (it sticks while |τ| ≤ τ_S, breaks away later).
+    The interpolant's extremum past zero is a point the crossing precedes, so a bisection
+    between the step's start and it finds the crossing.
+    """
+    if piece == FrictionPiece.SLIP_FORWARD:
+        sense = 1.0
+    elif piece == FrictionPiece.SLIP_BACKWARD:
+        sense = -1.0
+    else:
+        return 1.0
+    # ω(θ) = ω0 + θ·(h·ω̇0 + θ·(q + θ·c)); its extrema: 3c·θ² + 2q·θ + h·ω̇0 = 0
+    delta = w1 - w0
+    q = 3.0 * delta - h * (2.0 * a0 + a1)
+    c = h * (a0 + a1) - 2.0 * delta
+    qa, qb, qc = 3.0 * c, 2.0 * q, h * a0
+    r1, r2 = 2.0, 2.0                       # no root: outside (0, 1)
+    if qa == 0.0:
+        if qb != 0.0:
+            r1 = -qc / qb
+    else:
+        disc = qb * qb - 4.0 * qa * qc
+        if disc >= 0.0:
+            half = -0.5 * (qb + math.copysign(math.sqrt(disc), qb))
+            if half != 0.0:
+                r1, r2 = half / qa, qc / half
+            else:
+                r1 = 0.0
+    first, second = min(r1, r2), max(r1, r2)
+    for theta in (first, second):
+        if 0.0 < theta < 1.0:
+            if sense * (w0 + theta * (h * a0 + theta * (q + theta * c))) < 0.0:
+                return theta
+    return 1.0
+
+
+@kernel
 def sliding_torque(piece: FrictionPiece, speed: float, coulomb: float, static: float,
                    stribeck: float) -> float:
     """Friction torque T_f (N·m) on a slipping piece, continued smoothly past ω = 0 (an
@@ -126,4 +171,5 @@ def friction_on(piece: FrictionPiece, speed: float, torque: float, inertia: floa
     return (torque + friction) / inertia, friction
 
 
-__all__ = ['FrictionPiece', 'at_rest', 'friction_piece', 'through_zero', 'sliding_torque', 'friction_on']
+__all__ = ['FrictionPiece', 'at_rest', 'friction_piece', 'through_zero', 'speed_dip',
+           'sliding_torque', 'friction_on']

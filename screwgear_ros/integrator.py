@@ -24,7 +24,11 @@ by bisection on the pieces the law gives there (bisection, because a mesh can le
 tangentially, as a flank touched at rest does, where secant methods stall); the step is
 redone up to that instant, switched to the new pieces (a body that sticks there gets
 its speed set to exactly 0), and the rest of the step
-integrated from there, which may locate another change. The step grid is unchanged: a
+integrated from there, which may locate another change. A slipping body's speed may
+also cross zero and come back inside one step (a sticking episode shorter than the
+step), leaving the pieces at the step's end those of its start: an extremum of a speed's
+interpolant past zero (:func:`~screwgear_ros.friction.speed_dip`) is located the same way,
+by bisection between the step's start and it. The step grid is unchanged: a
 step ends where it always ends. A step without a change does exactly what the
 fixed-step RK4 does (its slopes agree bit for bit while no stage leaves the pieces) at
 the same four evaluations of the model per step, because the slope the law gives at a
@@ -39,7 +43,7 @@ import math
 import numpy as np
 
 from . import rk
-from .friction import FrictionPiece
+from .friction import FrictionPiece, speed_dip
 from .jit import inline_kernel, kernel
 from .model import BY_LAW, N_STATE, TAU, Drive, PackedModel, effort_and_meshes, pieces, state_rate
 
@@ -66,12 +70,12 @@ def _law(t, y, model, drive):
 
 
 @kernel
-def _locate(t, h, y0, f0, y1, f1, model, drive, held, after):
+def _locate(t, h, y0, f0, y1, f1, model, drive, held, top, after):
     """First instant t + θ·h at which the law leaves the ``held`` pieces, on the Hermite
     interpolant of the step (y0, f0) → (y1, f1), by bisection: (θ just past the change,
-    the pieces the law gives there, coming from ``held``). The law has left them at θ = 1,
-    for ``after``."""
-    lo, hi = 0.0, 1.0
+    the pieces the law gives there, coming from ``held``). The law has left them at
+    θ = ``top`` (≤ 1), for ``after``."""
+    lo, hi = 0.0, top
     for _ in range(MAX_BISECTIONS):
         if hi - lo <= THETA_TOLERANCE:
             break
@@ -105,20 +109,51 @@ def _located_step(t0, t_end, dt, y, slope, held, model, drive):
         args = (model, drive, held)
         y_end = rk.step_from(_slope, t, y, h, slope, args)
         slope_end, end = _law(t_end, y_end, model, drive)
-        if end == held or changes == MAX_CHANGES:
-            if end != held:                     # chatter: finish by the law
-                y_end = rk.step(_slope, t, y, h, (model, drive, BY_LAW))
-                slope_end, end = _law(t_end, y_end, model, drive)
+        if end == held:
+            # the pieces are those of the start, but a speed may have crossed zero and
+            # come back inside the step: locate up to the interpolant's dip past zero
+            # (slope_end is the held pieces' slope there: the law is on them)
+            top = _dip(y, slope, y_end, slope_end, h, held)
+            if top < 1.0 and changes < MAX_CHANGES:
+                dip = pieces(t + top * h, rk.hermite(y, slope, y_end, slope_end, h, top),
+                             model, drive, held)
+                if dip != held:
+                    theta, after = _locate(t, h, y, slope, y_end, slope_end, model, drive,
+                                           held, top, dip)
+                    y, t, h, held, slope = _switch(t, h, t_end, y, slope, theta, held,
+                                                   after, model, drive)
+                    continue
+            return y_end, slope_end, end, changes
+        if changes == MAX_CHANGES:              # chatter: finish by the law
+            y_end = rk.step(_slope, t, y, h, (model, drive, BY_LAW))
+            slope_end, end = _law(t_end, y_end, model, drive)
             return y_end, slope_end, end, changes
         theta, after = _locate(t, h, y, slope, y_end, _slope(t + h, y_end, args), model,
-                               drive, held, pieces(t_end, y_end, model, drive, held))
-        tau = theta * h
-        y = _stick(rk.step_from(_slope, t, y, tau, slope, args), held, after)  # up to the change
-        t = t + tau
-        h = t_end - t
-        held = after
-        slope = _slope(t, y, (model, drive, held))
+                               drive, held, 1.0, pieces(t_end, y_end, model, drive, held))
+        y, t, h, held, slope = _switch(t, h, t_end, y, slope, theta, held, after, model,
+                                       drive)
     return y, slope, held, MAX_CHANGES    # not reached
+
+
+@inline_kernel
+def _switch(t, h, t_end, y, slope, theta, held, after, model, drive):
+    """The step from (t, y) redone up to the change at t + θ·h, switched there from the
+    ``held`` pieces to ``after`` (a body that sticks stopped exactly): (y, t, the rest
+    of the step, the new pieces, their slope)."""
+    tau = theta * h
+    y = _stick(rk.step_from(_slope, t, y, tau, slope, (model, drive, held)), held, after)
+    t = t + tau
+    return y, t, t_end - t, after, _slope(t, y, (model, drive, after))
+
+
+@inline_kernel
+def _dip(y0, f0, y1, f1, h, held):
+    """The first θ of the step (y0, f0) → (y1, f1) over h at which a slipping body's
+    speed has, on the Hermite interpolant, an extremum past zero
+    (:func:`~screwgear_ros.friction.speed_dip`); 1.0 if none."""
+    return min(speed_dip(held.friction_1, y0[3], f0[3], y1[3], f1[3], h),
+               speed_dip(held.friction_2, y0[4], f0[4], y1[4], f1[4], h),
+               speed_dip(held.friction_3, y0[5], f0[5], y1[5], f1[5], h))
 
 
 @kernel

@@ -52,3 +52,25 @@ def test_the_demo_holds_a_small_target_on_the_realistic_table_and_the_run_checks
     assert np.allclose(counts, np.round(counts), rtol=0.0, atol=1e-6)
     report = check_run(read_run(bag), parallel=False)
     assert report.ok, report
+
+
+def test_past_the_target_the_law_lets_the_table_stop_without_creeping() -> None:
+    """The step to the small target overshoots; past the target the law unwinds its
+    integral (the torque the path in force was holding against the bearing), so the
+    braking torque falls below the table bearing's breakaway torque and the table sticks
+    for good. A kept integral would push it on through the breakaway torque, creeping
+    away from the target. Judged on the exact table angle: over the last seconds it
+    moves by less than one count of the 26-bit table encoder."""
+    params, settings = load_yaml(PRESET)
+    gains = DemoGains(targets=(TARGET,), dwell=1e9)
+    run = Simulation(params, settings).run(DemoController(gains, dt=settings.dt), 6.0)
+    angle = run.position[:, 1]
+    count = 2.0 * np.pi / settings.sensors.joints[1].counts
+    late = run.time >= 2.0
+    overshoot = np.max(angle) - TARGET
+    print(f'overshoot {overshoot * 1e6:.2f} µrad, at the end {(angle[-1] - TARGET) * 1e6:.2f} '
+          f'µrad past the target, moved {np.ptp(angle[late]) / count:.3g} counts in 2-6 s')
+    assert overshoot > 0.0, 'no overshoot: the case this law is for does not arise'
+    assert np.ptp(angle[late]) < count
+    assert np.all(run.velocity[late, 1] == 0.0), 'the table does not stay stuck'
+    assert abs(angle[-1] - TARGET) <= gains.hold_error
