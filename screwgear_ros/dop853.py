@@ -157,6 +157,16 @@ def _initial_step(t0, y0, k, t_span, model, drive, rtol, atol, y1, held):
     return h
 
 
+@inline_kernel
+def _stage_state(y, h, k, a, s, y_stage):
+    """y_stage = the state of stage s of a step of h from y (slopes k[0:s] given)."""
+    for i in range(N):
+        acc = 0.0
+        for j in range(s):
+            acc += a[s, j] * k[j, i]
+        y_stage[i] = y[i] + h * acc
+
+
 @kernel
 def _stages(t, y, h, k, tableau, y_stage, y_new, model, drive, held):
     """Stages 2..12 of a step of h from (t, y), k[0] = f(t, y) given, into k; the new
@@ -164,11 +174,7 @@ def _stages(t, y, h, k, tableau, y_stage, y_new, model, drive, held):
     a, b, c = tableau[0], tableau[1], tableau[2]
     n_stages = b.shape[0]
     for s in range(1, n_stages):
-        for i in range(N):
-            acc = 0.0
-            for j in range(s):
-                acc += a[s, j] * k[j, i]
-            y_stage[i] = y[i] + h * acc
+        _stage_state(y, h, k, a, s, y_stage)
         _f(t + c[s] * h, y_stage, k, s, model, drive, held)
     finite = True
     for i in range(N):
@@ -232,11 +238,7 @@ def _inside(t, y, h, k, tableau, y_stage, y_new, model, drive, held):
     stuck = FrictionPiece.STUCK
     if held.friction_1 == stuck or held.friction_2 == stuck or held.friction_3 == stuck:
         for s in range(1, e):
-            for i in range(N):
-                acc = 0.0
-                for j in range(s):
-                    acc += a[s, j] * k[j, i]
-                y_stage[i] = y[i] + h * acc
+            _stage_state(y, h, k, a, s, y_stage)
             if _law(t + c[s] * h, y_stage, model, drive, held) != held:
                 flagged |= 1 << s
     if dip >= 1.0 and flagged == 0:
