@@ -1,4 +1,5 @@
-"""Test-run isolation: DDS on loopback and a ROS_DOMAIN_ID no other run on this machine holds.
+"""Test-run isolation: DDS on loopback and a ROS_DOMAIN_ID no other run on this machine holds,
+and SIGINT that reaches the tools this run starts.
 
 Set at import, before any test imports rclpy or starts a node process, so every
 process of this run inherits it.
@@ -8,6 +9,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+import signal
 from typing import IO
 
 _DOMAIN_LOCK: IO[str] | None = None
@@ -33,3 +35,9 @@ def _claim_domain_id() -> int:
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ['ROS_DOMAIN_ID'] = str(_claim_domain_id())
 os.environ.setdefault('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp')
+# A suite started in the background of a shell without job control (`cmd &`, nohup)
+# inherits SIGINT ignored, and so would every tool it starts: Python keeps an ignored
+# SIGINT ignored, and the Ctrl-C tests would then time out on tools that never saw it.
+# A handler here is reset to the default at exec, so the tools get SIGINT as a user's.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
