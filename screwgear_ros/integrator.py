@@ -45,7 +45,8 @@ import numpy as np
 from . import rk
 from .friction import FrictionPiece, speed_dip
 from .jit import inline_kernel, kernel
-from .model import BY_LAW, N_STATE, TAU, Drive, PackedModel, effort_and_meshes, pieces, state_rate
+from .model import (BY_LAW, N_STATE, TAU, Drive, PackedModel, effort_and_meshes, pieces,
+                    state_rate)
 
 #: Changes located within one step before the step is finished by the plain law (a mesh
 #: chattering on its boundary; never reached by a sane run).
@@ -199,12 +200,12 @@ OBSERVED = 15
 @kernel
 def observe(state: np.ndarray, out: np.ndarray, t: float, model: PackedModel,
             drive: Drive) -> None:
-    """``out`` (float64[OBSERVED]) = the state, then :func:`~screwgear_ros.model.effort_and_meshes`
-    of it at time t (s)."""
+    """``out`` (float64[OBSERVED]) = the state, then
+    :func:`~screwgear_ros.model.effort_and_meshes` of it at time t (s)."""
     th1, th2, th3, w1, w2, w3 = state[0], state[1], state[2], state[3], state[4], state[5]
     lagged = state.shape[0] >= N_STATE
     o = effort_and_meshes(t, (th1, th2, th3, w1, w2, w3, state[6] if lagged else 0.0,
-                    state[7] if lagged else 0.0), model, drive)
+                              state[7] if lagged else 0.0), model, drive)
     out[0], out[1], out[2], out[3], out[4], out[5] = th1, th2, th3, w1, w2, w3
     for k in range(9):
         out[6 + k] = o[k]
