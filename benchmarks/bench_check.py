@@ -38,10 +38,10 @@ from bag_runs import copy_bag, record_session  # noqa: E402
 
 import yaml  # noqa: E402
 
-from screwgear_ros.events import Command  # noqa: E402
-from screwgear_ros.runs.bagformat import typestore  # noqa: E402
-from screwgear_ros.params import SimSettings, TableParams  # noqa: E402
-from screwgear_ros.schedule import Schedule  # noqa: E402
+from screwgear_ros.sim.events import Command  # noqa: E402
+from screwgear_ros.bag.format import typestore  # noqa: E402
+from screwgear_ros.params.table import SimSettings, TableParams  # noqa: E402
+from screwgear_ros.sim.schedule import Schedule  # noqa: E402
 
 SECONDS = 60.0
 DT = 50e-6
@@ -84,7 +84,7 @@ def timed(exe: str, bag: Path, repeat: int, *options: str) -> tuple[float, str]:
 STAGES = r"""
 import sys, time
 t0 = time.perf_counter()
-from screwgear_ros.runs.bagread import read_run
+from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.replay import replay_in_process
 from screwgear_ros.runs import check
 t = {'import': time.perf_counter() - t0}
@@ -105,10 +105,10 @@ print(repr(t))
 KNOWN_KEYS = r"""
 import json
 try:
-    from screwgear_ros.parameter_sets import default_values
+    from screwgear_ros.params.sets import default_values
 except ImportError:                     # an older package: the set lived in params
-    from screwgear_ros.params import default_values
-from screwgear_ros.run_parameters import EXTRA_KEYS
+    from screwgear_ros.params.sets import default_values
+from screwgear_ros.params.run_file import EXTRA_KEYS
 print(json.dumps([*default_values(), *EXTRA_KEYS]))
 """
 

@@ -64,7 +64,7 @@ def physics_alone(ticks: int) -> tuple[float, float]:
     """Ticks/s of the same ticks with no controller: one compiled call per chunk; by the
     wall clock and by this thread's CPU time."""
     from screwgear_ros import Simulation
-    from screwgear_ros.session import ROW
+    from screwgear_ros.sim.session import ROW
     sim = Simulation.from_values(VALUES)
     sim.reset()
     sim.step(150.0)                      # a moving table, as in the closed loop
@@ -92,7 +92,7 @@ def lockstep(window: float) -> float:
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
-    from screwgear_ros.simulation import Observation
+    from screwgear_ros.sim.simulation import Observation
     sim = start_process('table_sim', params={**VALUES, 'lockstep': True,
                                              'real_time_factor': 0.0})
     rclpy.init()

@@ -43,8 +43,8 @@ WARMUP = 2.0       # s before the window opens
 
 _STEPS_SCRIPT = """
 import sys, time
-from screwgear_ros.params import SimSettings, TableParams
-from screwgear_ros.session import Session
+from screwgear_ros.params.table import SimSettings, TableParams
+from screwgear_ros.sim.session import Session
 n, batch = int(sys.argv[1]), int(sys.argv[2])
 session = Session(TableParams(), SimSettings(dt=50e-6, publish_rate=1.0 / (batch * 50e-6)))
 session.tick()

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import yaml
 
-from screwgear_ros.parameter_sets import ros_parameters
-from screwgear_ros.simulation import Simulation
+from screwgear_ros.params.sets import ros_parameters
+from screwgear_ros.sim.simulation import Simulation
 
 PRESET = Path(__file__).resolve().parents[1] / 'config' / 'realistic.yaml'
 

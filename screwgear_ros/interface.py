@@ -2,8 +2,8 @@
 its name, message type, direction, delivery and meaning.
 
 The node's publishers and subscriptions (:mod:`screwgear_ros.ros.messages`), the input
-commands (:data:`screwgear_ros.commands.INPUT_TOPICS`), the bag contract the readers
-enforce (:mod:`screwgear_ros.runs.bagread`), lockstep's answers and the README's topic
+commands (:data:`screwgear_ros.sim.commands.INPUT_TOPICS`), the bag contract the readers
+enforce (:mod:`screwgear_ros.bag.reader`), lockstep's answers and the README's topic
 table (``python -m screwgear_ros.interface``) are all derived from :data:`TOPICS`.
 """
 

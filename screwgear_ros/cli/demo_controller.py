@@ -4,8 +4,8 @@ Reads the table joint of ``joint_states`` and answers each new joint state with 
 ``cmd_effort`` (std_msgs/Float64MultiArray, one signed torque at the active pinion:
 the sign is the direction, the magnitude the torque; each sign change is a
 reversal: table_sim moves the drive to the other screw-gear path). The law, its
-profile and its tuning are :class:`screwgear_ros.control.DemoLaw` (its ROS parameters
-are the fields of :class:`~screwgear_ros.control.DemoGains`); the loop runs once per
+profile and its tuning are :class:`screwgear_ros.sim.control.DemoLaw` (its ROS parameters
+are the fields of :class:`~screwgear_ros.sim.control.DemoGains`); the loop runs once per
 joint state, on the stamps' simulation time, so it behaves the same at any real-time
 factor the transport keeps up with.
 
@@ -22,7 +22,7 @@ loop simply runs on whatever joint states arrive; a gap over ``control.MAX_GAP``
 samples) is not integrated.
 
 With each answer it may also send its target on ``setpoint`` (std_msgs/Float64, rad,
-before the effort; :class:`~screwgear_ros.control.SetpointNotes` says when): table_sim
+before the effort; :class:`~screwgear_ros.sim.control.SetpointNotes` says when): table_sim
 only records it, so that ``plot_run`` shows the tracking error. It does so when the
 controlled joint is the table (the second name of joint_states).
 
@@ -39,7 +39,7 @@ from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
-from ..control import TABLE_JOINT, DemoGains, DemoLaw, SetpointNotes
+from ..sim.control import TABLE_JOINT, DemoGains, DemoLaw, SetpointNotes
 from ..ros.shutdown import spin_until, stop_on_signals
 
 LOG_PERIOD = 0.5   # s of simulation time between log lines

@@ -29,8 +29,8 @@ import numpy as np
 from ..design.closed_loop import make_controller, measure_loop
 from ..design.frequency import Input, Method, measure
 from ..design.linearize import OUTPUTS, OperatingPointError
-from ..params import ParameterError
-from ..simulation import ParameterFileError, file_values, resolve
+from ..params.table import ParameterError
+from ..sim.simulation import ParameterFileError, file_values, resolve
 from .linearize import format_modes
 from . import EXIT_OK, Failures, interruptible
 

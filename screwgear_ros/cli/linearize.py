@@ -21,8 +21,8 @@ import sys
 from pathlib import Path
 
 from ..design.linearize import LinearModel, OperatingPointError, linearize
-from ..params import ParameterError
-from ..simulation import ParameterFileError, file_values, resolve
+from ..params.table import ParameterError
+from ..sim.simulation import ParameterFileError, file_values, resolve
 from . import EXIT_OK, Failures, interruptible
 
 

@@ -64,13 +64,21 @@ from typing import Any, Iterator
 from rclpy.utilities import remove_ros_args
 
 from ..ros.replay_client import Interrupted, ReplayClient, ReplayError
-from ..ros.replaying import (CHILD_CLOSE, CHILD_GRACE, START_FACTOR, Progress, replay_free,
-                             replay_lockstep, spawn_node, stop_node)
+from ..ros.replaying import (
+    CHILD_CLOSE,
+    CHILD_GRACE,
+    START_FACTOR,
+    Progress,
+    replay_free,
+    replay_lockstep,
+    spawn_node,
+    stop_node,
+)
 from ..ros.shutdown import STOP_SIGNALS, stop_on_signals
-from ..runs.bagread import BagError, RecordedRun, read_run
+from ..bag.reader import BagError, RecordedRun, read_run
 from ..runs.compare import compare_runs, exact_comparison, format_comparison, format_exact
 from ..runs.replay import load_scenario, schedule_from_run
-from ..schedule import Schedule, differences
+from ..sim.schedule import Schedule, differences
 from ..runs.replay_plan import LockstepPlan, plan_from_run, plan_from_schedule
 from . import EXIT_ERROR, EXIT_OK
 

@@ -1,16 +1,16 @@
 """table_sim: the real-time rotary table plant a controller closes its loop around.
 
-A thin shell over :class:`screwgear_ros.session.Session` (``shared/spec/interface.md``):
+A thin shell over :class:`screwgear_ros.sim.session.Session` (``shared/spec/interface.md``):
 
 * subscriptions, the parameter callback and ``~/reset`` only turn what arrives into
   session events (:meth:`Session.submit`); the session applies them at the first
   step of its next tick and validates commands then;
 * a dedicated pacing thread ticks the session (one compiled call per tick), sleeps
-  to the tick's absolute deadline (:class:`screwgear_ros.pacing.Pacer`) and hands
+  to the tick's absolute deadline (:class:`screwgear_ros.sim.pacing.Pacer`) and hands
   the tick to :class:`screwgear_ros.ros.run_io.RunIO`, which publishes and records;
 * with ``lockstep`` the pacing thread starts tick k+1 only once the controller has
   answered tick k's ``joint_states`` (a ``cmd_effort`` or ``joint_commands``, or
-  ``~/tick`` from a tool): :class:`screwgear_ros.pacing.AnswerGate`; while anything
+  ``~/tick`` from a tool): :class:`screwgear_ros.sim.pacing.AnswerGate`; while anything
   publishes on ``~/tick``, only ``~/tick`` answers (commands are then applied but
   answer nothing, so a tool can send any number of them in one tick);
 * a ``setpoint`` (the controller's target, informational) is submitted like a command
@@ -59,23 +59,34 @@ from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
-from ..commands import carries_no_command
-from ..events import Command, ParameterChange, Reset, Setpoint
-from ..model import pack
-from ..pacing import AnswerGate, FactorMeter, Pacer, wall_period
-from ..interface import (ANSWER_TOPICS, ANSWERS, BY_KEY, LATCHED_OUTPUTS, RECORDED_TOPICS,
-                         TICK_TOPIC)
-from ..parameter_sets import split_parameters
-from ..params import ParameterError, SimSettings, TableParams
-from ..ratelimit import RateLimiter
-from ..warmup import compiled_now, without_blas_probe
-from ..session import Session, Tick
+from ..sim.commands import carries_no_command
+from ..sim.events import Command, ParameterChange, Reset, Setpoint
+from ..physics.model import pack
+from ..sim.pacing import AnswerGate, FactorMeter, Pacer, wall_period
+from ..interface import (
+    ANSWER_TOPICS,
+    ANSWERS,
+    BY_KEY,
+    LATCHED_OUTPUTS,
+    RECORDED_TOPICS,
+    TICK_TOPIC,
+)
+from ..params.sets import split_parameters
+from ..params.table import ParameterError, SimSettings, TableParams
+from ..sim.ratelimit import RateLimiter
+from ..numerics.warmup import compiled_now, without_blas_probe
+from ..sim.session import Session, Tick
 from ..ros import inputs, messages, param_dump, parameters
 from ..ros.messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES
 from ..ros.run_io import RunIO
 from ..ros.shutdown import spin_until, stop_on_signals
-from ..status import (MAX_PHASE_PER_STEP, Health, diagnostic_values, mesh_phase_per_step,
-                      status_line)
+from ..sim.status import (
+    MAX_PHASE_PER_STEP,
+    Health,
+    diagnostic_values,
+    mesh_phase_per_step,
+    status_line,
+)
 
 DIAGNOSTICS_PERIOD = 1.0    # s of wall time between /diagnostics
 STATUS_PERIOD = 5.0         # s of wall time between status log lines
@@ -157,7 +168,7 @@ class TableSim(Node):
         if compiled_now():
             self.get_logger().info(
                 f'compiled the numba model in {time.perf_counter() - started:.1f} s: its cache '
-                'was missing (python3 -m screwgear_ros.warmup after an install avoids this)')
+                'was missing (python3 -m screwgear_ros.numerics.warmup after an install avoids this)')
         self._fqn = self.get_fully_qualified_name()
         topics = {key: pub.topic_name for key, pub in publishers.items()}
         topics.update({topic: sub.topic_name for topic, sub in subs.items()})

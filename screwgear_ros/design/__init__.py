@@ -2,8 +2,17 @@
 operating point (:mod:`.linearize`) and its frequency response measured by simulation
 (:mod:`.frequency`)."""
 
-from .linearize import (INPUTS, OUTPUTS, STATES, LinearModel, ModeInfo, OperatingPoint,
-                        OperatingPointError, linearize, operating_point)
+from .linearize import (
+    INPUTS,
+    OUTPUTS,
+    STATES,
+    LinearModel,
+    ModeInfo,
+    OperatingPoint,
+    OperatingPointError,
+    linearize,
+    operating_point,
+)
 
 __all__ = ['INPUTS', 'OUTPUTS', 'STATES', 'LinearModel', 'ModeInfo', 'OperatingPoint',
            'OperatingPointError', 'linearize', 'operating_point']

@@ -1,6 +1,6 @@
 """The table's frequency response measured by simulation, beside its linear model's.
 
-Each point runs the node's own loop in-process (:class:`~screwgear_ros.simulation.
+Each point runs the node's own loop in-process (:class:`~screwgear_ros.sim.simulation.
 Simulation`: its session, its command validation) around the operating point of
 :func:`~screwgear_ros.design.linearize.linearize`, with one tick per integration step so
 the input changes at every step. Stepped sines (``Method.SINE``): for each frequency a new
@@ -49,10 +49,10 @@ from typing import Sequence
 
 import numpy as np
 
-from ..events import Command
-from ..model import DrivePiece
-from ..params import SimSettings, TableParams
-from ..simulation import Simulation
+from ..sim.events import Command
+from ..physics.model import DrivePiece
+from ..params.table import SimSettings, TableParams
+from ..sim.simulation import Simulation
 from .linearize import OUTPUT_UNITS, OUTPUTS, LinearModel, OperatingPointError, linearize
 
 

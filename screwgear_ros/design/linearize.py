@@ -5,7 +5,7 @@ The operating point is the preload equilibrium (no torque, no load) or the stead
 under a constant drive torque, direction and table load: the rigid motion at the speed
 where the torque the drive delivers (its torque–speed line, docs/model_notes.md §10)
 balances the load and the table damping
-(:func:`~screwgear_ros.quantities.terminal_speed`), at rest when nothing turns the table.
+(:func:`~screwgear_ros.physics.quantities.terminal_speed`), at rest when nothing turns the table.
 In steady rotation the mesh phase advances, so the model takes the mesh as its time average: stiffness k_eff = k_m·(1 − α·ΔT)
 + k_p (the fluctuation k_a averages out), no static transmission error (a periodic
 excitation of the mesh, not a function of the deviations), lever r. Each mesh is on the
@@ -17,7 +17,7 @@ Standing still (a static point in `angle` phase) the mesh phase does not sweep: 
 STE's slope in the pinion's lever there), which is what the table does for small motions
 while it stands.
 
-A, B are the model's own equations of motion (:func:`~screwgear_ros.model.motion`) on
+A, B are the model's own equations of motion (:func:`~screwgear_ros.physics.model.motion`) on
 those branches, evaluated with the averaged mesh: there they are affine in the state and
 the inputs, so central differences give them exactly.
 
@@ -42,13 +42,26 @@ from pathlib import Path
 
 import numpy as np
 
-from ..commands import load_limit
-from ..model import (NEWTON_ITERATIONS, ContactBranch, Drive, DrivePiece, Pieces, active_path,
-                     drive_targets,
-                     active_speed, drive_on, drive_piece, drive_torques, equilibrium_state,
-                     mesh_motion, motion, pack)
-from ..params import MeshPhase, Mode, TableParams, effective_stiffness
-from ..quantities import terminal_speed
+from ..sim.commands import load_limit
+from ..physics.model import (
+    NEWTON_ITERATIONS,
+    ContactBranch,
+    Drive,
+    DrivePiece,
+    Pieces,
+    active_path,
+    drive_targets,
+    active_speed,
+    drive_on,
+    drive_piece,
+    drive_torques,
+    equilibrium_state,
+    mesh_motion,
+    motion,
+    pack,
+)
+from ..params.table import MeshPhase, Mode, TableParams, effective_stiffness
+from ..physics.quantities import terminal_speed
 
 STATES = ('pinion_1_angle', 'table_angle', 'pinion_3_angle',
           'pinion_1_speed', 'table_speed', 'pinion_3_speed')

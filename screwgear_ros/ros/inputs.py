@@ -21,7 +21,7 @@ from typing import Any
 
 from rclpy.serialization import deserialize_message
 
-from ..commands import command_value
+from ..sim.commands import command_value
 from .messages import INPUT_TYPES
 
 #: Largest serialized input message decoded, bytes: room for hundreds of joints.
@@ -52,7 +52,7 @@ _MULTI_ARRAY_DATA = 20
 
 
 def value(topic: str, data: bytes) -> Any:
-    """The command value (:func:`~screwgear_ros.commands.command_value`) of the message of
+    """The command value (:func:`~screwgear_ros.sim.commands.command_value`) of the message of
     input ``topic`` in ``data`` (serialized CDR); a cmd_effort without layout dimensions
     is read without a message object (module docstring), with the same values."""
     if topic == 'cmd_effort' and len(data) >= 16 and data[:2] == _CDR_LE:

@@ -1,5 +1,5 @@
 """The message classes of the node's topics (declared in :mod:`screwgear_ros.interface`),
-and the messages that are not serialized once per tick by :mod:`screwgear_ros.cdr`:
+and the messages that are not serialized once per tick by :mod:`screwgear_ros.bag.cdr`:
 inputs as recorded, the active path, the URDF, diagnostics. Fresh objects: a recorder serializes them later on
 its own thread, so a message handed over must never change afterwards.
 """
@@ -13,7 +13,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Int8, String
 
-from ..commands import JointCommand
+from ..sim.commands import JointCommand
 from ..interface import BY_KEY, COMMAND_TOPICS, INFO_TOPICS, OUTPUT_TOPICS, RECORDED_TOPICS
 
 MESH_NAMES = ['mesh_1', 'mesh_3']
@@ -26,7 +26,7 @@ def message_class(name: str) -> type:
     return getattr(importlib.import_module(f'{package}.{kind}'), cls)
 
 
-#: The message class of each input topic of :data:`screwgear_ros.commands.INPUT_TOPICS`.
+#: The message class of each input topic of :data:`screwgear_ros.sim.commands.INPUT_TOPICS`.
 INPUT_TYPES = {key: message_class(name) for key, name in COMMAND_TOPICS.items()}
 #: The inputs the node only records (the setpoint): key → message class.
 INFO_TYPES = {key: message_class(name) for key, name in INFO_TOPICS.items()}
@@ -39,7 +39,7 @@ PRIVATE_TYPES = {key: message_class(name) for key, name in RECORDED_TOPICS.items
 
 def input_message(topic: str, value: object, time_ns: int = 0) -> object:
     """The message of a command on input ``topic`` whose value
-    (:func:`screwgear_ros.commands.command_value`) is ``value``; a JointState is
+    (:func:`screwgear_ros.sim.commands.command_value`) is ``value``; a JointState is
     stamped ``time_ns``."""
     if topic == 'joint_commands':
         if not isinstance(value, JointCommand):

@@ -35,9 +35,9 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
-from ..events import Command, Event, ParameterChange, Reset, describe
+from ..sim.events import Command, Event, ParameterChange, Reset, describe
 from ..interface import TICK_TOPIC
-from ..schedule import Schedule
+from ..sim.schedule import Schedule
 from .messages import INPUT_TYPES, input_message
 from .shutdown import spin_executor_until
 

@@ -25,8 +25,8 @@ from pathlib import Path
 
 import yaml
 
-from ..events import Reset
-from ..schedule import Schedule
+from ..sim.events import Reset
+from ..sim.schedule import Schedule
 from ..runs.replay_plan import LockstepPlan, sending_order
 from .replay_client import ReplayClient, ReplayError
 

@@ -1,7 +1,7 @@
 """What the node makes of a session's ticks: messages, published and recorded.
 
 :class:`RunIO` serializes each output of a tick once, straight into CDR bytes
-(:mod:`screwgear_ros.cdr`: no message objects, no rclpy serializer), and hands the
+(:mod:`screwgear_ros.bag.cdr`: no message objects, no rclpy serializer), and hands the
 same bytes to the topic's publisher (rclpy publishes ``bytes`` as a serialized
 message) and to the recorder (which then only queues them); it records every event a
 tick applied at the step it took effect at (the bag contract of docs/recording.md).
@@ -43,20 +43,21 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 
-from .. import cdr, run_parameters
-from ..events import Command, ParameterChange, Setpoint
-from ..params import SimSettings, TableParams
-from ..plant import Outputs
-from ..session import Session, Tick
+from ..bag import cdr
+from ..params import run_file as run_parameters
+from ..sim.events import Command, ParameterChange, Setpoint
+from ..params.table import SimSettings, TableParams
+from ..sim.plant import Outputs
+from ..sim.session import Session, Tick
 from . import messages
 from .markers import MarkerEncoder
 from ..interface import LATCHED_OUTPUTS
-from ..cdr import type_name
+from ..bag.cdr import type_name
 from .messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES, PRIVATE_TYPES
 from .urdf import robot_description
 
 if TYPE_CHECKING:
-    from ..runs.recorder import RunRecorder, TopicGroup, TopicSpec
+    from ..bag.recorder import RunRecorder, TopicGroup, TopicSpec
 # screwgear_ros.runs (the MCAP writer, rosbags' typestore) is imported where a recording
 # needs it, not at the node's start: a node that does not record never loads it.
 
@@ -84,7 +85,7 @@ def serialize(msg: Any) -> bytes:
     data = serialize_message(msg)
     if isinstance(msg, JointState) and not (len(msg.position) and len(msg.velocity)
                                             and len(msg.effort)):
-        from ..runs.bagformat import typestore
+        from ..bag.format import typestore
         store = typestore()
         msgdef = store.get_msgdef(_JOINT_STATE)
         decode = msgdef.deserialize_cdr_le if data[1] else msgdef.deserialize_cdr_be
@@ -136,13 +137,13 @@ class RunIO:
 
     def topic_specs(self) -> list[TopicSpec]:
         """The recorded topics, with types and the latched one."""
-        from ..runs.recorder import TopicSpec
+        from ..bag.recorder import TopicSpec
         return [TopicSpec(name, type_name(_message_class(key)), key in LATCHED_OUTPUTS)
                 for key, name in self.topics.items()]
 
     def open_recorder(self, path: str | os.PathLike[str], **options: Any) -> RunRecorder:
         """Record from now on to a new rosbag2 directory (FileExistsError if taken)."""
-        from ..runs.recorder import RunRecorder
+        from ..bag.recorder import RunRecorder
         self.recorder = RunRecorder(path, self.topic_specs(), serialize, **options)
         self._tick_group = self.recorder.group(self._tick_topics)
         return self.recorder

@@ -2,15 +2,15 @@
 
 The model is rebuilt from the bag's run_parameters; the recorded inputs, parameter
 changes and resets are re-integrated with the DOP853 reference solver
-(:mod:`screwgear_ros.reference`: compiled Dormand–Prince 8(5,3), adaptive, rtol 1e-11),
+(:mod:`screwgear_ros.numerics.reference`: compiled Dormand–Prince 8(5,3), adaptive, rtol 1e-11),
 restarted at every change, and the recorded joint states (θ, ω, effort of every joint),
 transmission error and mesh_state (δ, δ̇, F of both meshes, the plant's outputs of the
 reference state) are compared with it at every recorded sample; the recorded
 active_path must change where the in-process replay changes it. A run whose joint
 sensors are not all ideal records the exact state on ``~/true_joint_states``: the
 physics is judged on it, and the recorded joint_states must then follow from it by the
-recorded sensor model (:mod:`screwgear_ros.sensors`, its noise included) bit for bit.
-A run the reference cannot follow raises :class:`~screwgear_ros.reference.ReferenceFailure`
+recorded sensor model (:mod:`screwgear_ros.physics.sensors`, its noise included) bit for bit.
+A run the reference cannot follow raises :class:`~screwgear_ros.numerics.reference.ReferenceFailure`
 (why, at what simulation time, in which segment of the run); one with nothing to
 compare raises :class:`NothingToCompare`.
 
@@ -59,14 +59,14 @@ from typing import Callable
 
 import numpy as np
 
-from ..model import N_STATE, active_path, equilibrium_state
-from ..params import TableParams
-from ..plant import DriveInput, Plant
-from ..reference import ATOL, RTOL, ReferenceFailure, Segment, solve
-from ..events import ParameterChange, Reset
-from .bagread import BagError, RecordedRun
-from ..session import ROW, ROW_JOINTS, ROW_TE, row_of
-from ..sensors import SensorChain
+from ..physics.model import N_STATE, active_path, equilibrium_state
+from ..params.table import TableParams
+from ..sim.plant import DriveInput, Plant
+from ..numerics.reference import ATOL, RTOL, ReferenceFailure, Segment, solve
+from ..sim.events import ParameterChange, Reset
+from ..bag.reader import BagError, RecordedRun
+from ..sim.session import ROW, ROW_JOINTS, ROW_TE, row_of
+from ..physics.sensors import SensorChain
 from .replay import ReplayedOutputs, replay_in_process
 
 #: Tolerance = SAFETY × Richardson estimate of RK4's error (contact changes located).
@@ -458,7 +458,7 @@ def _path_mismatch(run: RecordedRun, replayed: ReplayedOutputs) -> str | None:
 
 def sensor_rows(run: RecordedRun) -> np.ndarray:
     """What the run's sensors measure of its exact joint states: joint_states rows (n, 9),
-    sample by sample through :class:`~screwgear_ros.sensors.SensorChain`, restarted by
+    sample by sample through :class:`~screwgear_ros.physics.sensors.SensorChain`, restarted by
     each recorded reset and reconfigured by each recorded parameter change at the sample
     of the tick that applied it (the first sample recorded after it), as the node's
     session does."""

@@ -23,10 +23,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..events import Command, Event, ParameterChange, describe
-from .bagread import RecordedRun, Signal
+from ..sim.events import Command, Event, ParameterChange, describe
+from ..bag.reader import RecordedRun, Signal
 from .check import sensor_mismatch, signal_names
-from ..schedule import ros_values
+from ..sim.schedule import ros_values
 from .replay import replay_in_process
 
 

@@ -27,13 +27,13 @@ from matplotlib.backend_bases import FigureCanvasBase
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from ..events import ParameterChange, Reset
-from ..model import active_path
-from ..params import Mode, TableParams
-from ..plant import DriveInput
-from ..report.common import COLORS, plt
-from ..session import Tick
-from .bagread import BagError, RecordedRun
+from ..sim.events import ParameterChange, Reset
+from ..physics.model import active_path
+from ..params.table import Mode, TableParams
+from ..sim.plant import DriveInput
+from ..paper.common import COLORS, plt
+from ..sim.session import Tick
+from ..bag.reader import BagError, RecordedRun
 from .check import MESH_SIGNALS, CheckReport, signal_names
 from .replay import replay_in_process
 

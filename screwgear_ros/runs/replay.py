@@ -1,4 +1,4 @@
-"""Replay a recorded run in-process through a :class:`~screwgear_ros.session.Session`,
+"""Replay a recorded run in-process through a :class:`~screwgear_ros.sim.session.Session`,
 and the schedules that ``replay_run`` plays into a live node.
 
 :func:`replay_in_process` drives a fresh session through a recording exactly as the
@@ -10,7 +10,7 @@ sample's step are checked against the session's (a bag that disagrees is
 bit; with ``refine = 2`` the same run at dt/2 (the Richardson estimate of RK4's
 error that ``check_run`` judges by).
 
-A :class:`~screwgear_ros.schedule.Schedule` comes from a recording
+A :class:`~screwgear_ros.sim.schedule.Schedule` comes from a recording
 (:func:`schedule_from_run`) or a scripted scenario (:func:`load_scenario`).
 """
 
@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..events import Event, ParameterChange, describe
-from ..schedule import Schedule, ros_values
-from ..session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
-from .bagread import BagError, RecordedRun
+from ..sim.events import Event, ParameterChange, describe
+from ..sim.schedule import Schedule, ros_values
+from ..sim.session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
+from ..bag.reader import BagError, RecordedRun
 
 
 def _refined(event: Event, refine: int) -> Event:
@@ -139,10 +139,10 @@ def schedule_from_run(run: RecordedRun) -> Schedule:
 
 def load_scenario(path: str | Path) -> Schedule:
     """The timed actions of a scenario file (docs/scenarios.md; the test bags are recorded
-    from these) as a schedule. Raises ValueError (:class:`~screwgear_ros.scenario.ScenarioError`)
+    from these) as a schedule. Raises ValueError (:class:`~screwgear_ros.sim.scenario.ScenarioError`)
     naming the line of what is wrong, and for a scenario with a controller: that runs
     in-process (``run_scenario``), a replay plays actions only."""
-    from ..scenario import load_scenario as load    # the format's one reader
+    from ..sim.scenario import load_scenario as load    # the format's one reader
     scenario = load(path)
     if scenario.controller is not None:
         raise ValueError(f'{path}: line {scenario.controller.line}: this scenario closes '

@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..events import Command, Event, ParameterChange
-from .bagread import RecordedRun
-from ..schedule import Schedule
+from ..sim.events import Command, Event, ParameterChange
+from ..bag.reader import RecordedRun
+from ..sim.schedule import Schedule
 from .replay import replayed_events
 
 @dataclass

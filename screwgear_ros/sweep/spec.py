@@ -4,7 +4,7 @@
 contents, not their paths, go to the workers) and resolves every run: its index, its seed
 (derived from the sweep seed and the index alone), its parameter values and the digest
 of everything it depends on. Every run is validated before any starts, by the node's
-own rules (:func:`~screwgear_ros.params.split_parameters`: ranges, the cross-parameter
+own rules (:func:`~screwgear_ros.params.table.split_parameters`: ranges, the cross-parameter
 rules, the RK4 stability limit); an error is a :class:`SweepError` naming the file,
 the line and the entry. No Dask here: this module runs anywhere the package does.
 
@@ -26,13 +26,13 @@ from typing import Any
 import numpy as np
 import yaml
 
-from ..declare import ParameterError, declared
-from ..metrics import Metrics
-from ..parameter_sets import split_parameters
-from ..params import SimSettings, TableParams
-from ..scenario import ScenarioError, load_scenario
-from ..simulation import ParameterFileError, file_values
-from ..yaml_reader import YamlReader
+from ..params.declarations import ParameterError, declared
+from ..sim.metrics import Metrics
+from ..params.sets import split_parameters
+from ..params.table import SimSettings, TableParams
+from ..sim.scenario import ScenarioError, load_scenario
+from ..sim.simulation import ParameterFileError, file_values
+from ..params.yaml_reader import YamlReader
 
 #: The top-level keys of a sweep file.
 KEYS = ('parameters', 'scenario', 'metrics', 'time_limit', 'grid', 'monte_carlo')
@@ -411,7 +411,7 @@ def _runs(reader: YamlReader, bundle: Bundle, scenario: Any, grid: tuple[Axis, .
 
 
 def _default(name: str) -> Any:
-    from ..parameter_sets import default_values
+    from ..params.sets import default_values
     return default_values()[name]
 
 

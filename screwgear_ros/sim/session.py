@@ -1,0 +1,376 @@
+"""One simulation run: the plant, an ordered queue of typed events, ``tick()``, the outputs.
+
+:class:`Session` is the only simulation loop in the project. The node's pacing thread
+ticks it (free-running against the wall clock, or in lockstep with a controller),
+in-process replays, ``check_run``, the benchmarks and the tests tick it too.
+
+A tick is what the node does between two publications:
+
+1. every event submitted since the last tick (:mod:`screwgear_ros.sim.events`: a
+   command, a parameter change, a reset, a setpoint to record) takes effect, in
+   submission order, at the tick's first step; each comes back with that step set;
+2. the plant integrates ``settings.steps_per_publish`` RK4 steps in one compiled
+   call (none once the model has diverged: the plant then stands still, state and
+   time, until a reset);
+3. the outputs of the tick's last step are computed, and what the joint sensors
+   measure of them (:mod:`screwgear_ros.physics.sensors`: the outputs themselves when every
+   sensor is ideal). A reset restarts the sensors' chain; a parameter change hands them
+   its settings.
+
+A closed loop's tick, whose one event is its controller's answer, is
+:meth:`Session.tick_effort`: the same tick, without the objects a tick makes for
+callers that log or record it.
+
+Commands are validated when they take effect, against the parameters in force at
+that step (:func:`screwgear_ros.sim.commands.apply_command`); a refused command changes
+nothing and is counted. A parameter change that lowers a limit below the input in
+force cuts that input to the new limit and says so in the tick's notices.
+
+``command_timeout`` (settings, s of simulation time, 0 = off): when no command has
+been accepted for that long, at the first step of a tick, the drive torque and the
+load go to zero (the direction stays); the tick's notices say so once, and
+:attr:`Session.timed_out` stays true until the next accepted command. Counting in
+simulation time makes it the same in a replay, in lockstep and at any real-time
+factor.
+
+Threads: :meth:`Session.submit` may be called from any thread (it takes the lock
+that guards the queue, and nothing else). Everything else (``tick``, ``plant``,
+``settings``, ``rejected``) belongs to the one thread that drives the session.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from .commands import INPUT_TOPICS, InputRejected, apply_command, effort_drive, limit_input
+from .events import Command, Event, ParameterChange, Reset, Setpoint
+from ..interface import INFO_TOPICS
+from ..params.table import SimSettings, TableParams
+from ..numerics.integrator import OBSERVED
+from .plant import OBSERVED_DELTA, OBSERVED_JOINTS, DriveInput, Outputs, Plant
+from ..physics.sensors import SensorChain
+
+
+#: Ticks per compiled call of :meth:`Session.tick_quietly` (its scratch rows: 0.5 MB).
+QUIET_TICKS_PER_CALL = 4096
+
+#: Columns of an output row (:meth:`Session.tick_quietly`, replays; :func:`row_of`): the
+#: joint_states row (θ, ω, effort of the three joints), the transmission error, the step.
+ROW_JOINTS, ROW_TE, ROW_STEP = slice(0, 9), 9, 10
+ROW = ROW_STEP + 1
+
+
+def row_of(o: Outputs) -> tuple[float, ...]:
+    """The ``ROW`` columns of ``o``."""
+    return (*o.position, *o.velocity, *o.effort, o.transmission_error, o.step)
+
+
+@dataclass(slots=True)
+class Tick:
+    """What one tick did. Read-only by convention, like :class:`~screwgear_ros.sim.plant.Outputs`
+    and for the same reason not ``frozen``: one is made a tick."""
+
+    start: int                          # step its events took effect at
+    applied: tuple[Event, ...]          # those events, in order, ``step`` set
+    rejected: tuple[InputRejected, ...]  # commands refused when they were to take effect
+    notices: tuple[str, ...]            # inputs cut by a parameter change, for the log
+    drive: DriveInput                   # input in force during the tick
+    params: TableParams                 # parameters in force during the tick
+    outputs: Outputs                    # at the tick's last step
+    previous: Outputs                   # at its first step, before its events
+    previous_direction: int             # commanded direction before the tick's events
+    fault: str | None                   # why the plant stands still, if it does
+    new_fault: bool                     # the model diverged during this tick
+    measured: Outputs | None = None     # what the sensors measure of ``outputs`` (None:
+    #                                     ``outputs`` itself, every sensor ideal)
+
+    @property
+    def start_ns(self) -> int:
+        """Simulation time of ``start``, ns: the stamp of what took effect then."""
+        return self.previous.time_ns
+
+    @property
+    def previous_path(self) -> int:
+        """Active path before the tick's events."""
+        return self.previous.active_path
+
+    @property
+    def reversal(self) -> bool:
+        """The commanded direction changed at the tick's start."""
+        return self.drive.direction != self.previous_direction
+
+    @property
+    def path_changed(self) -> bool:
+        return self.outputs.active_path != self.previous_path
+
+
+class Session:
+    """Plant, event queue and outputs of one run; see the module docstring."""
+
+    def __init__(self, params: TableParams, settings: SimSettings,
+                 initial_state: np.ndarray | None = None, start_step: int = 0) -> None:
+        self.plant = Plant(params, settings.dt, initial_state, settings.contact_location)
+        self.plant.step = int(start_step)
+        self._use(settings)
+        self.start_step = int(start_step)
+        self.initial_state = tuple(float(v) for v in self.plant.state)
+        self.rejected = {topic: 0 for topic in (*INPUT_TOPICS, *INFO_TOPICS)}
+        self.timed_out = False                 # command_timeout zeroed the input
+        self._last_command = self.start_step   # step of the last accepted command
+        self._lock = threading.Lock()          # guards _pending only
+        self._pending: list[Event] = []
+        self._observed: np.ndarray | None = None   # tick_quietly's rows, made on first use
+        self._outputs: Outputs | None = self.plant.compute_outputs()
+        self.sensors = SensorChain(settings.sensors, settings.dt)
+        self._measure()
+
+    def _use(self, settings: SimSettings) -> None:
+        """Settings in force from now on, and what ``tick`` derives from them (once per
+        change, not per tick): steps per tick, command_timeout in steps (None = off)."""
+        self.settings = settings
+        self._steps = settings.steps_per_publish
+        self._timeout_steps = (round(settings.command_timeout / settings.dt)
+                               if settings.command_timeout > 0.0 else None)
+
+    @property
+    def step(self) -> int:
+        """Integration steps since the start of simulation time."""
+        return self.plant.step
+
+    @property
+    def last_outputs(self) -> Outputs:
+        """The outputs of the last tick (before the first: of the start)."""
+        outputs = self._outputs
+        if outputs is None:      # a tick_effort left them in the plant: made when read
+            self._outputs = outputs = self.plant.last_outputs()
+        return outputs
+
+    @property
+    def measured(self) -> Outputs:
+        """What joint_states publishes of :attr:`last_outputs` (the same object when every
+        sensor is ideal). :meth:`tick_quietly` leaves the sensors' chain alone (sensors
+        that are not ideal: this stays what they measured last)."""
+        measured = self._measured
+        return self.last_outputs if measured is None else measured
+
+    def _measure(self) -> None:
+        """The sensors' sample of the tick just done (:attr:`measured`; None: ideal
+        sensors, the outputs themselves, left to be made when read)."""
+        sensors = self.sensors
+        if sensors.ideal:
+            self._measured = None
+        else:
+            outputs = self.last_outputs
+            measured = sensors.measure(outputs)
+            self._measured = None if measured is outputs else measured
+
+    def submit(self, event: Event) -> None:
+        """Queue ``event``; it takes effect at the first step of the next tick. Any thread."""
+        with self._lock:
+            self._pending.append(event)
+
+    def tick(self, command: Command | None = None) -> Tick:
+        """Apply the queued events, integrate one tick, compute its outputs.
+
+        ``command``: what ``submit(command)`` just before would do, without the queue
+        when nothing else waits in it (a closed loop's tick: its controller's answer)."""
+        plant = self.plant
+        start = plant.step
+        previous = self.last_outputs
+        previous_direction = plant.input.direction
+        applied: tuple[Event, ...] = ()
+        rejected: tuple[InputRejected, ...] = ()
+        notices: tuple[str, ...] = ()
+        commanded = False
+        # Read without the lock first: only this thread empties the queue, and an event
+        # submitted just after the read is as late as one submitted after the swap.
+        if self._pending:
+            if command is not None:
+                self.submit(command)
+            with self._lock:
+                events, self._pending = self._pending, []
+            applied, rejected, notices, commanded = self._apply(events, start)
+        elif command is not None:
+            error = self._command(command)
+            if error is None:
+                applied, commanded = (command.at(start),), True
+            else:
+                rejected = (error,)
+        if commanded:                        # an accepted command restarts the timeout
+            self._last_command, self.timed_out = start, False
+        elif self._timeout_steps is not None:
+            notice = self._time_out(start)
+            if notice is not None:
+                notices = (*notices, notice)
+        fault = plant.fault
+        self._outputs = outputs = plant.advance_outputs(self._steps)
+        self._measure()
+        return Tick(start, applied, rejected, notices, plant.input, plant.params, outputs,
+                    previous, previous_direction, plant.fault,
+                    fault is None and plant.fault is not None, self._measured)
+
+    def tick_effort(self, effort: Any) -> Tick | None:
+        """``tick(Command.of('cmd_effort', [effort]))``: a closed loop's tick, answered
+        by its controller's signed drive torque ``effort``.
+
+        When that tick only takes the answer (nothing else is queued, the answer is
+        valid, the plant is running) it does to the session, its plant and sensors
+        exactly what :meth:`tick` does, without making the objects tick makes for it
+        (its Tick, the stamped command; :attr:`last_outputs` is made when read), and returns
+        None: :attr:`last_outputs`, :attr:`measured`, :attr:`Plant.observed` and
+        :attr:`Plant.fault` (the plant may have faulted in it) say what it made.
+        Otherwise it is :meth:`tick` itself, and returns its Tick."""
+        plant = self.plant
+        if self._pending or plant.fault is not None:
+            return self.tick(Command.of('cmd_effort', [effort]))
+        params = plant.params
+        try:
+            torque, direction = effort_drive(effort, params.max_torque, params.effort_deadband)
+        except InputRejected:                # tick refuses it, counts it and says why
+            return self.tick(Command.of('cmd_effort', [effort]))
+        plant.set_drive(torque, direction)
+        self._last_command, self.timed_out = plant.step, False
+        plant.advance(self._steps)
+        self._outputs = None
+        if not self.sensors.ideal:
+            self._measure()
+        return None
+
+    def _apply(self, events: list[Event], start: int) -> tuple[
+            tuple[Event, ...], tuple[InputRejected, ...], tuple[str, ...], bool]:
+        """Apply ``events`` in order at step ``start``: those applied (``step`` set), the
+        commands refused, the notices of inputs a parameter change cut, and whether a
+        command was accepted."""
+        plant = self.plant
+        applied: list[Event] = []
+        rejected: list[InputRejected] = []
+        notices: list[str] = []
+        commanded = False
+        if len(events) == 1 and isinstance(events[0], Command):
+            # A closed loop's tick (one command): the same as the loop below, without
+            # building its lists.
+            error = self._command(events[0])
+            if error is not None:
+                return (), (error,), (), False
+            return (events[0].at(start),), (), (), True
+        for event in events:
+            if isinstance(event, Command):
+                error = self._command(event)
+                if error is not None:
+                    rejected.append(error)
+                    continue
+                commanded = True
+            elif isinstance(event, ParameterChange):
+                plant.set_params(event.params)
+                self._use(event.settings)
+                self.sensors.configure(event.settings.sensors)
+                drive, notice = limit_input(plant.input, event.params)
+                if notice is not None:
+                    plant.set_input(drive)
+                    notices.append(notice)
+            elif isinstance(event, Reset):
+                plant.reset()
+                self.sensors.restart()
+            elif isinstance(event, Setpoint):
+                error = self._setpoint(event)
+                if error is not None:
+                    rejected.append(error)
+                    continue
+            else:
+                raise TypeError(f'not a session event: {event!r}')
+            applied.append(event.at(start))
+        return tuple(applied), tuple(rejected), tuple(notices), commanded
+
+    def _command(self, command: Command) -> InputRejected | None:
+        """Fold ``command`` into the input in force, validated against the parameters in
+        force; the refusal (counted) if it is refused."""
+        plant = self.plant
+        try:
+            plant.set_input(apply_command(plant.input, command.topic, command.value,
+                                          plant.params, self.settings.joint_names))
+        except InputRejected as error:
+            self.rejected[command.topic] += 1
+            return error
+        return None
+
+    def _setpoint(self, setpoint: Setpoint) -> InputRejected | None:
+        """The refusal (counted) of a setpoint that is no finite angle; it is only
+        recorded, so nothing else is checked."""
+        value = setpoint.value
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not math.isfinite(value):
+            self.rejected['setpoint'] += 1
+            return InputRejected('setpoint', value, 'a setpoint must be a finite angle, rad')
+        return None
+
+    def _time_out(self, start: int) -> str | None:
+        """command_timeout (module docstring), at the first step of a tick that accepted
+        no command; the notice when it zeroes the input."""
+        if (self.timed_out or self._timeout_steps is None
+                or start - self._last_command < self._timeout_steps):
+            return None
+        self.timed_out = True
+        drive = self.plant.input
+        if not (drive.torque or drive.load):
+            return None
+        self.plant.set_input(replace(drive, torque=0.0, load=0.0))
+        return (f'no command for {self.settings.command_timeout:g} s of simulation time '
+                f'(command_timeout): drive torque ({drive.torque:g} N·m) and load '
+                f'({drive.load:g} N·m) set to zero until the next command')
+
+    def tick_quietly(self, n: int, values: np.ndarray) -> int:
+        """Up to ``n`` ticks that take no event, for replays that sample every tick: the
+        plant does exactly what ``n`` calls of :meth:`tick` would make it do (the same
+        calls, bit for bit), without a :class:`Tick` each, up to ``QUIET_TICKS_PER_CALL``
+        ticks per compiled call (:meth:`Plant.advance_ticks`). Row i of ``values``
+        (float64, at least n × ROW) gets tick i's outputs: θ(3) rad, ω(3) rad/s,
+        effort(3) N·m, transmission error m, and the step they are at (exact in float64;
+        a faulted plant's time stands still); :attr:`last_outputs` is the last one's.
+
+        The exact outputs only: the sensors (:attr:`measured`) do not follow these
+        ticks (replays compare the exact state; ``check_run`` measures it afresh).
+
+        Stops before a tick that would do more than integrate: events are queued, or
+        ``command_timeout`` comes due at its first step (:meth:`tick` does that one); and
+        after a tick in which the plant faulted (:attr:`Plant.fault` says why). Returns
+        the number of ticks done.
+        """
+        with self._lock:
+            if self._pending:
+                return 0
+        plant = self.plant
+        if self._timeout_steps is not None and not self.timed_out:
+            left = self._last_command + self._timeout_steps - plant.step
+            n = min(n, max(0, -(-left // self._steps)))   # ticks starting before it is due
+        if n <= 0:
+            return 0
+        if plant.fault is not None:          # standing still: every tick the same row
+            self._outputs = plant.advance_outputs(self._steps)
+            values[:n, :ROW] = row_of(self._outputs)
+            return n
+        if self._observed is None:
+            self._observed = np.empty((QUIET_TICKS_PER_CALL, OBSERVED))
+        delta = OBSERVED_DELTA[self.last_outputs.active_path]     # no event: the path stays
+        done = 0
+        while done < n and plant.fault is None:
+            step0 = plant.step
+            k = plant.advance_ticks(min(n - done, QUIET_TICKS_PER_CALL), self._steps,
+                                    self._observed)                  # one compiled call
+            rows, observed = values[done:done + k], self._observed[:k]
+            rows[:, ROW_JOINTS] = observed[:, OBSERVED_JOINTS]
+            rows[:, ROW_TE] = observed[:, delta]
+            rows[:, ROW_STEP] = step0 + self._steps * np.arange(1, k + 1)
+            if plant.fault is not None:      # the last tick faulted: its time stood still
+                rows[k - 1, ROW_STEP] = plant.step
+            done += k
+        self._outputs = plant.last_outputs()
+        return done
+
+
+__all__ = ['QUIET_TICKS_PER_CALL', 'ROW', 'ROW_JOINTS', 'ROW_STEP', 'ROW_TE', 'row_of',
+           'Session', 'Tick']
