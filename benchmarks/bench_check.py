@@ -34,14 +34,13 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-from bag_runs import copy_bag, record_session  # noqa: E402
+import yaml
+from bag_runs import copy_bag, record_session
 
-import yaml  # noqa: E402
-
-from screwgear_ros.sim.events import Command  # noqa: E402
-from screwgear_ros.bag.format import typestore  # noqa: E402
-from screwgear_ros.params.table import SimSettings, TableParams  # noqa: E402
-from screwgear_ros.sim.schedule import Schedule  # noqa: E402
+from screwgear_ros.bag.format import typestore
+from screwgear_ros.params.table import SimSettings, TableParams
+from screwgear_ros.sim.events import Command
+from screwgear_ros.sim.schedule import Schedule
 
 SECONDS = 60.0
 DT = 50e-6
@@ -135,7 +134,7 @@ def for_old(bag: Path, dst: Path, python: str) -> Path:
 def stages(python: str, bag: Path) -> dict[str, float]:
     out = subprocess.run([python, '-P', '-c', STAGES, str(bag)], capture_output=True,
                          text=True, check=True).stdout
-    return eval(out.strip().splitlines()[-1])   # noqa: S307 (our own dict literal)
+    return eval(out.strip().splitlines()[-1])
 
 
 def main() -> int:

@@ -20,8 +20,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from screwgear_ros.sim.events import Command
 from screwgear_ros.params.table import SimSettings, TableParams
+from screwgear_ros.sim.events import Command
 from screwgear_ros.sim.session import Session
 
 DT = 50e-6

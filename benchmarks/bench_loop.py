@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-from ros_procs import STARTUP_TIMEOUT, start_process  # noqa: E402
+from ros_procs import STARTUP_TIMEOUT, start_process
 
 VALUES = {'table_damping': 8867.0, 'command_timeout': 0.0, 'publish_rate': 1000.0}
 IN_PROCESS_TICKS = 4000
@@ -57,7 +57,7 @@ WINDOW = 5.0        # s of wall time per DDS measurement
 def pd(o) -> float:
     """The benchmark's controller: PD on the table angle towards 10 mrad."""
     wanted = 3000.0 * (0.01 - o.position[1]) - 200.0 * o.velocity[1]
-    return 300.0 if wanted > 300.0 else -300.0 if wanted < -300.0 else wanted
+    return 300.0 if wanted > 300.0 else max(wanted, -300.0)
 
 
 def physics_alone(ticks: int) -> tuple[float, float]:

@@ -35,8 +35,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import JointState
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-from ros_procs import (STARTUP_TIMEOUT, Peer, RosProcess, stamp_ns,  # noqa: E402
-                       start_process)
+from ros_procs import STARTUP_TIMEOUT, Peer, RosProcess, stamp_ns, start_process
 
 WINDOW = 10.0      # s of wall time measured per node scenario
 WARMUP = 2.0       # s before the window opens

@@ -42,7 +42,7 @@ SENSORS = {
 
 def pd(o) -> float:
     wanted = 3000.0 * (0.01 - o.position[1]) - 200.0 * o.velocity[1]
-    return 300.0 if wanted > 300.0 else -300.0 if wanted < -300.0 else wanted
+    return 300.0 if wanted > 300.0 else max(wanted, -300.0)
 
 
 def per_tick(sim: Simulation, ticks: int) -> float:

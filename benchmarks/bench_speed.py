@@ -50,9 +50,10 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -139,6 +140,7 @@ def _bench_node() -> Any:
 
 def start_bare(workdir: Path, rate: float) -> Any:
     from ros_procs import start_process
+
     from screwgear_ros.params.table import SimSettings
     from screwgear_ros.ros.messages import MESH_NAMES
     return start_process(sys.executable, workdir=workdir,
@@ -186,7 +188,7 @@ def time_to_first(starts: dict[str, Callable[[Path], Any]], n: int,
     this process receives, ``n`` starts each, interleaved, and each of the ``once``
     starts one time, the k-th in round k + 1 (not the first round: the first start after
     the subscriber came up can wait longer for discovery); the subscriber is up first."""
-    from ros_procs import Peer, STARTUP_TIMEOUT
+    from ros_procs import STARTUP_TIMEOUT, Peer
     from sensor_msgs.msg import JointState
     bn = _bench_node()
     times: dict[str, list[float]] = {name: [] for name in [*starts, *(once or {})]}

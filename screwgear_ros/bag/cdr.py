@@ -35,8 +35,9 @@ the markers' from the rclpy MarkerArray it draws.
 from __future__ import annotations
 
 import struct
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 _STAMP = struct.Struct('<iI')          # builtin_interfaces/Time: int32 sec, uint32 nanosec
 #: CDR encapsulation header: plain CDR, little endian, no options.
@@ -311,5 +312,14 @@ def clock_template() -> Template:
                              {'clock': ('builtin_interfaces/Time', _time())}), [('clock',)])
 
 
-__all__ = ['Bundle', 'Field', 'Template', 'Shape', 'type_name', 'template_of', 'joint_state_template',
-           'float64_template', 'clock_template']
+__all__ = [
+    'Bundle',
+    'Field',
+    'Shape',
+    'Template',
+    'clock_template',
+    'float64_template',
+    'joint_state_template',
+    'template_of',
+    'type_name',
+]

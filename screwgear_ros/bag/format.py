@@ -10,8 +10,9 @@
 from __future__ import annotations
 
 import struct
-from functools import lru_cache
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from functools import cache, lru_cache
+from typing import Any
 
 import yaml
 
@@ -40,7 +41,7 @@ def typestore() -> Any:
     return get_typestore(Stores.ROS2_JAZZY)
 
 
-@lru_cache(maxsize=None)
+@cache
 def message_definition(msgtype: str) -> tuple[str, str]:
     """(``ros2msg`` definition text with dependencies, RIHS01 hash) of ``pkg/msg/Type``."""
     store = typestore()
@@ -126,6 +127,16 @@ def metadata_yaml(document: Mapping[str, Any]) -> str:
                           default_flow_style=False, sort_keys=False)
 
 
-__all__ = ['METADATA_VERSION', 'ROS_DISTRO', 'MCAP_PROFILE', 'SCHEMA_ENCODING',
-           'MESSAGE_ENCODING', 'typestore', 'message_definition', 'qos_profile', 'qos_yaml',
-           'metadata_document', 'metadata_yaml']
+__all__ = [
+    'MCAP_PROFILE',
+    'MESSAGE_ENCODING',
+    'METADATA_VERSION',
+    'ROS_DISTRO',
+    'SCHEMA_ENCODING',
+    'message_definition',
+    'metadata_document',
+    'metadata_yaml',
+    'qos_profile',
+    'qos_yaml',
+    'typestore',
+]

@@ -19,14 +19,27 @@ from __future__ import annotations
 
 import struct
 import zlib
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import zstandard
 from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
-from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, Metadata,
-                          MetadataIndex, McapRecord, Schema, Statistics, SummaryOffset)
+from mcap.records import (
+    Channel,
+    Chunk,
+    ChunkIndex,
+    DataEnd,
+    Footer,
+    Header,
+    McapRecord,
+    Metadata,
+    MetadataIndex,
+    Schema,
+    Statistics,
+    SummaryOffset,
+)
 
 from .format import MCAP_MAGIC, MCAP_MESSAGE, MCAP_MESSAGE_FIELDS
 
@@ -150,10 +163,8 @@ class McapWriter:
         if not self._chunk:
             self._chunk_start, self._chunk_end = first, last
             return
-        if first < self._chunk_start:
-            self._chunk_start = first
-        if last > self._chunk_end:
-            self._chunk_end = last
+        self._chunk_start = min(self._chunk_start, first)
+        self._chunk_end = max(self._chunk_end, last)
 
     def add(self, channel_id: int, sequence: int, log_time: int, data: bytes) -> None:
         """One message (publish time = log time) into the open chunk; its ``sequence``

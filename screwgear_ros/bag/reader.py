@@ -33,15 +33,15 @@ from typing import Any
 
 import numpy as np
 import yaml
-from mcap.opcode import Opcode
 from mcap.data_stream import ReadDataStream
+from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, Message, Schema
 
-from .cdr import Template, float64_template, joint_state_template
-from ..sim.commands import INPUT_TOPICS, command_value
-from ..sim.events import Command, Event, ParameterChange, Reset
 from ..interface import BY_KEY, CONTRACT, Direction
 from ..params.run_file import RunParameters, RunParametersError, load
+from ..sim.commands import INPUT_TOPICS, command_value
+from ..sim.events import Command, Event, ParameterChange, Reset
+from .cdr import Template, float64_template, joint_state_template
 from .format import MCAP_MAGIC, MCAP_MESSAGE, MCAP_MESSAGE_FIELDS, MCAP_RECORD, typestore
 
 #: The outputs the readers decode: relative name → the only type it may have.
@@ -712,6 +712,17 @@ def _parse(text: str, topic: str) -> RunParameters:
                        f'{type(exc).__name__}: {exc}') from None
 
 
-__all__ = ['BagError', 'Command', 'ParameterChange', 'Reset', 'Event', 'Signal',
-           'RecordedRun', 'OUTPUT_TOPICS', 'BULK_TOPICS', 'find_mcap', 'scan',
-           'read_run']
+__all__ = [
+    'BULK_TOPICS',
+    'OUTPUT_TOPICS',
+    'BagError',
+    'Command',
+    'Event',
+    'ParameterChange',
+    'RecordedRun',
+    'Reset',
+    'Signal',
+    'find_mcap',
+    'read_run',
+    'scan',
+]

@@ -58,9 +58,10 @@ import os
 import queue
 import threading
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 import yaml
@@ -557,5 +558,14 @@ class RunRecorder:
         tmp.replace(self.path / 'metadata.yaml')
 
 
-__all__ = ['TopicGroup', 'TopicSpec', 'RunRecorder', 'QUEUE_SIZE', 'CHUNK_SIZE', 'FLUSH_PERIOD',
-           'BATCH_PERIOD', 'ROOM_TIMEOUT', 'RESERVE_NAME']
+__all__ = [
+    'BATCH_PERIOD',
+    'CHUNK_SIZE',
+    'FLUSH_PERIOD',
+    'QUEUE_SIZE',
+    'RESERVE_NAME',
+    'ROOM_TIMEOUT',
+    'RunRecorder',
+    'TopicGroup',
+    'TopicSpec',
+]

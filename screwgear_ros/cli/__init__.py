@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import functools
 import sys
-from typing import Callable, Mapping
+from collections.abc import Callable, Mapping
 
 #: The tools' exit code for work done (and, where a tool gives a verdict, a good one).
 EXIT_OK = 0

@@ -3,8 +3,8 @@ plot_run): a bag they cannot read, recorded parameters the model refuses, anythi
 
 from __future__ import annotations
 
-from ..physics.model import EquilibriumNotFound
 from ..bag.reader import BagError
+from ..physics.model import EquilibriumNotFound
 from . import Errors, Failures, Message
 
 

@@ -39,8 +39,8 @@ from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
-from ..sim.control import TABLE_JOINT, DemoGains, DemoLaw, SetpointNotes
 from ..ros.shutdown import spin_until, stop_on_signals
+from ..sim.control import TABLE_JOINT, DemoGains, DemoLaw, SetpointNotes
 
 LOG_PERIOD = 0.5   # s of simulation time between log lines
 

@@ -31,8 +31,8 @@ from ..design.frequency import Input, Method, measure
 from ..design.linearize import OUTPUTS, OperatingPointError
 from ..params.table import ParameterError
 from ..sim.simulation import ParameterFileError, file_values, resolve
-from .linearize import format_modes
 from . import EXIT_OK, Failures, interruptible
+from .linearize import format_modes
 
 #: The model diverged during a measurement.
 EXIT_FAULT = 1

@@ -58,11 +58,13 @@ import signal
 import sys
 import tempfile
 import threading
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 from rclpy.utilities import remove_ros_args
 
+from ..bag.reader import BagError, RecordedRun, read_run
 from ..ros.replay_client import Interrupted, ReplayClient, ReplayError
 from ..ros.replaying import (
     CHILD_CLOSE,
@@ -75,11 +77,10 @@ from ..ros.replaying import (
     stop_node,
 )
 from ..ros.shutdown import STOP_SIGNALS, stop_on_signals
-from ..bag.reader import BagError, RecordedRun, read_run
 from ..runs.compare import compare_runs, exact_comparison, format_comparison, format_exact
 from ..runs.replay import load_scenario, schedule_from_run
-from ..sim.schedule import Schedule, differences
 from ..runs.replay_plan import LockstepPlan, plan_from_run, plan_from_schedule
+from ..sim.schedule import Schedule, differences
 from . import EXIT_ERROR, EXIT_OK
 
 #: ``--compare`` found a difference.
@@ -289,7 +290,7 @@ def main(argv: list[str] | None = None) -> int:
     return EXIT_ERROR
 
 
-__all__ = ['main', 'EXIT_OK', 'EXIT_DIFFERENT', 'EXIT_ERROR']
+__all__ = ['EXIT_DIFFERENT', 'EXIT_ERROR', 'EXIT_OK', 'main']
 
 
 if __name__ == '__main__':

@@ -59,10 +59,6 @@ from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
-from ..sim.commands import carries_no_command
-from ..sim.events import Command, ParameterChange, Reset, Setpoint
-from ..physics.model import pack
-from ..sim.pacing import AnswerGate, FactorMeter, Pacer, wall_period
 from ..interface import (
     ANSWER_TOPICS,
     ANSWERS,
@@ -71,15 +67,19 @@ from ..interface import (
     RECORDED_TOPICS,
     TICK_TOPIC,
 )
+from ..numerics.warmup import compiled_now, without_blas_probe
 from ..params.sets import split_parameters
 from ..params.table import ParameterError, SimSettings, TableParams
-from ..sim.ratelimit import RateLimiter
-from ..numerics.warmup import compiled_now, without_blas_probe
-from ..sim.session import Session, Tick
+from ..physics.model import pack
 from ..ros import inputs, messages, param_dump, parameters
 from ..ros.messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES
 from ..ros.run_io import RunIO
 from ..ros.shutdown import spin_until, stop_on_signals
+from ..sim.commands import carries_no_command
+from ..sim.events import Command, ParameterChange, Reset, Setpoint
+from ..sim.pacing import AnswerGate, FactorMeter, Pacer, wall_period
+from ..sim.ratelimit import RateLimiter
+from ..sim.session import Session, Tick
 from ..sim.status import (
     MAX_PHASE_PER_STEP,
     Health,

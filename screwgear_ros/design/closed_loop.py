@@ -24,8 +24,8 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 import numpy as np
 
@@ -247,5 +247,13 @@ def make_controller(use: str, simulation_settings: SimSettings, target: float = 
     return ControllerSpec(use).make(holder, setpoint)
 
 
-__all__ = ['LOOP', 'SENSITIVITY', 'Margins', 'LoopMeasurement', 'margins', 'measure_loop',
-           'make_controller', 'INPUT_UNIT']
+__all__ = [
+    'INPUT_UNIT',
+    'LOOP',
+    'SENSITIVITY',
+    'LoopMeasurement',
+    'Margins',
+    'make_controller',
+    'margins',
+    'measure_loop',
+]

@@ -42,16 +42,16 @@ from __future__ import annotations
 import csv
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
-from ..sim.events import Command
-from ..physics.model import DrivePiece
 from ..params.table import SimSettings, TableParams
+from ..physics.model import DrivePiece
+from ..sim.events import Command
 from ..sim.simulation import Simulation
 from .linearize import OUTPUT_UNITS, OUTPUTS, LinearModel, OperatingPointError, linearize
 
@@ -401,5 +401,13 @@ def _chirp(runner: _Runner, frequencies: np.ndarray, amplitude: float, u0: float
     return measured, coherence, (ticks + start) * h
 
 
-__all__ = ['Method', 'Input', 'INPUT_COLUMN', 'CSV_COLUMNS', 'Measurement', 'measure',
-           'default_bias', 'check_request']
+__all__ = [
+    'CSV_COLUMNS',
+    'INPUT_COLUMN',
+    'Input',
+    'Measurement',
+    'Method',
+    'check_request',
+    'default_bias',
+    'measure',
+]

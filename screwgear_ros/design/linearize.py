@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..sim.commands import load_limit
+from ..params.table import MeshPhase, Mode, TableParams, effective_stiffness
 from ..physics.model import (
     NEWTON_ITERATIONS,
     ContactBranch,
@@ -50,18 +50,18 @@ from ..physics.model import (
     DrivePiece,
     Pieces,
     active_path,
-    drive_targets,
     active_speed,
     drive_on,
     drive_piece,
+    drive_targets,
     drive_torques,
     equilibrium_state,
     mesh_motion,
     motion,
     pack,
 )
-from ..params.table import MeshPhase, Mode, TableParams, effective_stiffness
 from ..physics.quantities import terminal_speed
+from ..sim.commands import load_limit
 
 STATES = ('pinion_1_angle', 'table_angle', 'pinion_3_angle',
           'pinion_1_speed', 'table_speed', 'pinion_3_speed')
@@ -585,6 +585,21 @@ def _ripple_warnings(linear: LinearModel) -> list[str]:
     return warnings
 
 
-__all__ = ['MeshModel', 'FROZEN_STEPS', 'STATES', 'STATE_UNITS', 'INPUTS', 'INPUT_UNITS', 'OUTPUTS', 'OUTPUT_UNITS',
-           'NEAR_CONTACT_CHANGE', 'OperatingPointError', 'OperatingPoint', 'ModeInfo',
-           'LinearModel', 'mean_params', 'operating_point', 'linearize']
+__all__ = [
+    'FROZEN_STEPS',
+    'INPUTS',
+    'INPUT_UNITS',
+    'NEAR_CONTACT_CHANGE',
+    'OUTPUTS',
+    'OUTPUT_UNITS',
+    'STATES',
+    'STATE_UNITS',
+    'LinearModel',
+    'MeshModel',
+    'ModeInfo',
+    'OperatingPoint',
+    'OperatingPointError',
+    'linearize',
+    'mean_params',
+    'operating_point',
+]

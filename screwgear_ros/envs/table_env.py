@@ -30,7 +30,8 @@ the action takes effect at the tick's first step, as a lockstep controller's ans
 from __future__ import annotations
 
 import math
-from typing import Any, Callable, Mapping
+from collections.abc import Callable, Mapping
+from typing import Any
 
 import gymnasium
 import numpy as np
@@ -123,4 +124,4 @@ class ScrewgearTableEnv(gymnasium.Env):
 
 gymnasium.register(id=ENV_ID, entry_point='screwgear_ros.envs.table_env:ScrewgearTableEnv')
 
-__all__ = ['ENV_ID', 'OBSERVATION', 'DEFAULT_TARGET', 'ScrewgearTableEnv']
+__all__ = ['DEFAULT_TARGET', 'ENV_ID', 'OBSERVATION', 'ScrewgearTableEnv']

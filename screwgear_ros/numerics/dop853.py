@@ -45,8 +45,8 @@ import numpy as np
 import scipy
 
 from ..physics.friction import FrictionPiece, speed_dip
-from .jit import allocating_kernel, inline_kernel, kernel
 from ..physics.model import BY_LAW, N_MECHANICAL, N_STATE, TAU, Pieces, pieces, state_rate
+from .jit import allocating_kernel, inline_kernel, kernel
 
 #: SciPy's private module of the tableau, and the names taken from it.
 TABLEAU_MODULE = 'scipy.integrate._ivp.dop853_coefficients'
@@ -425,12 +425,25 @@ def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps
 
 def warm() -> None:
     """Compile (or load) the kernel for the types the reference uses."""
-    from ..physics.model import Drive, pack
     from ..params.table import TableParams
+    from ..physics.model import Drive, pack
     out = np.empty((2, N))
     integrate(0.0, np.zeros(N), np.array([1e-4, 2e-4]), out, pack(TableParams()),
               Drive(10.0, 1.0, 0.0), 1e-11, 1e-13, TABLEAU, MAX_STEPS)
 
 
-__all__ = ['A', 'B', 'C', 'E3', 'E5', 'TABLEAU', 'OK', 'STEP_COLLAPSED', 'NON_FINITE', 'BUDGET',
-           'MAX_STEPS', 'integrate', 'warm']
+__all__ = [
+    'BUDGET',
+    'E3',
+    'E5',
+    'MAX_STEPS',
+    'NON_FINITE',
+    'OK',
+    'STEP_COLLAPSED',
+    'TABLEAU',
+    'A',
+    'B',
+    'C',
+    'integrate',
+    'warm',
+]

@@ -42,9 +42,7 @@ import math
 
 import numpy as np
 
-from . import rk
 from ..physics.friction import FrictionPiece, speed_dip
-from .jit import inline_kernel, kernel
 from ..physics.model import (
     BY_LAW,
     N_STATE,
@@ -55,6 +53,8 @@ from ..physics.model import (
     pieces,
     state_rate,
 )
+from . import rk
+from .jit import inline_kernel, kernel
 
 #: Changes located within one step before the step is finished by the plain law (a mesh
 #: chattering on its boundary; never reached by a sane run).

@@ -27,6 +27,7 @@ from __future__ import annotations
 import numba
 from numba import njit
 
+
 def require_nrt_option() -> None:
     """Raise ImportError, naming the API, unless numba still maps the ``_nrt`` option
     to its ``nrt`` compile flag (what :data:`NO_ALLOCATION` relies on)."""
@@ -59,5 +60,11 @@ kernel = njit(**NO_ALLOCATION)
 inline_kernel = njit(inline='always', **NO_ALLOCATION)
 allocating_kernel = njit(**OPTIONS)
 
-__all__ = ['OPTIONS', 'NO_ALLOCATION', 'kernel', 'inline_kernel', 'allocating_kernel',
-           'require_nrt_option']
+__all__ = [
+    'NO_ALLOCATION',
+    'OPTIONS',
+    'allocating_kernel',
+    'inline_kernel',
+    'kernel',
+    'require_nrt_option',
+]

@@ -19,15 +19,15 @@ non-finite values) raises :class:`ReferenceFailure`, which says why and where.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 import numpy as np
 
-from . import dop853
-from ..physics.model import N_MECHANICAL, N_STATE, pack, rhs_vector
 from ..params.table import TableParams
+from ..physics.model import N_MECHANICAL, N_STATE, pack, rhs_vector
 from ..sim.plant import DriveInput
+from . import dop853
 
 #: Default relative / absolute tolerances (absolute on rad and rad/s).
 RTOL = 1e-11
@@ -69,7 +69,7 @@ class ReferenceFailure(RuntimeError):
                                    self.start, self.end, self.drive))
 
     def located(self, segment: int, segments: int, start: float,
-                end: float) -> 'ReferenceFailure':
+                end: float) -> ReferenceFailure:
         """The same failure, placed in a caller's numbering of segments."""
         return ReferenceFailure(self.reason, self.time, segment, segments, start, end,
                                 self.drive)
@@ -160,7 +160,7 @@ def _segment(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray, dt: 
 def _segment_scipy(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray, dt: float,
                    seg: Segment, rtol: float, atol: float) -> tuple[np.ndarray, np.ndarray]:
     """The same with SciPy's solve_ivp DOP853 (for cross-checks)."""
-    from scipy.integrate import solve_ivp    # only this cross-check uses it
+    from scipy.integrate import solve_ivp  # only this cross-check uses it
     model = pack(seg.params)
     drive = seg.drive
     ends_on_sample = len(samples) > 0 and samples[-1] == step_b
@@ -185,4 +185,4 @@ def _segment_scipy(y0: np.ndarray, step_a: int, step_b: int, samples: np.ndarray
     return sol.y[:, -1].copy(), states
 
 
-__all__ = ['RTOL', 'ATOL', 'METHODS', 'Segment', 'ReferenceFailure', 'solve']
+__all__ = ['ATOL', 'METHODS', 'RTOL', 'ReferenceFailure', 'Segment', 'solve']

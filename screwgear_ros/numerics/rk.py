@@ -24,8 +24,9 @@ their slopes, error O(h⁴)); the integrator locates contact changes inside a st
 
 from __future__ import annotations
 
-from functools import lru_cache
-from typing import Any, Callable
+from collections.abc import Callable
+from functools import cache
+from typing import Any
 
 from numba import njit, types
 from numba.cpython.unsafe.tuple import tuple_setitem
@@ -132,7 +133,7 @@ def _rk4(fun: Callable, wrap: Callable) -> Callable:
     return wrap(run)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _python_step(fun: Callable) -> Callable:
     return _rk4(fun, _identity)
 
@@ -151,7 +152,7 @@ def step(fun: Callable, t: float, y: Any, h: float, args: Any) -> Any:
 _COMPILE = njit(inline='always')
 
 
-@lru_cache(maxsize=None)
+@cache
 def _compiled_step(dispatcher: Any) -> Callable:
     return _rk4(dispatcher, _COMPILE)
 
@@ -199,5 +200,13 @@ def _hermite_compiled(y0: Any, f0: Any, y1: Any, f1: Any, h: float, theta: float
     return hermite if isinstance(y0, (types.BaseTuple, types.Number)) else None
 
 
-__all__ = ['STABILITY', 'amplification', 'axpy', 'add', 'scale', 'step', 'step_from',
-           'hermite']
+__all__ = [
+    'STABILITY',
+    'add',
+    'amplification',
+    'axpy',
+    'hermite',
+    'scale',
+    'step',
+    'step_from',
+]

@@ -11,8 +11,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..physics.model import stiffest_linearization
 from ..params.table import ParameterError, TableParams, effective_stiffness
+from ..physics.model import stiffest_linearization
 from .rk import amplification
 
 
@@ -60,4 +60,4 @@ def check_step(p: TableParams, dt: float) -> None:
                if p.drive_time_constant > 0.0 else '') + '); use a smaller step')
 
 
-__all__ = ['rk4_amplification', 'max_stable_dt', 'check_step']
+__all__ = ['check_step', 'max_stable_dt', 'rk4_amplification']

@@ -22,13 +22,13 @@ from __future__ import annotations
 import importlib
 import sys
 import time
+from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Iterator
 
 import numpy as np
 
-from ..sim.events import Command
 from ..params.table import MeshPhase, Mode, SimSettings, TableParams
+from ..sim.events import Command
 from ..sim.session import ROW, Session
 from ..sim.status import contact_states, mesh_frequency_ratio
 
@@ -97,8 +97,8 @@ def warm() -> int:
             session.tick_quietly(2, np.empty((2, ROW)))     # replays, check_run
             contact_states(session.plant.params, session.last_outputs)     # diagnostics, markers
             mesh_frequency_ratio(session.plant.params, session.last_outputs)
-    from . import dop853
     from ..paper import floquet, normalized
+    from . import dop853
     normalized.response(normalized.NormalizedParams(), 1.0)
     dop853.warm()                    # check_run's reference solver
     floquet.monodromy(0.05, 0.1, 2.0, steps=64)    # the report's Floquet maps

@@ -22,7 +22,6 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from ..sim.events import Command, ParameterChange
 from ..params.table import (
     PAPER_DRIVE_TORQUE,
     PAPER_PINION_SPEED,
@@ -32,6 +31,7 @@ from ..params.table import (
     effective_stiffness,
 )
 from ..physics.quantities import stiffness_fluctuation
+from ..sim.events import Command, ParameterChange
 from ..sim.session import Session
 from .common import COLORS, HOLDS, VAGUE, Section, Verdict, plt, save_figure, table
 
@@ -600,8 +600,25 @@ column) the preload stays close to the slow chart's value at these speeds.
                    [hist_name, chart_name], verdicts)
 
 
-__all__ = ['DT', 'paper_table_speed', 'table_damping_for', 'Reversal', 'reversal',
-           'ReversalMetrics', 'metrics', 'flank_margin', 'mesh_modes', 'mesh_period',
-           'reversal_instants', 'PhaseScan', 'scan_preload', 'minimum_preload',
-           'forward_harmonics', 'near_mode', 'static_levels',
-           'AntiBacklashStudy', 'compute', 'render']
+__all__ = [
+    'DT',
+    'AntiBacklashStudy',
+    'PhaseScan',
+    'Reversal',
+    'ReversalMetrics',
+    'compute',
+    'flank_margin',
+    'forward_harmonics',
+    'mesh_modes',
+    'mesh_period',
+    'metrics',
+    'minimum_preload',
+    'near_mode',
+    'paper_table_speed',
+    'render',
+    'reversal',
+    'reversal_instants',
+    'scan_preload',
+    'static_levels',
+    'table_damping_for',
+]

@@ -14,8 +14,8 @@ the sweeps of the paper report and by :mod:`screwgear_ros.paper.floquet`. Dimens
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, fields
-from typing import Sequence
 
 import numpy as np
 from tqdm import tqdm
@@ -73,7 +73,7 @@ class Coefficients:
         return self.damping_ratio.shape[0]
 
     @classmethod
-    def stack(cls, params: Sequence[NormalizedParams]) -> 'Coefficients':
+    def stack(cls, params: Sequence[NormalizedParams]) -> Coefficients:
         """The parameter sets ``params`` side by side (harmonics zero-padded)."""
         h = max(len(p.excitation_amplitudes) for p in params)
         fa = np.zeros((len(params), h))
@@ -85,7 +85,7 @@ class Coefficients:
         return cls(**scalars, excitation_amplitudes=fa, excitation_phases=ph)
 
     @classmethod
-    def grid(cls, base: NormalizedParams, **axes: np.ndarray) -> tuple['Coefficients', tuple]:
+    def grid(cls, base: NormalizedParams, **axes: np.ndarray) -> tuple[Coefficients, tuple]:
         """``base`` with scalar fields swept over a grid: (coefficients, grid shape).
 
         ``Coefficients.grid(p, damping_ratio=z, stiffness_fluctuation=k)`` gives
@@ -106,13 +106,13 @@ class Coefficients:
         return cls(**values, excitation_amplitudes=np.tile(fa, (n, 1)),
                    excitation_phases=np.tile(ph, (n, 1))), shape
 
-    def with_values(self, **changes: np.ndarray | float) -> 'Coefficients':
+    def with_values(self, **changes: np.ndarray | float) -> Coefficients:
         """A copy with some fields replaced (scalars broadcast to all sets)."""
         values = {f.name: getattr(self, f.name) for f in fields(self)}
         values.update(changes)
         return Coefficients(**values)
 
-    def select(self, index: np.ndarray | slice) -> 'Coefficients':
+    def select(self, index: np.ndarray | slice) -> Coefficients:
         """The parameter sets at ``index``."""
         return Coefficients(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
 
@@ -199,4 +199,4 @@ def response(c: Coefficients, tau_end: float, dtau: float = 0.01, stride: int = 
     return integrate(c, n * stride, dtau, stride, progress=progress)
 
 
-__all__ = ['Coefficients', 'concatenate', 'rhs', 'slope', 'integrate', 'response']
+__all__ = ['Coefficients', 'concatenate', 'integrate', 'response', 'rhs', 'slope']

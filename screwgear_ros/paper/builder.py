@@ -122,4 +122,4 @@ def _anchor(section: Section) -> str:
     return kept.replace(' ', '-')
 
 
-__all__ = ['SECTIONS', 'PAPER', 'PAPER_SUBJECT', 'PAPER_MECHANISM', 'Report', 'build']
+__all__ = ['PAPER', 'PAPER_MECHANISM', 'PAPER_SUBJECT', 'SECTIONS', 'Report', 'build']

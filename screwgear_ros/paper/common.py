@@ -9,14 +9,14 @@ plain dataclass the tests check) and turns them into a :class:`Section` with
 from __future__ import annotations
 
 import sys
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterable, Sequence
 
 import matplotlib
 
 matplotlib.use('Agg')
-import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
+import matplotlib.pyplot as plt
 
 HOLDS = 'holds'
 FAILS = 'does not hold'
@@ -110,5 +110,19 @@ def config_path(name: str) -> Path:
     raise FileNotFoundError(f'config/{name} not found in {[str(p) for p in candidates]}')
 
 
-__all__ = ['HOLDS', 'FAILS', 'VAGUE', 'UNCHECKABLE', 'COLORS', 'Verdict', 'Section', 'table',
-           'verdict_table', 'save_figure', 'fmt', 'agreement', 'config_path', 'plt']
+__all__ = [
+    'COLORS',
+    'FAILS',
+    'HOLDS',
+    'UNCHECKABLE',
+    'VAGUE',
+    'Section',
+    'Verdict',
+    'agreement',
+    'config_path',
+    'fmt',
+    'plt',
+    'save_figure',
+    'table',
+    'verdict_table',
+]

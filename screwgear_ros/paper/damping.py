@@ -8,10 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .batch import Coefficients
-from .normalized import NormalizedParams
 from . import measures
+from .batch import Coefficients
 from .common import COLORS, FAILS, HOLDS, VAGUE, Section, Verdict, plt, save_figure, table
+from .normalized import NormalizedParams
 from .steady import transient
 
 ZETAS = (0.02, 0.05, 0.10, 0.15)
@@ -126,4 +126,4 @@ alone; damping only changes the tiny dynamic part (last column).
     return Section(3, 'Table 1: damping ratio', body, [name], verdicts)
 
 
-__all__ = ['ZETAS', 'PAPER_TABLE', 'DampingStudy', 'quasi_static', 'compute', 'render']
+__all__ = ['PAPER_TABLE', 'ZETAS', 'DampingStudy', 'compute', 'quasi_static', 'render']

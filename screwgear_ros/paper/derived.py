@@ -6,7 +6,6 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from .normalized import from_table
 from ..params.table import PAPER_DRIVE_TORQUE, PAPER_PINION_SPEED, TableParams
 from ..physics.quantities import (
     equivalent_mass,
@@ -15,6 +14,7 @@ from ..physics.quantities import (
     natural_frequency,
 )
 from .common import HOLDS, VAGUE, Section, Verdict, fmt, table
+from .normalized import from_table
 
 #: The paper's printed numbers.
 PAPER = {'m_e': 5.150, 'F_m': 5128.0, 'omega_0': 1393.466, 'omega_e': 60.319,

@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from ..sim import energy
-from ..physics.model import equilibrium_state
 from ..params.table import PAPER_PINION_SPEED, TableParams
+from ..physics.model import equilibrium_state
+from ..sim import energy
 from .antibacklash import paper_table_speed
 from .common import COLORS, FAILS, HOLDS, Section, Verdict, fmt, plt, save_figure, table
 
@@ -146,4 +146,4 @@ by 2^{'/2^'.join(f'{o:.2f}' for o in orders)} per halving of dt (RK4 is fourth o
     return Section(11, 'Energy balance of the mesh (beyond the paper)', body, [name], verdicts)
 
 
-__all__ = ['FORMULATIONS', 'coasting', 'EnergyStudy', 'compute', 'render']
+__all__ = ['FORMULATIONS', 'EnergyStudy', 'coasting', 'compute', 'render']

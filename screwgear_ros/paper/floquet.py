@@ -21,10 +21,10 @@ import numpy as np
 from numba import njit, prange, set_parallel_chunksize
 from tqdm import tqdm
 
-from . import normalized
 from ..numerics import rk
-from .batch import Coefficients, integrate
 from ..numerics.jit import OPTIONS, inline_kernel
+from . import normalized
+from .batch import Coefficients, integrate
 
 #: Default largest step in τ: 0.05 of the unit natural period 2π (~126 steps per
 #: natural period; RK4 error over a period ~1e-7).
@@ -165,5 +165,12 @@ def periodic_state(c: Coefficients, steps: int | None = None,
     return y0[:, 0], y0[:, 1]
 
 
-__all__ = ['MAX_STEP', 'steps_per_period', 'monodromy', 'multipliers', 'spectral_radius',
-           'growth_rate', 'periodic_state']
+__all__ = [
+    'MAX_STEP',
+    'growth_rate',
+    'monodromy',
+    'multipliers',
+    'periodic_state',
+    'spectral_radius',
+    'steps_per_period',
+]

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from . import floquet
-from .batch import Coefficients, integrate
-from .normalized import NormalizedParams
 from ..params.table import TableParams
 from ..physics.quantities import natural_frequency
+from . import floquet
+from .batch import Coefficients, integrate
 from .common import COLORS, FAILS, HOLDS, Section, Verdict, plt, save_figure, table
+from .normalized import NormalizedParams
 
 ZETAS = (0.05, 0.15)
 #: Load fluctuation amplitude: 10 % of the mean load (T_v = 40 N·m on 400 N·m).
@@ -151,4 +151,4 @@ section 6); damping sets the resonance peak, {s.peak[0][1]:.1f} at ζ = 0.05 vs 
     return Section(7, 'Torque fluctuation', body, [name], verdicts)
 
 
-__all__ = ['ZETAS', 'FluctuationStudy', 'sweep', 'compute', 'render']
+__all__ = ['ZETAS', 'FluctuationStudy', 'compute', 'render', 'sweep']

@@ -116,4 +116,4 @@ separately: settling time ln(1/fraction)/ζ and steady amplitude ≈ f0·k_a'/(1
     return Section(5, 'Performance index P', body, [name], verdicts)
 
 
-__all__ = ['EXAMPLES', 'IndexStudy', 'grid', 'compute', 'render']
+__all__ = ['EXAMPLES', 'IndexStudy', 'compute', 'grid', 'render']

@@ -70,5 +70,11 @@ def half_range(x: np.ndarray, axis: int = 0) -> np.ndarray:
     return 0.5 * (np.max(x, axis=axis) - np.min(x, axis=axis))
 
 
-__all__ = ['settling_time', 'first_overshoot', 'harmonics', 'thd', 'quasi_static_thd',
-           'half_range']
+__all__ = [
+    'first_overshoot',
+    'half_range',
+    'harmonics',
+    'quasi_static_thd',
+    'settling_time',
+    'thd',
+]

@@ -11,14 +11,16 @@ when those are set. Everything here is dimensionless.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 import yaml
 
 from ..numerics import rk
+from ..numerics.jit import inline_kernel, kernel
 from ..params.declarations import (
     ParameterError,
     kernel_fields,
@@ -26,9 +28,9 @@ from ..params.declarations import (
     validate,
     yaml_lines,
 )
-from ..numerics.jit import inline_kernel, kernel
-from ..params.table import effective_stiffness, TableParams
+from ..params.table import TableParams, effective_stiffness
 from ..physics.quantities import equivalent_mass, mean_mesh_force, natural_frequency
+
 
 @dataclass(frozen=True)
 class NormalizedParams:
@@ -182,8 +184,17 @@ def load_yaml(path: str | Path) -> NormalizedParams:
     return NormalizedParams(**document)
 
 
-__all__ = ['NormalizedParams', 'KERNEL', 'from_table', 'rhs', 'slope', 'integrate', 'response',
-           'load_yaml', 'paper_yaml']
+__all__ = [
+    'KERNEL',
+    'NormalizedParams',
+    'from_table',
+    'integrate',
+    'load_yaml',
+    'paper_yaml',
+    'response',
+    'rhs',
+    'slope',
+]
 
 
 if __name__ == '__main__':

@@ -8,9 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import normalized
+from . import measures, normalized
 from .batch import Coefficients
-from . import measures
 from .common import COLORS, HOLDS, Section, Verdict, agreement, config_path, plt, save_figure
 from .steady import transient
 

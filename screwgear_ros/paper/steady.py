@@ -15,8 +15,8 @@ import numpy as np
 
 from . import floquet
 from .batch import Coefficients, concatenate, integrate
-from .normalized import NormalizedParams
 from .measures import half_range
+from .normalized import NormalizedParams
 
 
 def steps_for(c: Coefficients, samples: int) -> int:
@@ -107,5 +107,12 @@ def steady_map(zetas: tuple[float, ...], kas: tuple[float, ...],
                      half_range(sp.x).reshape(shape), thd.reshape(shape))
 
 
-__all__ = ['steps_for', 'SteadyPeriod', 'steady_period', 'Transient', 'transient', 'SteadyMap',
-           'steady_map']
+__all__ = [
+    'SteadyMap',
+    'SteadyPeriod',
+    'Transient',
+    'steady_map',
+    'steady_period',
+    'steps_for',
+    'transient',
+]

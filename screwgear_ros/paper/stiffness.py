@@ -8,10 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .batch import Coefficients
-from .normalized import NormalizedParams
 from . import measures
+from .batch import Coefficients
 from .common import COLORS, FAILS, HOLDS, VAGUE, Section, Verdict, plt, save_figure, table
+from .normalized import NormalizedParams
 from .steady import steady_period, transient
 
 KAS = (0.0, 0.05, 0.20, 0.40)

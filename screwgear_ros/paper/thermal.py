@@ -8,12 +8,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .batch import Coefficients
-from .normalized import from_table
-from ..params.table import PAPER_DRIVE_TORQUE, effective_stiffness, TableParams
+from ..params.table import PAPER_DRIVE_TORQUE, TableParams, effective_stiffness
 from ..physics.quantities import equivalent_mass
 from . import measures
+from .batch import Coefficients
 from .common import COLORS, HOLDS, VAGUE, Section, Verdict, fmt, plt, save_figure, table
+from .normalized import from_table
 from .steady import steady_period
 
 ALPHA = 1e-4                              # 1/K, the paper's value for steel
@@ -134,4 +134,4 @@ preload torque itself does not change the stiffness.
     return Section(8, 'Temperature and preload stiffness', body, [name], verdicts)
 
 
-__all__ = ['ThermalStudy', 'Case', 'compute', 'render']
+__all__ = ['Case', 'ThermalStudy', 'compute', 'render']

@@ -14,9 +14,10 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Iterator
 from dataclasses import MISSING, Field, dataclass, field, fields
 from enum import Enum
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 
@@ -287,6 +288,20 @@ def markdown_rows(cls: type) -> list[str]:
     return rows
 
 
-__all__ = ['ParameterError', 'Kind', 'Declaration', 'parameter', 'Parameter', 'declared',
-           'kernel_fields', 'plain', 'check', 'validate', 'yaml_lines', 'yaml_value',
-           'markdown_rows', 'excerpt', 'EXCERPT_CHARS']
+__all__ = [
+    'EXCERPT_CHARS',
+    'Declaration',
+    'Kind',
+    'Parameter',
+    'ParameterError',
+    'check',
+    'declared',
+    'excerpt',
+    'kernel_fields',
+    'markdown_rows',
+    'parameter',
+    'plain',
+    'validate',
+    'yaml_lines',
+    'yaml_value',
+]

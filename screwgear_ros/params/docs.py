@@ -6,7 +6,6 @@ from __future__ import annotations
 from .declarations import markdown_rows, yaml_lines
 from .table import SimSettings, TableParams
 
-
 #: The heading lines of config/paper.yaml.
 PAPER_YAML_HEADER = (
     "# The paper's worked example (shared/spec/model.md §6) as a ROS 2 parameter file.",

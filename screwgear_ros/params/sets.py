@@ -4,16 +4,16 @@ mapping or a ROS 2 parameter file, with the step checked against RK4's stability
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import fields
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 import yaml
 
-from .table import ParameterError, SimSettings, TableParams
 from ..numerics.stability import check_step
-
+from .table import ParameterError, SimSettings, TableParams
 
 _TABLE_FIELDS = {f.name for f in fields(TableParams)}
 _SIM_FIELDS = {f.name for f in fields(SimSettings)}
@@ -66,4 +66,4 @@ def default_values() -> dict[str, Any]:
     return {**TableParams().as_dict(), **SimSettings().as_dict()}
 
 
-__all__ = ['split_parameters', 'ros_parameters', 'load_yaml', 'default_values']
+__all__ = ['default_values', 'load_yaml', 'ros_parameters', 'split_parameters']

@@ -24,9 +24,9 @@ from dataclasses import dataclass, replace
 from enum import StrEnum
 from typing import Any
 
-from .declarations import ParameterError, declared, parameter, plain, validate
 from ..interface import ANSWERS
 from ..physics.sensors import MAX_DELAY, MAX_SEED, SensorConfig
+from .declarations import ParameterError, declared, parameter, plain, validate
 
 
 class Mode(StrEnum):
@@ -269,7 +269,7 @@ class TableParams:
                     f'must stay below r{pinion} = {radius:g} m, or the mesh of pinion {pinion} '
                     'would run backwards against its own rotation')
 
-    def replace(self, **changes: Any) -> 'TableParams':
+    def replace(self, **changes: Any) -> TableParams:
         """A validated copy with some parameters changed."""
         return replace(self, **changes)
 
@@ -416,6 +416,14 @@ def ste_slope(p: TableParams, pinion: str) -> float:
 
 
 __all__ = [
-    'Mode', 'MeshPhase', 'MeshFormulation', 'PAPER_PINION_SPEED', 'PAPER_DRIVE_TORQUE',
-    'ParameterError', 'TableParams', 'SimSettings', 'effective_stiffness', 'ste_slope',
+    'PAPER_DRIVE_TORQUE',
+    'PAPER_PINION_SPEED',
+    'MeshFormulation',
+    'MeshPhase',
+    'Mode',
+    'ParameterError',
+    'SimSettings',
+    'TableParams',
+    'effective_stiffness',
+    'ste_slope',
 ]

@@ -9,8 +9,9 @@ readers and callers see one exception, whatever the reader found.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import yaml
 

@@ -171,5 +171,12 @@ def friction_on(piece: FrictionPiece, speed: float, torque: float, inertia: floa
     return (torque + friction) / inertia, friction
 
 
-__all__ = ['FrictionPiece', 'at_rest', 'friction_piece', 'through_zero', 'speed_dip',
-           'sliding_torque', 'friction_on']
+__all__ = [
+    'FrictionPiece',
+    'at_rest',
+    'friction_on',
+    'friction_piece',
+    'sliding_torque',
+    'speed_dip',
+    'through_zero',
+]

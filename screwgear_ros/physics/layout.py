@@ -17,8 +17,8 @@ Every wheel carries a mark that points along the wheel's +x at angle 0.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 from ..params.table import TableParams
 from ..sim.status import MAX_PHASE_PER_STEP
@@ -101,5 +101,13 @@ def mesh_point(pinion: Wheel, table: Wheel) -> tuple[float, float]:
     return (table.centre[0] + table.radius * dx / d, table.centre[1] + table.radius * dy / d)
 
 
-__all__ = ['BASE_LINK', 'FACE_WIDTH', 'MARK_FROM', 'MARK_TO', 'PALETTE', 'Wheel', 'wheels',
-           'mesh_point']
+__all__ = [
+    'BASE_LINK',
+    'FACE_WIDTH',
+    'MARK_FROM',
+    'MARK_TO',
+    'PALETTE',
+    'Wheel',
+    'mesh_point',
+    'wheels',
+]

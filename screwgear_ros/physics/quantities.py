@@ -76,5 +76,13 @@ def terminal_speed(p: TableParams, torque: float, load: float = 0.0) -> float:
                                                  / p.drive_no_load_speed)
 
 
-__all__ = ['equivalent_mass', 'natural_frequency', 'damping_ratio', 'stiffness_fluctuation',
-           'mean_mesh_force', 'mesh_frequency_at', 'performance_index', 'terminal_speed']
+__all__ = [
+    'damping_ratio',
+    'equivalent_mass',
+    'mean_mesh_force',
+    'mesh_frequency_at',
+    'natural_frequency',
+    'performance_index',
+    'stiffness_fluctuation',
+    'terminal_speed',
+]

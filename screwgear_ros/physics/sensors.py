@@ -58,8 +58,9 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -100,7 +101,7 @@ class SensorConfig:
     seed: int = 0
 
     @classmethod
-    def of(cls, settings: Any) -> 'SensorConfig':
+    def of(cls, settings: Any) -> SensorConfig:
         """The sensors a :class:`~screwgear_ros.params.table.SimSettings` declares."""
         return cls(tuple(JointSensor(getattr(settings, f'encoder_counts_{j}'),
                                      getattr(settings, f'position_noise_{j}'),
@@ -164,8 +165,16 @@ class NoiseSource:
 class _Joint:
     """One joint's chain state: previous step and read angle, filter output, delay line."""
 
-    __slots__ = ('sensor', 'step', 'angle', 'filtered', 'line', 'alpha', 'per_rad',
-                 'increment')
+    __slots__ = (
+        'alpha',
+        'angle',
+        'filtered',
+        'increment',
+        'line',
+        'per_rad',
+        'sensor',
+        'step',
+    )
 
     def __init__(self, sensor: JointSensor) -> None:
         self.sensor = sensor
@@ -272,5 +281,13 @@ class SensorChain:
                              outputs.mesh_force, outputs.active_path)
 
 
-__all__ = ['JOINTS', 'MAX_DELAY', 'MAX_SEED', 'NOISE_BLOCK', 'JointSensor', 'SensorConfig',
-           'NoiseSource', 'SensorChain']
+__all__ = [
+    'JOINTS',
+    'MAX_DELAY',
+    'MAX_SEED',
+    'NOISE_BLOCK',
+    'JointSensor',
+    'NoiseSource',
+    'SensorChain',
+    'SensorConfig',
+]

@@ -73,4 +73,4 @@ def excerpt(text: str, limit: int = MAX_LINE) -> str:
     return f'{text[:half]} … [{len(text) - 2 * half} characters left out] … {text[-half:]}'
 
 
-__all__ = ['MAX_INPUT_BYTES', 'MAX_LINE', 'oversized', 'decode', 'value', 'excerpt']
+__all__ = ['MAX_INPUT_BYTES', 'MAX_LINE', 'decode', 'excerpt', 'oversized', 'value']

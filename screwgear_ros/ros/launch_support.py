@@ -22,8 +22,8 @@ from __future__ import annotations
 import os
 import re
 import xml.etree.ElementTree as ET
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Callable, Iterable
 
 import yaml
 
@@ -120,8 +120,7 @@ def unmet(needs: Iterable[Need], lookup: Callable[[str], str | None],
 def installed_version(package: str) -> str | None:
     """The version of ``package`` in the ament index (its package.xml), None if absent;
     '' when it is there without a readable package.xml."""
-    from ament_index_python.packages import (PackageNotFoundError,
-                                             get_package_share_directory)
+    from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
     try:
         share = get_package_share_directory(package)
     except (PackageNotFoundError, ValueError, LookupError):
@@ -214,7 +213,21 @@ def read(path: str) -> str:
         return f.read()
 
 
-__all__ = ['TOPIC_PARAMS', 'Need', 'Unmet', 'MissingPackages', 'minimum_versions',
-           'plugin_package', 'ros2_control_needs', 'unmet', 'installed_version',
-           'installed_executable', 'message',
-           'require', 'urdf_namespace', 'normalized_namespace', 'in_namespace', 'read']
+__all__ = [
+    'TOPIC_PARAMS',
+    'MissingPackages',
+    'Need',
+    'Unmet',
+    'in_namespace',
+    'installed_executable',
+    'installed_version',
+    'message',
+    'minimum_versions',
+    'normalized_namespace',
+    'plugin_package',
+    'read',
+    'require',
+    'ros2_control_needs',
+    'unmet',
+    'urdf_namespace',
+]

@@ -22,11 +22,11 @@ from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..physics.layout import BASE_LINK, FACE_WIDTH, MARK_TO, PALETTE, Wheel, mesh_point, wheels
+from ..bag.cdr import Template, template_of
 from ..params.table import TableParams
+from ..physics.layout import BASE_LINK, FACE_WIDTH, MARK_TO, PALETTE, Wheel, mesh_point, wheels
 from ..sim.plant import Outputs
 from ..sim.status import Contact, contact_states
-from ..bag.cdr import Template, template_of
 
 #: Marker namespaces (ids: 0, 1, 2 = pinion 1, table, pinion 3; meshes 0 = mesh 1, 1 = mesh 3).
 DISCS, MARKS, MESHES = 'discs', 'marks', 'meshes'

@@ -13,8 +13,8 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Int8, String
 
-from ..sim.commands import JointCommand
 from ..interface import BY_KEY, COMMAND_TOPICS, INFO_TOPICS, OUTPUT_TOPICS, RECORDED_TOPICS
+from ..sim.commands import JointCommand
 
 MESH_NAMES = ['mesh_1', 'mesh_3']
 
@@ -81,6 +81,17 @@ def diagnostics(name: str, hardware_id: str, level: int, message: str,
     return msg
 
 
-__all__ = ['MESH_NAMES', 'message_class', 'INPUT_TYPES', 'INFO_TYPES', 'OUTPUT_TYPES',
-           'PRIVATE_TYPES', 'input_message', 'stamp', 'setpoint', 'active_path',
-           'robot_description', 'diagnostics']
+__all__ = [
+    'INFO_TYPES',
+    'INPUT_TYPES',
+    'MESH_NAMES',
+    'OUTPUT_TYPES',
+    'PRIVATE_TYPES',
+    'active_path',
+    'diagnostics',
+    'input_message',
+    'message_class',
+    'robot_description',
+    'setpoint',
+    'stamp',
+]

@@ -28,8 +28,9 @@ import os
 import re
 import sys
 import tempfile
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any
 
 #: Parameters that name where one run writes: a restored table must not reuse them.
 RUN_OUTPUTS = ('record',)
@@ -179,5 +180,13 @@ def keep_written(node: Any, path: str | os.PathLike,
     node.add_post_set_parameters_callback(after_set)
 
 
-__all__ = ['RUN_OUTPUTS', 'WILDCARD', 'Unwritable', 'scalar', 'render', 'write',
-           'node_values', 'keep_written']
+__all__ = [
+    'RUN_OUTPUTS',
+    'WILDCARD',
+    'Unwritable',
+    'keep_written',
+    'node_values',
+    'render',
+    'scalar',
+    'write',
+]

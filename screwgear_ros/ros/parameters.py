@@ -24,10 +24,10 @@ other completes the other.
 from __future__ import annotations
 
 import math
-from typing import Any, Callable, Iterable
+from collections.abc import Callable, Iterable
+from typing import Any
 
-from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
-                                ParameterType)
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -215,5 +215,13 @@ def changed_values(current: dict[str, Any], params: Iterable[Parameter]) -> dict
     return candidate
 
 
-__all__ = ['PARAMETERS', 'HARMONICS', 'descriptor', 'declare', 'plain_value',
-           'changed_values', 'unknown_overrides', 'complete_harmonics']
+__all__ = [
+    'HARMONICS',
+    'PARAMETERS',
+    'changed_values',
+    'complete_harmonics',
+    'declare',
+    'descriptor',
+    'plain_value',
+    'unknown_overrides',
+]

@@ -20,8 +20,9 @@ from __future__ import annotations
 import subprocess
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable, TypeVar
+from typing import Any, TypeVar
 
 import rclpy
 import rclpy.executors
@@ -35,8 +36,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
-from ..sim.events import Command, Event, ParameterChange, Reset, describe
 from ..interface import TICK_TOPIC
+from ..sim.events import Command, Event, ParameterChange, Reset, describe
 from ..sim.schedule import Schedule
 from .messages import INPUT_TYPES, input_message
 from .shutdown import spin_executor_until
@@ -126,7 +127,7 @@ class ReplayClient:
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 
-    def __enter__(self) -> 'ReplayClient':
+    def __enter__(self) -> ReplayClient:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -373,5 +374,11 @@ class ReplayClient:
         self.tick.publish(Empty())
 
 
-__all__ = ['CONNECT_TIMEOUT', 'REPLY_TIMEOUT', 'STALL_TIMEOUT', 'ReplayError', 'Interrupted',
-           'ReplayClient']
+__all__ = [
+    'CONNECT_TIMEOUT',
+    'REPLY_TIMEOUT',
+    'STALL_TIMEOUT',
+    'Interrupted',
+    'ReplayClient',
+    'ReplayError',
+]

@@ -25,9 +25,9 @@ from pathlib import Path
 
 import yaml
 
+from ..runs.replay_plan import LockstepPlan, sending_order
 from ..sim.events import Reset
 from ..sim.schedule import Schedule
-from ..runs.replay_plan import LockstepPlan, sending_order
 from .replay_client import ReplayClient, ReplayError
 
 START_FACTOR = 0.01      # free-running fresh node: real-time factor until connected
@@ -162,5 +162,12 @@ def stop_node(child: subprocess.Popen, grace: float) -> int | None:
     return child.returncode
 
 
-__all__ = ['Progress', 'replay_lockstep', 'replay_free', 'spawn_node',
-           'stop_node', 'CHILD_GRACE', 'CHILD_CLOSE']
+__all__ = [
+    'CHILD_CLOSE',
+    'CHILD_GRACE',
+    'Progress',
+    'replay_free',
+    'replay_lockstep',
+    'spawn_node',
+    'stop_node',
+]

@@ -37,22 +37,23 @@ from __future__ import annotations
 import os
 import threading
 import time
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 
 from ..bag import cdr
+from ..bag.cdr import type_name
+from ..interface import LATCHED_OUTPUTS
 from ..params import run_file as run_parameters
-from ..sim.events import Command, ParameterChange, Setpoint
 from ..params.table import SimSettings, TableParams
+from ..sim.events import Command, ParameterChange, Setpoint
 from ..sim.plant import Outputs
 from ..sim.session import Session, Tick
 from . import messages
 from .markers import MarkerEncoder
-from ..interface import LATCHED_OUTPUTS
-from ..bag.cdr import type_name
 from .messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES, PRIVATE_TYPES
 from .urdf import robot_description
 
@@ -322,4 +323,4 @@ class RunIO:
         return t_ns, encoder.encode(out, t_ns)
 
 
-__all__ = ['serialize', 'RunIO']
+__all__ = ['RunIO', 'serialize']

@@ -15,9 +15,9 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from ..sim.events import ParameterChange
-from ..interface import topic_names
 from ..bag.recorder import RunRecorder
+from ..interface import topic_names
+from ..sim.events import ParameterChange
 from ..sim.schedule import Schedule
 from ..sim.session import Session, Tick
 from .run_io import RunIO
@@ -56,7 +56,7 @@ class SessionRecording:
         self.recorder.close()
         return self.recorder
 
-    def __enter__(self) -> 'SessionRecording':
+    def __enter__(self) -> SessionRecording:
         return self
 
     def __exit__(self, *exc: object) -> None:

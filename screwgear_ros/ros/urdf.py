@@ -21,10 +21,10 @@ from __future__ import annotations
 import sys
 import xml.etree.ElementTree as ET
 
-from ..sim.commands import COMMAND_INTERFACE, COMMANDED_JOINT, load_limit
 from ..interface import topic_names
-from ..physics.layout import BASE_LINK, FACE_WIDTH, MARK_FROM, MARK_TO, PALETTE, Wheel, wheels
 from ..params.table import SimSettings, TableParams
+from ..physics.layout import BASE_LINK, FACE_WIDTH, MARK_FROM, MARK_TO, PALETTE, Wheel, wheels
+from ..sim.commands import COMMAND_INTERFACE, COMMANDED_JOINT, load_limit
 
 ROBOT_NAME = 'screwgear_table'
 #: ros2_control's stock JointState topic system (package joint_state_topic_hardware_interface;
@@ -136,5 +136,12 @@ if __name__ == '__main__':
     main()
 
 
-__all__ = ['ROBOT_NAME', 'PLUGIN', 'PLANT_NAMESPACE', 'TRIGGER_THRESHOLD', 'STATE_INTERFACES',
-           'robot_description', 'shipped_description']
+__all__ = [
+    'PLANT_NAMESPACE',
+    'PLUGIN',
+    'ROBOT_NAME',
+    'STATE_INTERFACES',
+    'TRIGGER_THRESHOLD',
+    'robot_description',
+    'shipped_description',
+]

@@ -54,19 +54,19 @@ from __future__ import annotations
 import math
 import multiprocessing as mp
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
-from ..physics.model import N_STATE, active_path, equilibrium_state
-from ..params.table import TableParams
-from ..sim.plant import DriveInput, Plant
-from ..numerics.reference import ATOL, RTOL, ReferenceFailure, Segment, solve
-from ..sim.events import ParameterChange, Reset
 from ..bag.reader import BagError, RecordedRun
-from ..sim.session import ROW, ROW_JOINTS, ROW_TE, row_of
+from ..numerics.reference import ATOL, RTOL, ReferenceFailure, Segment, solve
+from ..params.table import TableParams
+from ..physics.model import N_STATE, active_path, equilibrium_state
 from ..physics.sensors import SensorChain
+from ..sim.events import ParameterChange, Reset
+from ..sim.plant import DriveInput, Plant
+from ..sim.session import ROW, ROW_JOINTS, ROW_TE, row_of
 from .replay import ReplayedOutputs, replay_in_process
 
 #: Tolerance = SAFETY × Richardson estimate of RK4's error (contact changes located).
@@ -651,8 +651,26 @@ def format_report(report: CheckReport) -> str:
     return '\n'.join(lines)
 
 
-__all__ = ['SAFETY', 'SAFETY_FIXED_STEP', 'FLOOR_REL', 'FLOOR_ABS', 'SignalError', 'signal_error', 'CheckReport',
-           'REFERENCE_REFINE', 'TABLE_ENCODER_BITS', 'TABLE_ENCODER_COUNT',
-           'signal_names', 'MESH_SIGNALS', 'NothingToCompare', 'require_samples',
-           'path_changes', 'reference_outputs', 'mesh_of', 'sensor_rows', 'sensor_mismatch',
-           'check_run', 'format_report']
+__all__ = [
+    'FLOOR_ABS',
+    'FLOOR_REL',
+    'MESH_SIGNALS',
+    'REFERENCE_REFINE',
+    'SAFETY',
+    'SAFETY_FIXED_STEP',
+    'TABLE_ENCODER_BITS',
+    'TABLE_ENCODER_COUNT',
+    'CheckReport',
+    'NothingToCompare',
+    'SignalError',
+    'check_run',
+    'format_report',
+    'mesh_of',
+    'path_changes',
+    'reference_outputs',
+    'require_samples',
+    'sensor_mismatch',
+    'sensor_rows',
+    'signal_error',
+    'signal_names',
+]

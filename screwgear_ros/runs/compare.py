@@ -23,10 +23,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..sim.events import Command, Event, ParameterChange, describe
 from ..bag.reader import RecordedRun, Signal
-from .check import sensor_mismatch, signal_names
+from ..sim.events import Command, Event, ParameterChange, describe
 from ..sim.schedule import ros_values
+from .check import sensor_mismatch, signal_names
 from .replay import replay_in_process
 
 
@@ -61,7 +61,7 @@ class Comparison:
     ticks: int                                # integration steps per publish tick
     jitter_ticks: float                       # largest |delay| in publish ticks
     samples: int                              # replay samples checked against its events
-    first_difference: 'Difference | None'     # where the replay is not what its events make
+    first_difference: Difference | None     # where the replay is not what its events make
     extra: list[str] = field(default_factory=list)            # events the original lacks
     start_differences: list[str] = field(default_factory=list)  # start values that differ
     common: int = 0                           # samples at steps both runs have
@@ -164,7 +164,7 @@ def shift_event(run: RecordedRun, index: int, steps: int) -> RecordedRun:
 
 
 def _first_difference(steps: np.ndarray, recorded: np.ndarray, computed: np.ndarray,
-                      names: list[str]) -> 'Difference | None':
+                      names: list[str]) -> Difference | None:
     rows = np.flatnonzero(np.any(recorded != computed, axis=1))
     if not len(rows):
         return None
@@ -341,6 +341,16 @@ def format_exact(c: ExactComparison) -> str:
     return '\n'.join(lines)
 
 
-__all__ = ['EventTiming', 'SignalDifference', 'Comparison', 'match_events', 'shift_event',
-           'compare_runs', 'format_comparison', 'Difference', 'ExactComparison',
-           'exact_comparison', 'format_exact']
+__all__ = [
+    'Comparison',
+    'Difference',
+    'EventTiming',
+    'ExactComparison',
+    'SignalDifference',
+    'compare_runs',
+    'exact_comparison',
+    'format_comparison',
+    'format_exact',
+    'match_events',
+    'shift_event',
+]

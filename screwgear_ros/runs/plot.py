@@ -27,13 +27,13 @@ from matplotlib.backend_bases import FigureCanvasBase
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from ..sim.events import ParameterChange, Reset
-from ..physics.model import active_path
-from ..params.table import Mode, TableParams
-from ..sim.plant import DriveInput
-from ..paper.common import COLORS, plt
-from ..sim.session import Tick
 from ..bag.reader import BagError, RecordedRun
+from ..paper.common import COLORS, plt
+from ..params.table import Mode, TableParams
+from ..physics.model import active_path
+from ..sim.events import ParameterChange, Reset
+from ..sim.plant import DriveInput
+from ..sim.session import Tick
 from .check import MESH_SIGNALS, CheckReport, signal_names
 from .replay import replay_in_process
 
@@ -505,7 +505,23 @@ def save(fig: Figure, path: str | Path) -> Path:
     return path
 
 
-__all__ = ['DPI', 'DEFAULT_NAME', 'Panel', 'Mark', 'FigureFileError', 'ParameterMark',
-           'RunMarks', 'run_marks', 'drive_series', 'setpoint_series', 'tracking_error',
-           'params_at', 'in_contact', 'run_figure', 'check_figure', 'output_path',
-           'default_output', 'save']
+__all__ = [
+    'DEFAULT_NAME',
+    'DPI',
+    'FigureFileError',
+    'Mark',
+    'Panel',
+    'ParameterMark',
+    'RunMarks',
+    'check_figure',
+    'default_output',
+    'drive_series',
+    'in_contact',
+    'output_path',
+    'params_at',
+    'run_figure',
+    'run_marks',
+    'save',
+    'setpoint_series',
+    'tracking_error',
+]

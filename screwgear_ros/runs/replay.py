@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bag.reader import BagError, RecordedRun
 from ..sim.events import Event, ParameterChange, describe
 from ..sim.schedule import Schedule, ros_values
 from ..sim.session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
-from ..bag.reader import BagError, RecordedRun
 
 
 def _refined(event: Event, refine: int) -> Event:
@@ -142,7 +142,7 @@ def load_scenario(path: str | Path) -> Schedule:
     from these) as a schedule. Raises ValueError (:class:`~screwgear_ros.sim.scenario.ScenarioError`)
     naming the line of what is wrong, and for a scenario with a controller: that runs
     in-process (``run_scenario``), a replay plays actions only."""
-    from ..sim.scenario import load_scenario as load    # the format's one reader
+    from ..sim.scenario import load_scenario as load  # the format's one reader
     scenario = load(path)
     if scenario.controller is not None:
         raise ValueError(f'{path}: line {scenario.controller.line}: this scenario closes '
@@ -151,5 +151,10 @@ def load_scenario(path: str | Path) -> Schedule:
     return scenario.schedule()
 
 
-__all__ = ['ReplayedOutputs', 'replay_in_process', 'replayed_events', 'schedule_from_run',
-           'load_scenario']
+__all__ = [
+    'ReplayedOutputs',
+    'load_scenario',
+    'replay_in_process',
+    'replayed_events',
+    'schedule_from_run',
+]

@@ -21,10 +21,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..sim.events import Command, Event, ParameterChange
 from ..bag.reader import RecordedRun
+from ..sim.events import Command, Event, ParameterChange
 from ..sim.schedule import Schedule
 from .replay import replayed_events
+
 
 @dataclass
 class LockstepPlan:
@@ -118,5 +119,10 @@ def sending_order(group: list[Event]) -> list[tuple[Event, bool]]:
             for k, event in enumerate(group)]
 
 
-__all__ = ['LockstepPlan', 'plan_from_run', 'lost_tick', 'plan_from_schedule',
-           'sending_order']
+__all__ = [
+    'LockstepPlan',
+    'lost_tick',
+    'plan_from_run',
+    'plan_from_schedule',
+    'sending_order',
+]

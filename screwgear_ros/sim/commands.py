@@ -21,8 +21,9 @@ command (:func:`carries_no_command`) and the node drops it without a word.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Any, Sequence
+from typing import Any
 
 from ..interface import COMMAND_TOPICS
 from ..params.table import SimSettings, TableParams
@@ -265,7 +266,21 @@ def carries_no_command(topic: str, value: Any) -> bool:
     return bool(values) and all(math.isnan(v) for v in values)
 
 
-__all__ = ['apply_command', 'limit_input', 'INPUT_TOPICS', 'COMMANDED_JOINT', 'COMMAND_INTERFACE',
-           'JointCommand', 'InputRejected', 'apply_torque', 'apply_direction', 'apply_effort',
-           'apply_joint_command', 'apply_load', 'effort_drive', 'load_limit', 'command_value',
-           'carries_no_command']
+__all__ = [
+    'COMMANDED_JOINT',
+    'COMMAND_INTERFACE',
+    'INPUT_TOPICS',
+    'InputRejected',
+    'JointCommand',
+    'apply_command',
+    'apply_direction',
+    'apply_effort',
+    'apply_joint_command',
+    'apply_load',
+    'apply_torque',
+    'carries_no_command',
+    'command_value',
+    'effort_drive',
+    'limit_input',
+    'load_limit',
+]

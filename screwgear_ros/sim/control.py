@@ -35,8 +35,9 @@ the law gives the same bits over DDS and in-process.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields
-from typing import Any, Callable, Sequence
+from typing import Any
 
 from .simtime import sim_time_ns
 
@@ -205,5 +206,12 @@ class DemoController:
         return self.law.answer(stamp, observation.position[i], observation.velocity[i])[0]
 
 
-__all__ = ['MAX_GAP', 'SETPOINT_REPEAT', 'TABLE_JOINT', 'SetpointNotes', 'DemoGains', 'DemoLaw',
-           'DemoController']
+__all__ = [
+    'MAX_GAP',
+    'SETPOINT_REPEAT',
+    'TABLE_JOINT',
+    'DemoController',
+    'DemoGains',
+    'DemoLaw',
+    'SetpointNotes',
+]

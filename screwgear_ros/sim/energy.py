@@ -45,22 +45,20 @@ corner) costs the rule its order on that one interval, as it costs RK4 its order
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from .events import Command, Event
 from ..numerics.jit import kernel
+from ..params.table import SimSettings, TableParams
 from ..physics.model import (
-    B,
-    C,
-    MODE_CONVENTIONAL,
     CT,
     I1,
     I2,
     I3,
     MODE,
+    MODE_CONVENTIONAL,
     PHASE,
     PHASE_TIME,
     R1,
@@ -68,18 +66,20 @@ from ..physics.model import (
     TP,
     Z1,
     Z3,
+    B,
+    C,
     DrivePiece,
-    pinion_torques,
+    PackedModel,
     branch_force,
     branch_penetration,
     contact_branch,
-    PackedModel,
     mesh_motion,
     mesh_phase,
     mesh_stiffness_slope,
     pack,
+    pinion_torques,
 )
-from ..params.table import SimSettings, TableParams
+from .events import Command, Event
 from .plant import DriveInput
 from .session import Session
 
@@ -330,5 +330,14 @@ def cumulative(values: np.ndarray, h: float) -> np.ndarray:
     return out
 
 
-__all__ = ['STENCIL', 'Stretch', 'Trace', 'EnergyAudit', 'settings_for', 'record', 'run',
-           'audit', 'cumulative']
+__all__ = [
+    'STENCIL',
+    'EnergyAudit',
+    'Stretch',
+    'Trace',
+    'audit',
+    'cumulative',
+    'record',
+    'run',
+    'settings_for',
+]

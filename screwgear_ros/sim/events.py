@@ -26,14 +26,14 @@ class Command:
     step: int | None = None
 
     @classmethod
-    def of(cls, topic: str, value: Any) -> 'Command':
+    def of(cls, topic: str, value: Any) -> Command:
         """``Command(topic, value)``, made without the frozen dataclass's
         ``object.__setattr__`` per field: a closed loop submits one a tick."""
         command = object.__new__(cls)
         command.__dict__.update(topic=topic, value=value, step=None)
         return command
 
-    def at(self, step: int) -> 'Command':
+    def at(self, step: int) -> Command:
         """This command, taking effect at ``step``."""
         return _stamped(self, step)
 
@@ -46,7 +46,7 @@ class ParameterChange:
     settings: SimSettings
     step: int | None = None
 
-    def at(self, step: int) -> 'ParameterChange':
+    def at(self, step: int) -> ParameterChange:
         return _stamped(self, step)
 
 
@@ -60,7 +60,7 @@ class Setpoint:
     value: float
     step: int | None = None
 
-    def at(self, step: int) -> 'Setpoint':
+    def at(self, step: int) -> Setpoint:
         return _stamped(self, step)
 
 
@@ -70,7 +70,7 @@ class Reset:
 
     step: int | None = None
 
-    def at(self, step: int) -> 'Reset':
+    def at(self, step: int) -> Reset:
         return _stamped(self, step)
 
 
@@ -97,4 +97,4 @@ def describe(event: Event) -> str:
     return 'reset'
 
 
-__all__ = ['Command', 'ParameterChange', 'Reset', 'Setpoint', 'Event', 'describe']
+__all__ = ['Command', 'Event', 'ParameterChange', 'Reset', 'Setpoint', 'describe']

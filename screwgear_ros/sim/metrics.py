@@ -21,8 +21,9 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -201,5 +202,11 @@ def format_metrics(m: Metrics, details: int = 5) -> str:
     return '\n'.join(lines)
 
 
-__all__ = ['SETTLING_BAND', 'StepResponse', 'Reversal', 'Metrics', 'run_metrics',
-           'format_metrics']
+__all__ = [
+    'SETTLING_BAND',
+    'Metrics',
+    'Reversal',
+    'StepResponse',
+    'format_metrics',
+    'run_metrics',
+]

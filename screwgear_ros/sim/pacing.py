@@ -22,9 +22,8 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
-
 
 #: Longest single sleep of the pacer, s of wall time: the most a stop waits to be seen.
 MAX_SLEEP = 0.05
@@ -213,5 +212,11 @@ class AnswerGate:
             self._cond.notify_all()
 
 
-__all__ = ['MAX_SLEEP', 'wall_period', 'Pacer', 'PacerStats', 'FactorMeter',
-           'AnswerGate']
+__all__ = [
+    'MAX_SLEEP',
+    'AnswerGate',
+    'FactorMeter',
+    'Pacer',
+    'PacerStats',
+    'wall_period',
+]

@@ -15,12 +15,15 @@ plant restores the last finite state, stops, and reports why through
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
 from ..numerics.integrator import OBSERVED, advance_observed, advance_ticks, observe
+from ..numerics.stability import check_step
+from ..params.table import TableParams
 from ..physics.model import (
     N_MECHANICAL,
     N_STATE,
@@ -30,9 +33,7 @@ from ..physics.model import (
     equilibrium_state,
     pack,
 )
-from ..params.table import TableParams
 from .simtime import sim_time_ns
-from ..numerics.stability import check_step
 
 
 @dataclass(frozen=True)
@@ -44,7 +45,7 @@ class DriveInput:
     load: float = 0.0
 
     @classmethod
-    def of(cls, torque: float, direction: int, load: float) -> 'DriveInput':
+    def of(cls, torque: float, direction: int, load: float) -> DriveInput:
         """``DriveInput(torque, direction, load)``, made without the frozen dataclass's
         ``object.__setattr__`` per field (its generated ``__init__`` costs several times
         this): the session makes one for every command it applies."""
@@ -313,4 +314,4 @@ def compiled_entry(dispatcher: Any, args: tuple[Any, ...]) -> Callable[..., Any]
     return dispatcher if compiled is None else compiled.entry_point
 
 
-__all__ = ['DriveInput', 'OBSERVED_DELTA', 'OBSERVED_JOINTS', 'Outputs', 'Plant']
+__all__ = ['OBSERVED_DELTA', 'OBSERVED_JOINTS', 'DriveInput', 'Outputs', 'Plant']

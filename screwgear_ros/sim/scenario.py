@@ -18,21 +18,22 @@ import importlib
 import math
 import os
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import yaml
 
+from ..params.sets import default_values, split_parameters
+from ..params.table import ParameterError
+from ..params.yaml_reader import YamlReader
 from .commands import INPUT_TOPICS, InputRejected, apply_command
 from .control import TABLE_JOINT, DemoController, DemoGains
 from .events import Command, Event, ParameterChange, Reset
-from ..params.sets import default_values, split_parameters
-from ..params.table import ParameterError
 from .plant import DriveInput
 from .schedule import Schedule
 from .simulation import Controller, Run, Simulation
-from ..params.yaml_reader import YamlReader
 
 #: The top-level keys of a scenario.
 KEYS = ('parameters', 'duration', 'actions', 'controller', 'setpoint')
@@ -414,5 +415,15 @@ def _command(reader: YamlReader, topic: str, node: yaml.Node) -> Any:
     return float(value)
 
 
-__all__ = ['KEYS', 'ACTIONS', 'PROFILES', 'ScenarioError', 'Setpoint', 'ControllerSpec',
-           'Action', 'Scenario', 'load_scenario', 'resolve_callable']
+__all__ = [
+    'ACTIONS',
+    'KEYS',
+    'PROFILES',
+    'Action',
+    'ControllerSpec',
+    'Scenario',
+    'ScenarioError',
+    'Setpoint',
+    'load_scenario',
+    'resolve_callable',
+]

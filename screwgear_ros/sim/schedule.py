@@ -12,9 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from .events import Event, ParameterChange
 from ..params.table import SimSettings, TableParams
-
+from .events import Event, ParameterChange
 
 #: Settings a replay does not copy from the recording: where to record, and how the
 #: node is paced (replay_run sets both itself).
@@ -76,4 +75,4 @@ class Schedule:
         return {k: v for k, v in after.items() if before.get(k) != v}
 
 
-__all__ = ['NOT_REPLAYED', 'ros_values', 'differences', 'Schedule']
+__all__ = ['NOT_REPLAYED', 'Schedule', 'differences', 'ros_values']

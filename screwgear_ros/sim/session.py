@@ -47,14 +47,13 @@ from typing import Any
 
 import numpy as np
 
+from ..interface import INFO_TOPICS
+from ..numerics.integrator import OBSERVED
+from ..params.table import SimSettings, TableParams
+from ..physics.sensors import SensorChain
 from .commands import INPUT_TOPICS, InputRejected, apply_command, effort_drive, limit_input
 from .events import Command, Event, ParameterChange, Reset, Setpoint
-from ..interface import INFO_TOPICS
-from ..params.table import SimSettings, TableParams
-from ..numerics.integrator import OBSERVED
 from .plant import OBSERVED_DELTA, OBSERVED_JOINTS, DriveInput, Outputs, Plant
-from ..physics.sensors import SensorChain
-
 
 #: Ticks per compiled call of :meth:`Session.tick_quietly` (its scratch rows: 0.5 MB).
 QUIET_TICKS_PER_CALL = 4096
@@ -372,5 +371,13 @@ class Session:
         return done
 
 
-__all__ = ['QUIET_TICKS_PER_CALL', 'ROW', 'ROW_JOINTS', 'ROW_STEP', 'ROW_TE', 'row_of',
-           'Session', 'Tick']
+__all__ = [
+    'QUIET_TICKS_PER_CALL',
+    'ROW',
+    'ROW_JOINTS',
+    'ROW_STEP',
+    'ROW_TE',
+    'Session',
+    'Tick',
+    'row_of',
+]

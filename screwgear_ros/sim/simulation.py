@@ -26,19 +26,20 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import yaml
 
+from ..numerics.integrator import OBSERVED
+from ..params.sets import default_values, split_parameters
+from ..params.table import ParameterError, SimSettings, TableParams
 from .commands import InputRejected, apply_command
 from .control import SetpointNotes
 from .events import Command, Event, ParameterChange, Setpoint
-from ..params.sets import default_values, split_parameters
-from ..params.table import ParameterError, SimSettings, TableParams
-from ..numerics.integrator import OBSERVED
 from .plant import OBSERVED_DELTA, OBSERVED_JOINTS
 from .session import Session, Tick
 from .simtime import sim_time_ns
@@ -227,13 +228,13 @@ class Simulation:
 
     @classmethod
     def from_values(cls, values: Mapping[str, Any] | None = None, /,
-                    **overrides: Any) -> 'Simulation':
+                    **overrides: Any) -> Simulation:
         """The node's defaults, then ``values``, then ``overrides``, by parameter name.
         Raises :class:`~screwgear_ros.params.table.ParameterError` as the node refuses a value."""
         return cls(*resolve(values, **overrides))
 
     @classmethod
-    def from_yaml(cls, path: str | os.PathLike[str], **overrides: Any) -> 'Simulation':
+    def from_yaml(cls, path: str | os.PathLike[str], **overrides: Any) -> Simulation:
         """The node's parameter file ``path`` (``/**:`` or ``table_sim:`` keys with
         ``ros__parameters``), then ``overrides`` by parameter name, the node's defaults
         for the rest. Raises :class:`ParameterFileError` (unreadable file) or
@@ -254,7 +255,7 @@ class Simulation:
         self.params, self.settings = state['params'], state['settings']
         self._session = None
 
-    def with_values(self, **overrides: Any) -> 'Simulation':
+    def with_values(self, **overrides: Any) -> Simulation:
         """A new simulation with some parameters changed (validated)."""
         return Simulation.from_values({**self.params.as_dict(), **self.settings.as_dict()},
                                       **overrides)
@@ -356,7 +357,7 @@ class Simulation:
         rejected: list[tuple[int, str]] = []
         try:
             if record is not None:
-                from ..ros.session_record import SessionRecording   # rclpy messages: to record
+                from ..ros.session_record import SessionRecording  # rclpy messages: to record
                 recording = SessionRecording(record, session)
             _loop(session, controller, first, ticks, observed, command, columns,
                   sorted(events, key=lambda e: e.step), recording, rejected, measured,
@@ -478,6 +479,21 @@ def stamp_ns(observation: Observation, dt: float) -> int:
     return sim_time_ns(observation.step, dt)
 
 
-__all__ = ['NODE_KEYS', 'ParameterFileError', 'file_values', 'resolve', 'Observation', 'Run',
-           'Controller', 'Simulation', 'InputRejected', 'stamp_ns',
-           'JOINTS', 'MESH_1', 'MESH_3', 'DELTA', 'DELTA_RATE', 'MESH_FORCE']
+__all__ = [
+    'DELTA',
+    'DELTA_RATE',
+    'JOINTS',
+    'MESH_1',
+    'MESH_3',
+    'MESH_FORCE',
+    'NODE_KEYS',
+    'Controller',
+    'InputRejected',
+    'Observation',
+    'ParameterFileError',
+    'Run',
+    'Simulation',
+    'file_values',
+    'resolve',
+    'stamp_ns',
+]

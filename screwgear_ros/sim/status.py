@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from functools import lru_cache
 
-from .pacing import PacerStats
+from ..interface import ANSWERS
+from ..params.table import TableParams
 from ..physics.model import (
     Z1,
     Z3,
@@ -22,9 +23,8 @@ from ..physics.model import (
     mesh_phase,
     pack,
 )
-from ..interface import ANSWERS
-from ..params.table import TableParams
 from ..physics.quantities import natural_frequency
+from .pacing import PacerStats
 from .plant import Outputs
 
 #: Diagnostic levels (diagnostic_msgs/DiagnosticStatus).
@@ -187,6 +187,17 @@ def diagnostic_values(params: TableParams, outputs: Outputs,
     return level, message, values
 
 
-__all__ = ['OK', 'WARN', 'ERROR', 'MAX_PHASE_PER_STEP', 'mesh_phase_rates', 'mesh_phase_per_step',
-           'mesh_frequency_ratio', 'Contact', 'contact_states', 'status_line', 'Health',
-           'diagnostic_values']
+__all__ = [
+    'ERROR',
+    'MAX_PHASE_PER_STEP',
+    'OK',
+    'WARN',
+    'Contact',
+    'Health',
+    'contact_states',
+    'diagnostic_values',
+    'mesh_frequency_ratio',
+    'mesh_phase_per_step',
+    'mesh_phase_rates',
+    'status_line',
+]

@@ -27,12 +27,12 @@ import numpy as np
 import yaml
 
 from ..params.declarations import ParameterError, declared
-from ..sim.metrics import Metrics
 from ..params.sets import split_parameters
 from ..params.table import SimSettings, TableParams
+from ..params.yaml_reader import YamlReader
+from ..sim.metrics import Metrics
 from ..sim.scenario import ScenarioError, load_scenario
 from ..sim.simulation import ParameterFileError, file_values
-from ..params.yaml_reader import YamlReader
 
 #: The top-level keys of a sweep file.
 KEYS = ('parameters', 'scenario', 'metrics', 'time_limit', 'grid', 'monte_carlo')
@@ -462,6 +462,20 @@ def drawn_column_is_number(sweep: Sweep, column: str) -> bool:
     return all(isinstance(dict(r.swept)[column], (int, float)) for r in sweep.runs)
 
 
-__all__ = ['KEYS', 'METRICS', 'NODE_ONLY', 'SWEEPABLE', 'TIME_LIMIT', 'SweepError', 'Law',
-           'Draw', 'Axis', 'RunSpec', 'Bundle', 'Sweep', 'load_sweep', 'run_seed',
-           'drawn_column_is_number']
+__all__ = [
+    'KEYS',
+    'METRICS',
+    'NODE_ONLY',
+    'SWEEPABLE',
+    'TIME_LIMIT',
+    'Axis',
+    'Bundle',
+    'Draw',
+    'Law',
+    'RunSpec',
+    'Sweep',
+    'SweepError',
+    'drawn_column_is_number',
+    'load_sweep',
+    'run_seed',
+]

@@ -14,10 +14,11 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from .spec import Bundle, RunSpec
 
@@ -177,4 +178,4 @@ def warm_up() -> None:
         _WARM.append(True)
 
 
-__all__ = ['Status', 'Outcome', 'RunTimeout', 'execute', 'execute_batch', 'warm_up']
+__all__ = ['Outcome', 'RunTimeout', 'Status', 'execute', 'execute_batch', 'warm_up']

@@ -26,12 +26,11 @@ from pathlib import Path
 
 import pytest
 import yaml
+from bag_runs import BAGS, DATA, installed, retyped_copy
 from mcap.records import Channel, DataEnd, Footer, Message, Schema
 from mcap.stream_reader import StreamReader
 
-from bag_runs import BAGS, DATA, installed, record_topic, retyped_copy
 from screwgear_ros.cli import check_run, plot_run
-from screwgear_ros.bag import RunRecorder, TopicSpec
 
 SEED = 20
 CHECK_CODES = {0, 1, 2}

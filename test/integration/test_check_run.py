@@ -12,12 +12,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from rosbags.typesys import Stores, get_typestore
-
 from bag_runs import BAGS, DATA, copy_bag, nudge_table_angle, record_session, truncated_copy
 from bag_runs import installed_check_run as check_run
-from screwgear_ros.sim.events import Command
+from rosbags.typesys import Stores, get_typestore
+
 from screwgear_ros.params.table import SimSettings, TableParams
+from screwgear_ros.sim.events import Command
 from screwgear_ros.sim.schedule import Schedule
 
 STORE = get_typestore(Stores.ROS2_JAZZY)

@@ -4,14 +4,13 @@ reader)."""
 
 from __future__ import annotations
 
-import pytest
-
 import shutil
 import signal
 import subprocess
 import time
 from pathlib import Path
 
+import pytest
 from rosbags.highlevel import AnyReader
 
 from screwgear_ros.cli import EXIT_INTERRUPTED

@@ -18,23 +18,22 @@ busy loops beside it; the only wall-clock limits are generous timeouts.
 
 from __future__ import annotations
 
-import pytest
-
 import signal
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pytest
+from paths import ROOT
+from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 from rosgraph_msgs.msg import Clock
 
-from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
 from screwgear_ros import Simulation
 from screwgear_ros.sim.control import DemoController, DemoGains
 from screwgear_ros.sim.metrics import run_metrics
-from paths import ROOT
 
 CONFIG = ROOT / 'config' / 'paper.yaml'
 STORE = get_typestore(Stores.ROS2_JAZZY)

@@ -22,15 +22,15 @@ from pathlib import Path
 import pytest
 import yaml
 from mcap.reader import make_reader
+from mcap_stream import iter_messages
 from rclpy.serialization import serialize_message
+from ros_procs import STARTUP_TIMEOUT, start_process
 from rosbags.rosbag2 import Reader
 from std_msgs.msg import Float64, String
 
-from mcap_stream import iter_messages
-from ros_procs import STARTUP_TIMEOUT, start_process
-from screwgear_ros.cli.table_sim import EXIT_RECORDING_FAILED
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.bag.recorder import RESERVE_NAME, RunRecorder, TopicSpec
+from screwgear_ros.cli.table_sim import EXIT_RECORDING_FAILED
 
 TOPICS = [TopicSpec('/axis_c/text', 'std_msgs/msg/String'),
           TopicSpec('/axis_c/transmission_error', 'std_msgs/msg/Float64')]
@@ -44,7 +44,7 @@ class SmallDisk:
         self.capacity = capacity
         self.used = 0
 
-    def open(self, path: Path) -> 'DiskFile':
+    def open(self, path: Path) -> DiskFile:
         return DiskFile(self, path)
 
 
@@ -132,7 +132,7 @@ def test_a_full_disk_stops_the_recording_with_a_bag_that_reads_back(
 class TakenDisk(SmallDisk):
     """A disk whose room, once full, another writer takes as soon as it is freed."""
 
-    def open(self, path: Path) -> 'DiskFile':
+    def open(self, path: Path) -> DiskFile:
         disk = self
 
         class Taken(DiskFile):

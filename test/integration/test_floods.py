@@ -9,21 +9,20 @@ is shared.
 
 from __future__ import annotations
 
-import pytest
-
 import math
 import random
 import signal
 import time
 from pathlib import Path
 
+import pytest
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
+from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, start_process, wait_until
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray, Int8
 from std_srvs.srv import Trigger
 
-from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, start_process, wait_until
 from screwgear_ros.ros.inputs import MAX_LINE
 
 SEED = 20

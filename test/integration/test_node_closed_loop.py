@@ -26,12 +26,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process, wait_until
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from ros_procs import (STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process,
-                       wait_until)
 from screwgear_ros.bag.reader import Command, RecordedRun, read_run
 
 TARGET = 0.05     # rad

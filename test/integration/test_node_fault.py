@@ -11,18 +11,16 @@ simulated time.
 
 from __future__ import annotations
 
-import pytest
-
 import math
 import signal
 
 import numpy as np
-from sensor_msgs.msg import JointState
+import pytest
 from diagnostic_msgs.msg import DiagnosticArray
+from ros_procs import Peer, assert_clean_exit, stamp_ns, start_process
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
-
-from ros_procs import Peer, assert_clean_exit, stamp_ns, start_process
 
 from screwgear_ros.params.table import TableParams
 from screwgear_ros.physics.quantities import natural_frequency

@@ -17,13 +17,12 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process, wait_until
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray, Int8
 from std_srvs.srv import Trigger
 
-from ros_procs import (STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process,
-                       wait_until)
 from screwgear_ros.ros.parameters import HARMONICS
 
 NODE = '/table_sim'
@@ -312,6 +311,7 @@ def test_reset_returns_to_the_preload_equilibrium_at_the_current_time(table):
 def test_describe_shows_each_parameters_declared_range(table):
     """What `ros2 param describe` and rqt_reconfigure read: the declared ranges."""
     from rcl_interfaces.srv import DescribeParameters
+
     from screwgear_ros.params.declarations import Kind
     from screwgear_ros.ros.parameters import PARAMETERS
     response = table.peer.call(DescribeParameters, NODE + '/describe_parameters',

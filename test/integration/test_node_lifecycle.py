@@ -3,17 +3,14 @@
 from __future__ import annotations
 
 import signal
-from pathlib import Path
 
 import pytest
+from paths import ROOT
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process, wait_until
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Int8
-
-from ros_procs import (STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process,
-                       wait_until)
-from paths import ROOT
 
 PAPER_YAML = ROOT / 'config' / 'paper.yaml'
 T_P = 350.0

@@ -7,21 +7,27 @@ fast the machine is (the only time limits are generous timeouts).
 
 from __future__ import annotations
 
-import pytest
-
 import signal
 import time
 from pathlib import Path
 
+import pytest
 from diagnostic_msgs.msg import DiagnosticArray
+from ros_procs import (
+    STARTUP_TIMEOUT,
+    Peer,
+    RosProcess,
+    assert_clean_exit,
+    stamp_ns,
+    start_process,
+    wait_until,
+)
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, Float64MultiArray
 from std_srvs.srv import Trigger
 
-from ros_procs import (STARTUP_TIMEOUT, Peer, RosProcess, assert_clean_exit, stamp_ns,
-                       start_process, wait_until)
-from screwgear_ros.sim.events import Command, ParameterChange, Reset
 from screwgear_ros.bag.reader import read_run
+from screwgear_ros.sim.events import Command, ParameterChange, Reset
 
 TICK_NS = 1_000_000          # 1 kHz publishing: one tick is 1 ms of simulation time
 TICK_STEPS = 20              # of 50 µs

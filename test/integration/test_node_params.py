@@ -12,9 +12,9 @@ import time
 
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
+from ros_procs import STARTUP_TIMEOUT, Peer, stamp_ns, start_process, wait_until
 from sensor_msgs.msg import JointState
 
-from ros_procs import STARTUP_TIMEOUT, Peer, start_process, stamp_ns, wait_until
 from screwgear_ros.ros.parameters import HARMONICS
 
 NODE = '/table_sim'

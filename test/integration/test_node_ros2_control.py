@@ -27,28 +27,28 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from bag_runs import record_session
 from diagnostic_msgs.msg import DiagnosticArray
+from model_laws import drive_line
+from paths import ROOT
 from rclpy.duration import Duration
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Int8, String
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
-from bag_runs import record_session
-from model_laws import drive_line
-from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
-from screwgear_ros.sim.commands import JointCommand
-from screwgear_ros.sim.events import Command
+from screwgear_ros.bag.reader import read_run
+from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.physics.layout import BASE_LINK, PALETTE, wheels
 from screwgear_ros.physics.model import pack
-from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.ros.markers import DISCS, MARKS, MESHES
 from screwgear_ros.ros.urdf import PLANT_NAMESPACE, shipped_description
-from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.sim.commands import JointCommand
+from screwgear_ros.sim.events import Command
 from screwgear_ros.sim.schedule import Schedule
-from paths import ROOT
 
 NS = PLANT_NAMESPACE                   # where the shipped URDF's ros2_control block looks
 NODE = f'{NS}/table_sim'
@@ -115,9 +115,10 @@ def test_the_marks_turn_as_the_urdf_links_do():
     """Markers and URDF agree: the URDF's forward kinematics (yourdfpy) turns each
     link's +x, where its mark visual sits, to the direction of the marker's mark."""
     import yourdfpy
-    from screwgear_ros.sim.plant import Plant
+
     from screwgear_ros.ros.markers import table_markers
     from screwgear_ros.ros.messages import stamp
+    from screwgear_ros.sim.plant import Plant
     urdf = yourdfpy.URDF.load(ROOT / 'urdf/screwgear_table.urdf',
                               load_meshes=False, build_scene_graph=True)
     rng = np.random.default_rng(7)
@@ -136,9 +137,9 @@ def test_the_marks_turn_as_the_urdf_links_do():
 
 
 def test_contact_colours_follow_the_meshes():
-    from screwgear_ros.sim.plant import DriveInput, Plant
     from screwgear_ros.ros.markers import table_markers
     from screwgear_ros.ros.messages import stamp
+    from screwgear_ros.sim.plant import DriveInput, Plant
     params = TableParams()
     out = Plant(params, 5e-5).compute_outputs()                     # preload: both on a flank
 
@@ -164,6 +165,7 @@ def test_markers_are_throttled_by_wall_time_not_by_ticks(tmp_path, monkeypatch, 
     """RunIO's marker period: an hour gives the start's markers only, zero gives one per
     tick; both are recorded with the URDF, which the bag reader ignores."""
     from rosbags.rosbag2 import Reader
+
     from screwgear_ros.ros import run_io
     schedule = Schedule(TableParams(), SimSettings(), [
         Command('joint_commands', JointCommand(tuple(JOINTS), effort=(30.0,)), 200)],
@@ -187,8 +189,9 @@ def test_recorded_markers_follow_a_change_of_the_tables_geometry(tmp_path, monke
     its stamp, with the mark of every wheel where that tick's joint_states puts it."""
     from rosbags.rosbag2 import Reader
     from rosbags.typesys import Stores, get_typestore
-    from screwgear_ros.sim.events import ParameterChange
+
     from screwgear_ros.ros import run_io
+    from screwgear_ros.sim.events import ParameterChange
     before = TableParams()
     after = before.replace(radius_table=1.5 * before.radius_table)
     schedule = Schedule(before, SimSettings(), [
@@ -435,6 +438,7 @@ def test_table_markers_are_live_in_a_fixed_frame(table):
 def test_the_recording_holds_the_model_and_the_markers_turning_with_the_joints(table):
     """Runs last: stops the node and reads its bag with rosbags."""
     from rosbags.rosbag2 import Reader
+
     from screwgear_ros.bag.format import typestore
     table.plugin.command(0.0)
     table.plugin.close()

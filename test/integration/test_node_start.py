@@ -12,12 +12,12 @@ model. Nor does it import SciPy's linear algebra, which numba's start probes for
 
 from __future__ import annotations
 
-import pytest
-
 import json
 import os
 import subprocess
 import sys
+
+import pytest
 
 #: Loaded by the tools (check_run, plot_run, recording), never by a start that does not
 #: record.

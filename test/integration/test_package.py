@@ -182,8 +182,9 @@ def test_the_shipped_urdf_is_what_the_node_describes_for_the_defaults():
 
 def test_the_urdf_parses_and_its_joints_are_those_of_joint_states():
     import yourdfpy
-    from screwgear_ros.physics.layout import BASE_LINK, wheels
+
     from screwgear_ros.params.table import SimSettings, TableParams
+    from screwgear_ros.physics.layout import BASE_LINK, wheels
     urdf = yourdfpy.URDF.load(_installed_urdf(), load_meshes=False, build_scene_graph=True)
     assert urdf.validate()
     names = list(SimSettings().joint_names)             # what joint_states names
@@ -235,8 +236,8 @@ def test_the_ros2_control_block_names_the_stock_plugin_and_this_nodes_topics():
 
 
 def test_ros2_control_yaml_has_the_broadcaster_and_an_effort_group_on_the_commanded_joint():
-    from screwgear_ros.sim.commands import COMMAND_INTERFACE, COMMANDED_JOINT
     from screwgear_ros.params.table import SimSettings
+    from screwgear_ros.sim.commands import COMMAND_INTERFACE, COMMANDED_JOINT
     config = yaml.safe_load((PREFIX / 'share' / PACKAGE / 'config/ros2_control.yaml')
                             .read_text(encoding='utf-8'))
     manager = config['controller_manager']['ros__parameters']

@@ -17,9 +17,9 @@ import sys
 
 import pytest
 import yaml
+from ros_procs import Peer, start_process, wait_until
 
 from screwgear_ros.ros import param_dump
-from ros_procs import Peer, start_process, wait_until
 
 TINY = (1e-300, 7.5e-05, 1e-06, 1e-05, 2.5e-07, sys.float_info.min, -sys.float_info.min,
         sys.float_info.max, -0.0, 0.1, 1e16, 123456789.0, 5e-300)

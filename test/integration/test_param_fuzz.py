@@ -17,13 +17,13 @@ import re
 import xml.etree.ElementTree as ET
 
 import pytest
-
 from ros_procs import STARTUP_TIMEOUT, Peer, start_process, wait_until
+
+from screwgear_ros.numerics.stability import max_stable_dt
 from screwgear_ros.params.declarations import EXCERPT_CHARS, Kind, yaml_value
 from screwgear_ros.params.sets import default_values, split_parameters
 from screwgear_ros.params.table import ParameterError
 from screwgear_ros.physics.quantities import equivalent_mass, natural_frequency
-from screwgear_ros.numerics.stability import max_stable_dt
 
 NODE = '/table_sim'
 SEED = 20
@@ -51,8 +51,8 @@ def _cases():
 def _derived_are_finite(values: dict) -> None:
     """Everything the node derives from a parameter set, computed and finite."""
     from screwgear_ros.physics.model import pack
-    from screwgear_ros.sim.pacing import wall_period
     from screwgear_ros.ros.urdf import robot_description
+    from screwgear_ros.sim.pacing import wall_period
     params, settings = split_parameters(values)
     assert 0.0 < max_stable_dt(params) < math.inf
     for x in (equivalent_mass(params), natural_frequency(params)):

@@ -6,20 +6,19 @@ bag as ``rosbags`` decodes it.
 
 from __future__ import annotations
 
-import pytest
-
 import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
+from bag_runs import copy_bag, installed
+from paths import DATA
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import copy_bag, installed
-from screwgear_ros.paper.common import plt
 from screwgear_ros.bag.reader import read_run
+from screwgear_ros.paper.common import plt
 from screwgear_ros.runs.plot import Panel, run_figure
-from paths import DATA
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 

@@ -18,7 +18,6 @@ import subprocess
 import sys
 
 import pytest
-
 from bag_runs import BAGS, DATA
 
 REPLAY = '''

@@ -2,21 +2,19 @@
 
 from __future__ import annotations
 
-import pytest
-
 import re
 import shutil
 import subprocess
 import sys
-from pathlib import Path
-from paths import ROOT
 
+import pytest
+from paths import ROOT
 
 
 def readme_example() -> str:
     text = (ROOT / 'README.md').read_text(encoding='utf-8')
     section = text.split('\n## Python API\n', 1)[1].split('\n## ', 1)[0]
-    blocks = re.findall(r'```python\n(.*?)```', section, flags=re.S)
+    blocks = re.findall(r'```python\n(.*?)```', section, flags=re.DOTALL)
     assert blocks, 'no python block in the README section "Python API"'
     return blocks[0]
 

@@ -10,23 +10,21 @@ generous timeouts.
 
 from __future__ import annotations
 
-import pytest
-
 import ast
 import re
 import signal
 import subprocess
 import sys
-from pathlib import Path
 
+import pytest
+from paths import ROOT
+from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
 from screwgear_ros import Simulation
-from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.interface import BY_KEY, LATCHED_OUTPUTS
-from paths import ROOT
+from screwgear_ros.params.table import SimSettings, TableParams
 
 README = ROOT / 'README.md'
 HEADING = '## Controller quick start'
@@ -43,7 +41,7 @@ def section() -> str:
 
 def controller_code() -> str:
     """The first python block of the section, exactly as printed."""
-    match = re.search(r'```python\n(.*?)```', section(), re.S)
+    match = re.search(r'```python\n(.*?)```', section(), re.DOTALL)
     assert match, 'the quick start has no python block'
     return match.group(1)
 

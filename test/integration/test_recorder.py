@@ -27,15 +27,23 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+from mcap_stream import iter_messages
 from rclpy.serialization import serialize_message
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import (Empty, Float64, Float64MultiArray, Header, Int8, MultiArrayDimension,
-                          MultiArrayLayout, String)
+from std_msgs.msg import (
+    Empty,
+    Float64,
+    Float64MultiArray,
+    Header,
+    Int8,
+    MultiArrayDimension,
+    MultiArrayLayout,
+    String,
+)
 
-from mcap_stream import iter_messages
 from screwgear_ros.bag import RunRecorder, TopicSpec
 from screwgear_ros.bag.reader import BagError, read_run
 

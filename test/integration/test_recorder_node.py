@@ -13,14 +13,14 @@ from pathlib import Path
 
 import pytest
 import yaml
+from bag_runs import installed_check_run as check_run
 from mcap.reader import make_reader
+from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
 from rosbags.rosbag2 import Reader
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from bag_runs import installed_check_run as check_run
-from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.bag.recorder import FLUSH_PERIOD
 

@@ -26,11 +26,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from bag_runs import BAGS, DATA, copy_bag, installed
-from ros_procs import (STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process,
-                       wait_until)
-from screwgear_ros.sim.events import Command, ParameterChange, Reset
+from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process, wait_until
+
 from screwgear_ros.bag.reader import RecordedRun, read_run
 from screwgear_ros.runs.compare import (
     compare_runs,
@@ -41,6 +39,7 @@ from screwgear_ros.runs.compare import (
 )
 from screwgear_ros.runs.replay import load_scenario, replay_in_process, schedule_from_run
 from screwgear_ros.runs.replay_plan import plan_from_run
+from screwgear_ros.sim.events import Command, ParameterChange, Reset
 
 #: Generous bounds for a process to finish: a hang fails the test, a slow machine does not.
 TOOL_TIMEOUT = 600.0
@@ -150,8 +149,8 @@ def test_lockstep_keeps_the_order_of_events_in_one_tick(tmp_path: Path) -> None:
 def advance_lockstep_node(ticks: int) -> int:
     """Answer a running lockstep table_sim (root namespace) ``ticks`` times through
     ``table_sim/tick``; the step of the joint_states it then waits at."""
-    from std_msgs.msg import Empty
     from sensor_msgs.msg import JointState
+    from std_msgs.msg import Empty
     with Peer('advance_lockstep') as peer:
         inbox = peer.subscribe('joint_states', JointState)
         answer = peer.publisher('table_sim/tick', Empty, wait_matched=WAIT)
@@ -289,6 +288,7 @@ def record_a_fault(bag: Path) -> None:
     """A run of the diverging model recorded as the node does: the time stands still for
     a few ticks, then a detuning change, a reset and a command revive it in one tick."""
     from test_replay_quietly import _diverging
+
     from screwgear_ros.interface import topic_names
     from screwgear_ros.ros.run_io import RunIO
     from screwgear_ros.sim.session import Session

@@ -9,19 +9,18 @@
 
 from __future__ import annotations
 
-import pytest
-
 import signal
 import time
 from pathlib import Path
 
+import pytest
+from bag_runs import installed
+from paths import DATA
+from ros_procs import STARTUP_TIMEOUT, Peer, start_process, wait_until
 from std_msgs.msg import Float64
 
-from bag_runs import installed
-from ros_procs import STARTUP_TIMEOUT, Peer, start_process, wait_until
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.replay import schedule_from_run
-from paths import DATA
 
 #: What a one-second stop may take on a loaded CI machine; the figure is printed.
 STOP_BOUND = 5.0

@@ -14,23 +14,22 @@ a fresh one each run (how many commands share a tick then depends on the machine
 
 from __future__ import annotations
 
-import pytest
-
 import signal
 import time
 from collections import Counter
 from pathlib import Path
 
+import pytest
+from bag_runs import installed
+from paths import DATA, ROOT
+from ros_procs import STARTUP_TIMEOUT, Peer, start_process
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 from std_msgs.msg import Float64MultiArray
 
-from bag_runs import installed
-from ros_procs import STARTUP_TIMEOUT, Peer, start_process
-from screwgear_ros.sim.events import Command
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.replay_plan import plan_from_run
-from paths import DATA, ROOT
+from screwgear_ros.sim.events import Command
 
 CONFIG = ROOT / 'config' / 'paper.yaml'
 TOOL_TIMEOUT = 600.0

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import matplotlib.image as mpimg
 import pytest
+from paths import ROOT
 
 from screwgear_ros.paper.builder import SECTIONS
-from paths import ROOT
 
 
 @pytest.fixture(scope='module')

@@ -27,7 +27,6 @@ import os
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 import types
 import xml.etree.ElementTree as ET
@@ -40,12 +39,11 @@ from typing import Any
 import pytest
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray
+from paths import ROOT
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from ros_procs import STARTUP_TIMEOUT, Peer, wait_until
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, Int8
-
-from ros_procs import STARTUP_TIMEOUT, Peer, wait_until
-from paths import ROOT
 
 SCRIPT = ROOT / 'scripts' / 'ros2_control_stack.sh'
 NODE_EXE = Path('lib/controller_manager/ros2_control_node')
@@ -544,8 +542,8 @@ def test_the_launch_files_processes_run_and_its_controllers_are_active(stack):
     executables = [(n.package, n.executable) for n in stack.nodes]
     assert (PACKAGE, 'table_sim') in executables
     assert ('controller_manager', 'ros2_control_node') in executables
-    config = yaml.safe_load((Path(stack.proc('ros2_control_node').spec.parameters[0])
-                             .read_text()))
+    config = yaml.safe_load(Path(stack.proc('ros2_control_node').spec.parameters[0])
+                             .read_text())
     declared = [k for k, v in config['controller_manager']['ros__parameters'].items()
                 if isinstance(v, dict) and 'type' in v]
     spawned = [name for n in stack.nodes if n.executable == 'spawner'

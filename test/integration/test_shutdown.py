@@ -19,13 +19,11 @@ import os
 import signal
 import subprocess
 import sys
-
 import time
 
 import pytest
-from sensor_msgs.msg import JointState
-
 from ros_procs import STARTUP_TIMEOUT, Peer, start_process
+from sensor_msgs.msg import JointState
 
 CHILD = '''
 from screwgear_ros.ros.shutdown import stop_on_signals

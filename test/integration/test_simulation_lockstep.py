@@ -10,20 +10,25 @@ read back with rosbags (not with the package's reader) and compared bit for bit.
 
 from __future__ import annotations
 
-import pytest
-
 import math
 import signal
 from pathlib import Path
 
 import numpy as np
+import pytest
+from ros_procs import (
+    STARTUP_TIMEOUT,
+    Peer,
+    assert_clean_exit,
+    record_lockstep_demo,
+    stamp_ns,
+    start_process,
+)
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from ros_procs import (STARTUP_TIMEOUT, Peer, assert_clean_exit, record_lockstep_demo, stamp_ns,
-                       start_process)
 from screwgear_ros import Simulation
 from screwgear_ros.sim.simulation import Observation
 

@@ -14,11 +14,11 @@ import time
 from pathlib import Path
 
 import pytest
-
 from bag_runs import installed
+from paths import ROOT
+
 from screwgear_ros.params.table import TableParams
 from screwgear_ros.physics.quantities import natural_frequency
-from paths import ROOT
 
 pq = pytest.importorskip('pyarrow.parquet')
 

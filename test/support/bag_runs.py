@@ -12,20 +12,19 @@ from __future__ import annotations
 
 import shutil
 import subprocess
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import yaml
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
 
-from screwgear_ros.sim.events import Command
-from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.bag import RunRecorder, TopicSpec
+from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.ros.session_record import record_session
+from screwgear_ros.sim.events import Command
 from screwgear_ros.sim.session import Session
-from paths import DATA
 
 #: The runs checked in under test/data, each a rosbag2 directory table_sim recorded; every
 #: reader, checker and replay is tried on all of them.
@@ -136,8 +135,16 @@ def copy_bag(src: Path, dst: Path, edit: Edit | None = None) -> int:
     return recorder.written
 
 
-__all__ = ['record_session', 'reversal_run', 'nudge_table_angle', 'installed',
-           'installed_check_run', 'truncated_copy', 'damaged_copy', 'copy_bag']
+__all__ = [
+    'copy_bag',
+    'damaged_copy',
+    'installed',
+    'installed_check_run',
+    'nudge_table_angle',
+    'record_session',
+    'reversal_run',
+    'truncated_copy',
+]
 
 def record_topic(specs: dict[int, TopicSpec], record: Message) -> str:
     return specs[record.channel_id].name.rsplit('/', 1)[1]

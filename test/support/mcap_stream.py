@@ -4,8 +4,9 @@ tests compare the package's reader and writer with."""
 from __future__ import annotations
 
 import struct
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 from mcap.exceptions import InvalidMagic, McapError
 from mcap.records import Channel, DataEnd, Footer, Message, Schema

@@ -11,10 +11,11 @@ first), so that on RK4 it is the package's step bit for bit.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from functools import lru_cache
-from typing import Any, Callable, Sequence
+from functools import cache
+from typing import Any
 
 from screwgear_ros.numerics.rk import add, axpy, scale
 
@@ -113,7 +114,7 @@ MIDPOINT = Tableau('midpoint rule', 2, c=(0, '1/2'), a=((), ('1/2',)), b=(0, 1))
 EULER = Tableau('explicit Euler', 1, c=(0,), a=((),), b=(1,))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _stages(fun: Callable, tableau: Tableau) -> Callable:
     """The step as a chain of per-stage functions, stage coefficients bound as constants:
     ``run(t, y, h, k, args)`` takes the slope k_0 = f(t, y) and returns y_new."""

@@ -20,9 +20,10 @@ import subprocess
 import tempfile
 import threading
 import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping, Sequence
+from typing import Any
 
 import yaml
 
@@ -83,10 +84,10 @@ class RosProcess:
         self._close_files()
         return code, time.monotonic() - t0
 
-    def __enter__(self) -> 'RosProcess':
+    def __enter__(self) -> RosProcess:
         return self
 
-    def __exit__(self, *exc: Any) -> None:
+    def __exit__(self, *exc: object) -> None:
         """Teardown: Ctrl-C (the node closes its bag) if still running, SIGKILL last."""
         if self.alive():
             self.stop(signal.SIGINT)
@@ -206,6 +207,7 @@ class Peer:
         from rclpy.context import Context
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.signals import SignalHandlerOptions
+
         from screwgear_ros.ros.shutdown import spin_executor_until
 
         self.context = Context()
@@ -222,10 +224,10 @@ class Peer:
                                         name=f'{name} spin')
         self._thread.start()
 
-    def __enter__(self) -> 'Peer':
+    def __enter__(self) -> Peer:
         return self
 
-    def __exit__(self, *exc: Any) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
     def close(self) -> None:
@@ -317,8 +319,17 @@ def stamp_ns(msg: Any) -> int:
     return t.sec * 1_000_000_000 + t.nanosec
 
 
-__all__ = ['STARTUP_TIMEOUT', 'write_params_file', 'RosProcess', 'start_process',
-           'assert_clean_exit', 'Inbox', 'Peer', 'wait_until', 'stamp_ns']
+__all__ = [
+    'STARTUP_TIMEOUT',
+    'Inbox',
+    'Peer',
+    'RosProcess',
+    'assert_clean_exit',
+    'stamp_ns',
+    'start_process',
+    'wait_until',
+    'write_params_file',
+]
 
 
 #: s of wall time for a few hundred lockstep ticks on a loaded machine

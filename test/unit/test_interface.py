@@ -4,14 +4,14 @@ and the bag contract the readers enforce, all name the types it declares."""
 
 from __future__ import annotations
 
+from readme_blocks import generated_block
 from rosbags.typesys import Stores, get_typestore
 
-from readme_blocks import generated_block
 from screwgear_ros import interface
 from screwgear_ros.bag.cdr import type_name
-from screwgear_ros.sim.commands import INPUT_TOPICS
-from screwgear_ros.ros.messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES, PRIVATE_TYPES
 from screwgear_ros.bag.reader import OUTPUT_TOPICS
+from screwgear_ros.ros.messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES, PRIVATE_TYPES
+from screwgear_ros.sim.commands import INPUT_TOPICS
 
 
 def test_the_readme_table_is_generated_from_the_declaration():
@@ -34,14 +34,14 @@ def test_every_declared_type_is_a_real_ros_type():
 
 
 def test_the_derived_tables_agree():
-    assert INPUT_TOPICS == {t.key: t.type for t in interface.TOPICS
-                            if t.direction is interface.Direction.IN and not t.private}
+    assert {t.key: t.type for t in interface.TOPICS
+                            if t.direction is interface.Direction.IN and not t.private} == INPUT_TOPICS
     assert set(OUTPUT_TOPICS) <= set(interface.OUTPUT_TOPICS)
     assert set(interface.CONTRACT) == {*INPUT_TOPICS, *INFO_TYPES, *OUTPUT_TOPICS,
                                        *PRIVATE_TYPES}
     assert not set(interface.INFO_TOPICS) & set(INPUT_TOPICS)   # recorded, never a command
     assert set(interface.ANSWER_TOPICS) <= set(INPUT_TOPICS)
-    assert interface.LATCHED_OUTPUTS <= set(interface.OUTPUT_TOPICS)
+    assert set(interface.OUTPUT_TOPICS) >= interface.LATCHED_OUTPUTS
     names = interface.topic_names('/ns', 'sim')
     assert names['clock'] == '/clock' and names['joint_states'] == '/ns/joint_states'
     assert names['run_parameters'] == '/ns/sim/run_parameters'

@@ -18,8 +18,6 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from visualization_msgs.msg import MarkerArray
 
-from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.sim.plant import DriveInput, Outputs, Plant
 from screwgear_ros.bag.cdr import (
     Bundle,
     clock_template,
@@ -27,8 +25,10 @@ from screwgear_ros.bag.cdr import (
     joint_state_template,
     template_of,
 )
+from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.ros.markers import MarkerEncoder, table_markers
 from screwgear_ros.ros.messages import stamp
+from screwgear_ros.sim.plant import DriveInput, Outputs, Plant
 from screwgear_ros.sim.status import Contact, contact_states
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
@@ -118,7 +118,7 @@ def test_template_of_writes_what_rclpy_serializes_for_every_kind_of_field():
     every primitive size; equal bytes outside the padding (which rclpy leaves
     uninitialized) and equal decoding."""
     from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-    from geometry_msgs.msg import Point, PoseArray, Pose
+    from geometry_msgs.msg import Point, Pose, PoseArray
     from sensor_msgs.msg import CompressedImage, Imu, RegionOfInterest
     from std_msgs.msg import ByteMultiArray, ColorRGBA, Int16MultiArray
     rng = random.Random(11)

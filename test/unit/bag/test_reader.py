@@ -15,12 +15,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
+from bag_runs import BAGS, DATA
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import BAGS, DATA
 from screwgear_ros.bag.reader import Command, ParameterChange, Reset, read_run
 
 STORE = get_typestore(Stores.ROS2_JAZZY)

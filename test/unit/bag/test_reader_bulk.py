@@ -14,11 +14,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bag_runs import BAGS, DATA, copy_bag, damaged_copy
 from mcap.reader import make_reader
+from mcap_stream import iter_messages
 from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import BAGS, DATA, copy_bag, damaged_copy
-from mcap_stream import iter_messages
 from screwgear_ros.bag.cdr import float64_template, joint_state_template
 from screwgear_ros.bag.reader import OUTPUT_TOPICS, BagError, _bulk, read_run, scan
 

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from bag_runs import installed
+
 from screwgear_ros.design.closed_loop import LOOP, SENSITIVITY, margins, measure_loop
 from screwgear_ros.design.frequency import CSV_COLUMNS, measure
 from screwgear_ros.design.linearize import OperatingPointError, linearize
@@ -176,8 +176,8 @@ def test_the_measured_loop_of_a_pd_law_has_the_margins_of_its_closed_form():
     for the next: around the linear plant, L = (Kp + jω·Kd)·P(jω)·e^(−jωh/2)·sinc(ωh/2)."""
     from scipy.optimize import brentq
 
-    from screwgear_ros.sim.control import DemoController, DemoGains
     from screwgear_ros.params.table import SimSettings
+    from screwgear_ros.sim.control import DemoController, DemoGains
     from screwgear_ros.sim.scenario import Setpoint
     settings = SimSettings()
     gains = DemoGains(ki=0.0)

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from bag_runs import installed
+
 from screwgear_ros.design.linearize import (
     INPUTS,
     OUTPUTS,
@@ -22,6 +22,7 @@ from screwgear_ros.design.linearize import (
     linearize,
     operating_point,
 )
+from screwgear_ros.params.table import MeshPhase, Mode, TableParams
 from screwgear_ros.physics.model import (
     ContactBranch,
     Drive,
@@ -30,7 +31,6 @@ from screwgear_ros.physics.model import (
     rhs,
     stiffest_linearization,
 )
-from screwgear_ros.params.table import MeshPhase, Mode, TableParams
 from screwgear_ros.sim.simulation import Simulation
 
 PAPER = TableParams()

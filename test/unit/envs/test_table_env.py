@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 gymnasium = pytest.importorskip('gymnasium')
-from gymnasium.utils.env_checker import check_env  # noqa: E402
+from gymnasium.utils.env_checker import check_env
 
-from screwgear_ros import Simulation  # noqa: E402
-from screwgear_ros.envs.table_env import ENV_ID, OBSERVATION, ScrewgearTableEnv  # noqa: E402
-from screwgear_ros.sim.scenario import Setpoint  # noqa: E402
+from screwgear_ros import Simulation
+from screwgear_ros.envs.table_env import ENV_ID, OBSERVATION, ScrewgearTableEnv
+from screwgear_ros.sim.scenario import Setpoint
 
 
 def test_gymnasium_check_env_passes():

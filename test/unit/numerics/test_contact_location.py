@@ -19,20 +19,21 @@ import functools
 import numba
 import numpy as np
 import pytest
+from bag_runs import reversal_run
 from scipy.integrate import solve_ivp
 
-from bag_runs import reversal_run
 from screwgear_ros.params import run_file as run_parameters
+from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.physics.friction import FrictionPiece
 from screwgear_ros.physics.model import (
-    B,
-    C,
     R1,
     R3,
     TS,
     WNL,
     Z1,
     Z3,
+    B,
+    C,
     ContactBranch,
     Drive,
     DrivePiece,
@@ -47,7 +48,6 @@ from screwgear_ros.physics.model import (
     pack,
     rhs_vector,
 )
-from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.sim.session import Session
 
 TORQUE = 400.0
@@ -220,7 +220,7 @@ def reference(p: TableParams, y0: np.ndarray, rtol: float = 1e-12,
     return out, changes
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _reference_run(name: str) -> tuple[TableParams, np.ndarray, np.ndarray, int]:
     """(params, initial state, reference states, reference contact changes) of a scenario."""
     p = _params(name)

@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from screwgear_ros.physics.friction import FrictionPiece, speed_dip
 from screwgear_ros.numerics.integrator import OBSERVED
-from screwgear_ros.params.table import TableParams
-from screwgear_ros.sim.plant import DriveInput, Plant
 from screwgear_ros.numerics.reference import Segment, solve
 from screwgear_ros.numerics.rk import hermite
+from screwgear_ros.params.table import TableParams
+from screwgear_ros.physics.friction import FrictionPiece, speed_dip
+from screwgear_ros.sim.plant import DriveInput, Plant
 
 DT = 50e-6                      # s
 TICK = 20                       # steps a tick: the command changes only between ticks

@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 
 from screwgear_ros.numerics.integrator import advance, trajectory
-from screwgear_ros.physics.model import Drive, equilibrium_state, pack
+from screwgear_ros.numerics.reference import Segment, solve
 from screwgear_ros.params.table import TableParams
+from screwgear_ros.physics.model import Drive, equilibrium_state, pack
 from screwgear_ros.physics.quantities import equivalent_mass
 from screwgear_ros.sim.plant import DriveInput
-from screwgear_ros.numerics.reference import Segment, solve
 
 #: Table damping, N·m·s/rad, that makes the paper's 400 N·m drive run at the paper's steady
 #: table speed: c_t = T1·(r2/r1) / ω2 with ω2 = (24 r/min)·r1/r2 = 0.337 rad/s.

@@ -19,8 +19,8 @@ from numba.core.errors import TypingError
 
 from screwgear_ros.numerics import jit
 from screwgear_ros.numerics.integrator import advance
-from screwgear_ros.physics.model import Drive, equilibrium_state, pack
 from screwgear_ros.params.table import TableParams
+from screwgear_ros.physics.model import Drive, equilibrium_state, pack
 
 #: A run through reversals (conventional: backlash impacts, contact changes located)
 #: with the drive line's corner crossed; the state and outputs after every 20-step tick.

@@ -14,13 +14,13 @@ import math
 
 import numpy as np
 import pytest
-
 from bag_runs import reversal_run
-from screwgear_ros.sim.events import Command
+
+from screwgear_ros.numerics.reference import ATOL, RTOL, ReferenceFailure, Segment, solve
 from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.physics.quantities import equivalent_mass
+from screwgear_ros.sim.events import Command
 from screwgear_ros.sim.plant import DriveInput, Plant
-from screwgear_ros.numerics.reference import ATOL, RTOL, ReferenceFailure, Segment, solve
 
 PAPER_TABLE_DAMPING = 8867.0   # N·m·s/rad: 400 N·m drives the table at 0.337 rad/s
 
@@ -243,6 +243,7 @@ def test_reference_and_check_follow_the_recorded_mesh_formulation(tmp_path):
     from dataclasses import replace
 
     from bag_runs import record_session
+
     from screwgear_ros.bag.reader import read_run
     from screwgear_ros.runs.check import check_run
     from screwgear_ros.sim.schedule import Schedule

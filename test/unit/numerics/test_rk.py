@@ -16,8 +16,8 @@ from fractions import Fraction
 import numpy as np
 import pytest
 from numba import njit
-
 from rk_tableaus import EULER, MIDPOINT, RK4, Tableau, tableau_step
+
 from screwgear_ros.numerics import rk
 
 ZETA = 0.1
@@ -49,7 +49,7 @@ def test_rk4_tableau_has_order_four_and_its_stability_polynomial():
     assert len(residuals) == 8 and all(r == 0 for r in residuals.values())
     assert RK4.stability_coefficients() == (1, 1, Fraction(1, 2), Fraction(1, 6),
                                             Fraction(1, 24))
-    assert rk.STABILITY == tuple(float(g) for g in RK4.stability_coefficients())
+    assert tuple(float(g) for g in RK4.stability_coefficients()) == rk.STABILITY
     z = np.array([-2.0 + 0.5j, 2.8j, -2.785])
     expected = 1 + z + z ** 2 / 2 + z ** 3 / 6 + z ** 4 / 24
     assert np.allclose(rk.amplification(z), expected, rtol=1e-15)

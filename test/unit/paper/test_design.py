@@ -10,9 +10,9 @@ import math
 import numpy as np
 import pytest
 
+from screwgear_ros.paper import design
 from screwgear_ros.params.table import TableParams, effective_stiffness
 from screwgear_ros.physics.quantities import natural_frequency
-from screwgear_ros.paper import design
 
 
 @pytest.fixture(scope='module')

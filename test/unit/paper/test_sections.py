@@ -4,13 +4,11 @@ from __future__ import annotations
 
 import math
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
+from paths import ROOT
 
-from screwgear_ros.params.table import TableParams
-from screwgear_ros.physics.quantities import equivalent_mass
 from screwgear_ros.paper import (
     antibacklash,
     damping,
@@ -26,7 +24,8 @@ from screwgear_ros.paper import (
     thermal,
 )
 from screwgear_ros.paper.common import agreement
-from paths import ROOT
+from screwgear_ros.params.table import TableParams
+from screwgear_ros.physics.quantities import equivalent_mass
 
 F0 = 512.8          # the paper's normalized mean load
 OMEGA = 0.043       # the paper's frequency ratio

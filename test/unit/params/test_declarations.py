@@ -4,26 +4,27 @@ mismatch anywhere fails here."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import fields
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
-
+from paths import ROOT
 from readme_blocks import generated_block
-from screwgear_ros.physics import model
+
 from screwgear_ros.params import (
     docs as parameter_docs,
+)
+from screwgear_ros.params import (
     sets as parameter_sets,
+)
+from screwgear_ros.params import (
     table as params,
 )
 from screwgear_ros.params.declarations import Kind, declared, yaml_value
 from screwgear_ros.params.table import SimSettings, TableParams
+from screwgear_ros.physics import model
 from screwgear_ros.ros.parameters import PARAMETERS, complete_harmonics, descriptor
-from paths import ROOT
-
 
 
 def test_every_field_is_declared_with_a_description_and_a_type():

@@ -9,21 +9,20 @@ the step limit.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.linalg
+from paths import ROOT
 
+from screwgear_ros.numerics import stability as S
+from screwgear_ros.numerics.integrator import advance
 from screwgear_ros.params import sets as PS
 from screwgear_ros.params import table as P
-from screwgear_ros.physics import quantities as Q
-from screwgear_ros.numerics import stability as S
-from screwgear_ros.physics.model import Drive, equilibrium_state, pack
-from screwgear_ros.numerics.integrator import advance
 from screwgear_ros.params.declarations import excerpt
 from screwgear_ros.params.table import ParameterError, SimSettings, TableParams
-from paths import ROOT
+from screwgear_ros.physics import quantities as Q
+from screwgear_ros.physics.model import Drive, equilibrium_state, pack
 
 CONFIG = ROOT / 'config'
 

@@ -14,11 +14,12 @@ import math
 
 import numpy as np
 import pytest
-
 from bag_runs import installed_check_run
+
 from screwgear_ros import Simulation
-from screwgear_ros.sim.control import DemoController, DemoGains
-from screwgear_ros.sim.events import Command
+from screwgear_ros.bag.reader import read_run
+from screwgear_ros.numerics.integrator import OBSERVED
+from screwgear_ros.params.table import ParameterError, SimSettings, TableParams
 from screwgear_ros.physics.friction import (
     FrictionPiece,
     at_rest,
@@ -26,12 +27,11 @@ from screwgear_ros.physics.friction import (
     friction_piece,
     sliding_torque,
 )
-from screwgear_ros.numerics.integrator import OBSERVED
-from screwgear_ros.params.table import ParameterError, SimSettings, TableParams
-from screwgear_ros.sim.plant import Plant
 from screwgear_ros.ros.session_record import record_session
-from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.check import check_run, format_report
+from screwgear_ros.sim.control import DemoController, DemoGains
+from screwgear_ros.sim.events import Command
+from screwgear_ros.sim.plant import Plant
 from screwgear_ros.sim.schedule import Schedule
 
 COULOMB, STATIC, STRIBECK = 3.0, 5.0, 0.02      # N·m, N·m, rad/s
@@ -291,7 +291,7 @@ def test_a_recorded_run_with_friction_checks_against_the_reference(tmp_path):
     dt = 50e-6
     params = TableParams(**{**STICK_SLIP, 'drive_no_load_speed': 8.0 * math.pi})
     settings = SimSettings(dt=dt, publish_rate=1000.0, command_timeout=0.0)
-    at = lambda seconds: int(round(seconds / dt))     # noqa: E731
+    at = lambda seconds: int(round(seconds / dt))
     schedule = Schedule(params, settings, [
         Command('cmd_torque', 30.0, at(0.2)), Command('cmd_direction', -1, at(0.6)),
         Command('cmd_torque', 0.0, at(1.0))], end_step=at(1.4))

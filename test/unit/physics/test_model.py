@@ -11,9 +11,10 @@ import math
 
 import numpy as np
 import pytest
-
 from model_laws import drive_line, mesh_load, mesh_state
+
 from screwgear_ros.numerics.integrator import advance
+from screwgear_ros.params.table import TableParams
 from screwgear_ros.physics.model import (
     R1,
     Z1,
@@ -28,7 +29,6 @@ from screwgear_ros.physics.model import (
     rhs,
     static_transmission_error,
 )
-from screwgear_ros.params.table import TableParams
 
 K, C = 1.1e7, 717.0   # a mesh stiffness (N/m) and damping (N·s/m) for the force-law cases
 

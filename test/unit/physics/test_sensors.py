@@ -26,14 +26,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bag_runs import installed, installed_check_run
 from mcap.reader import make_reader
 from mcap.writer import Writer
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import installed, installed_check_run
-from screwgear_ros.sim.events import Reset
 from screwgear_ros.physics.sensors import JointSensor, SensorChain, SensorConfig
+from screwgear_ros.sim.events import Reset
 from screwgear_ros.sim.simulation import Simulation
 
 STORE = get_typestore(Stores.ROS2_JAZZY)

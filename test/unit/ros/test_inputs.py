@@ -12,8 +12,8 @@ import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from std_msgs.msg import Float64, Float64MultiArray, Int8, MultiArrayDimension
 
-from screwgear_ros.sim.commands import command_value
 from screwgear_ros.ros import inputs
+from screwgear_ros.sim.commands import command_value
 
 SPECIAL = [0.0, -0.0, math.inf, -math.inf, math.nan, 5e-324, 1.7976931348623157e308]
 

@@ -7,16 +7,16 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from bag_runs import record_session
 from mcap.reader import make_reader
 
-from bag_runs import record_session
-from screwgear_ros.sim.events import Command, ParameterChange, Reset
-from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.interface import topic_names
-from screwgear_ros.ros.run_io import RunIO
 from screwgear_ros.bag.format import typestore
 from screwgear_ros.bag.reader import read_run
+from screwgear_ros.interface import topic_names
+from screwgear_ros.params.table import SimSettings, TableParams
+from screwgear_ros.ros.run_io import RunIO
 from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.sim.events import Command, ParameterChange, Reset
 from screwgear_ros.sim.schedule import Schedule
 from screwgear_ros.sim.session import Session
 
@@ -90,12 +90,13 @@ def test_a_subscriber_that_comes_mid_run_gets_every_tick_from_its_match_on():
     run_io module docstring): over real DDS between two in-process nodes, a subscriber
     that comes after the run started gets every tick's message on each of the four
     topics from its match on. Lockstep with this test: each tick waits for its messages."""
+    from ros_procs import Peer, stamp_ns, wait_until
     from rosgraph_msgs.msg import Clock
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
-    from ros_procs import Peer, stamp_ns, wait_until
-    from screwgear_ros.sim.simtime import sim_time_ns
+
     from screwgear_ros.ros.messages import OUTPUT_TYPES
+    from screwgear_ros.sim.simtime import sim_time_ns
 
     keys = ('clock', 'joint_states', 'mesh_state', 'transmission_error')
     topics = topic_names(namespace='/mid_run')

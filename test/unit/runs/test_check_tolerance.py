@@ -20,14 +20,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from bag_runs import copy_bag, installed_check_run, nudge_table_angle, record_session
+from paths import DATA
+
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.check import SAFETY, SAFETY_FIXED_STEP, check_run
 from screwgear_ros.runs.replay import load_scenario
-from paths import DATA
-
-
 
 
 @pytest.fixture(scope='module')

@@ -24,20 +24,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bag_runs import copy_bag, installed, record_session, retyped_copy
+from bag_runs import installed_check_run as check_run
 from mcap.reader import make_reader
+from paths import DATA
 from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import copy_bag, installed, record_session
-from bag_runs import installed_check_run as check_run
-from bag_runs import retyped_copy
-from screwgear_ros.sim.events import Command, ParameterChange, Reset
+from screwgear_ros.bag.reader import read_run
 from screwgear_ros.params.sets import default_values, split_parameters
 from screwgear_ros.runs import check
-from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.compare import compare_runs, exact_comparison
 from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.sim.events import Command, ParameterChange, Reset
 from screwgear_ros.sim.schedule import Schedule
-from paths import DATA
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 

@@ -18,14 +18,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-
 from bag_runs import copy_bag, installed, nudge_table_angle, truncated_copy
-from screwgear_ros.sim.events import Command, ParameterChange, Reset
+from paths import DATA
+
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.check import check_run
 from screwgear_ros.runs.plot import DPI, Mark, Panel, check_figure, params_at, plt, run_figure
 from screwgear_ros.runs.replay import replay_in_process
-from paths import DATA
+from screwgear_ros.sim.events import Command, ParameterChange, Reset
 
 PREFIX = Path(sys.prefix)
 

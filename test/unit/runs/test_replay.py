@@ -16,19 +16,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from bag_runs import BAGS, DATA
+
+from screwgear_ros.bag.reader import read_run
 from screwgear_ros.interface import topic_names
-from screwgear_ros.ros.run_io import RunIO
-from screwgear_ros.sim.events import Command, ParameterChange, Reset
 from screwgear_ros.params.table import MeshPhase, Mode, SimSettings, TableParams
 from screwgear_ros.physics.quantities import natural_frequency
-from screwgear_ros.bag.reader import read_run
+from screwgear_ros.ros.run_io import RunIO
 from screwgear_ros.runs.replay import load_scenario, replay_in_process
-from screwgear_ros.sim.schedule import Schedule
 from screwgear_ros.sim import session as session_module
+from screwgear_ros.sim.events import Command, ParameterChange, Reset
+from screwgear_ros.sim.schedule import Schedule
 from screwgear_ros.sim.session import QUIET_TICKS_PER_CALL, ROW, Session, row_of
-
 
 
 def _state(session: Session) -> tuple:

@@ -5,7 +5,9 @@ from __future__ import annotations
 import math
 
 import pytest
+from paths import ROOT
 
+from screwgear_ros.params.table import TableParams
 from screwgear_ros.sim.commands import (
     COMMANDED_JOINT,
     INPUT_TOPICS,
@@ -20,9 +22,7 @@ from screwgear_ros.sim.commands import (
     command_value,
     load_limit,
 )
-from screwgear_ros.params.table import TableParams
 from screwgear_ros.sim.plant import DriveInput
-from paths import ROOT
 
 P = TableParams()                 # max_torque 400 N·m, r1 = 0.078 m, r2 = 0.582 m
 NOW = DriveInput(torque=120.0, direction=-1, load=15.0)
@@ -101,8 +101,8 @@ def test_a_controller_at_rest_flipping_its_sign_by_rounding_noise_reverses_nothi
     # the effort of a PD controller holding the table, rounding noise of either sign,
     # then silence past command_timeout: no reversal, and the timeout says nothing of a
     # 1e-14 N·m drive torque (there was none)
-    from screwgear_ros.sim.events import Command
     from screwgear_ros.params.table import SimSettings
+    from screwgear_ros.sim.events import Command
     from screwgear_ros.sim.session import Session
     session = Session(P, SimSettings(command_timeout=0.05))
     reversals, notices = 0, []
@@ -125,7 +125,6 @@ def test_a_pd_loop_holding_its_target_reverses_nothing(target):
     the paper's table: one braking reversal during the step, then none while it holds
     the target, although its effort there is rounding noise of either sign (without the
     deadband, hundreds of reversals from about 4 s on)."""
-    from pathlib import Path
     from screwgear_ros import Simulation
     sim = Simulation.from_yaml(ROOT / 'config' / 'paper.yaml')
 
@@ -180,8 +179,8 @@ def test_folding_a_stream_keeps_the_last_valid_command_through_rejections():
 
 
 def test_the_node_subscribes_each_input_with_the_type_the_core_declares():
-    from screwgear_ros.interface import ANSWER_TOPICS
     from screwgear_ros.bag.cdr import type_name
+    from screwgear_ros.interface import ANSWER_TOPICS
     from screwgear_ros.ros.messages import INPUT_TYPES, input_message
     assert {topic: type_name(kind) for topic, kind in INPUT_TYPES.items()} == INPUT_TOPICS
     assert set(ANSWER_TOPICS) <= set(INPUT_TOPICS)
@@ -261,9 +260,9 @@ def test_nan_before_the_first_command_carries_no_command():
 def test_message_and_value_convert_both_ways_for_live_and_recorded_messages():
     """The node's command_value of a live message, the recording's input_message, and the
     bag reader's command_value of the decoded recording all agree."""
+    from screwgear_ros.bag.format import typestore
     from screwgear_ros.ros.messages import input_message
     from screwgear_ros.ros.run_io import serialize
-    from screwgear_ros.bag.format import typestore
     value = plugin(-12.5)
     msg = input_message('joint_commands', value, 1_500_000_000)
     assert (list(msg.name), list(msg.position), list(msg.velocity), list(msg.effort)) == (

@@ -12,19 +12,18 @@ The drive line is checked against the closed-form terminal speed
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
+from paths import DATA
 
+from screwgear_ros.params.run_file import RunParameters, dump, load
+from screwgear_ros.params.table import PAPER_PINION_SPEED, SimSettings, TableParams
+from screwgear_ros.physics.model import equilibrium_state
+from screwgear_ros.physics.quantities import natural_frequency, terminal_speed
 from screwgear_ros.sim import energy
 from screwgear_ros.sim.events import Command, ParameterChange
-from screwgear_ros.physics.model import equilibrium_state
-from screwgear_ros.params.table import PAPER_PINION_SPEED, SimSettings, TableParams
-from screwgear_ros.physics.quantities import natural_frequency, terminal_speed
-from screwgear_ros.params.run_file import RunParameters, dump, load
 from screwgear_ros.sim.session import Session
-from paths import DATA
 
 R1, R2 = 0.078, 0.582
 PAPER_TABLE_SPEED = PAPER_PINION_SPEED * R1 / R2      # 0.3368 rad/s

@@ -11,8 +11,8 @@ import time
 import pytest
 
 from screwgear_ros.sim.pacing import AnswerGate, FactorMeter, Pacer, wall_period
-from screwgear_ros.sim.simtime import sim_time_ns
 from screwgear_ros.sim.ratelimit import RateLimiter
+from screwgear_ros.sim.simtime import sim_time_ns
 
 
 class FakeTime:

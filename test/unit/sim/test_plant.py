@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from screwgear_ros.physics.model import EquilibriumNotFound, equilibrium_state
-from screwgear_ros.params.table import ParameterError, SimSettings, TableParams
 from screwgear_ros.numerics.stability import max_stable_dt
+from screwgear_ros.params.table import ParameterError, SimSettings, TableParams
+from screwgear_ros.physics.model import EquilibriumNotFound, equilibrium_state
 from screwgear_ros.sim.plant import DriveInput, Plant
 from screwgear_ros.sim.session import Session
 

@@ -8,14 +8,14 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from paths import ROOT
 
 from screwgear_ros import Simulation
-from screwgear_ros.sim.control import DemoController, DemoGains
+from screwgear_ros.bag.reader import read_run
 from screwgear_ros.params.sets import load_yaml, ros_parameters
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.check import check_run
-from paths import ROOT
+from screwgear_ros.sim.control import DemoController, DemoGains
 
 PRESET = ROOT / 'config' / 'realistic.yaml'
 TARGET = 0.001          # rad: the small target

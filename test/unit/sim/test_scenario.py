@@ -9,15 +9,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from bag_runs import installed, installed_check_run
+from paths import ROOT
+
 from screwgear_ros import Simulation
-from screwgear_ros.sim.metrics import SETTLING_BAND, run_metrics
+from screwgear_ros.bag.reader import read_run
 from screwgear_ros.params.sets import default_values, split_parameters
 from screwgear_ros.params.table import ParameterError
-from screwgear_ros.bag.reader import read_run
+from screwgear_ros.sim.metrics import SETTLING_BAND, run_metrics
 from screwgear_ros.sim.scenario import ScenarioError, Setpoint, load_scenario
-from paths import ROOT
 
 SCENARIOS = sorted((ROOT / 'test' / 'data' / 'scenarios').glob('*.yaml'))
 EXAMPLES = sorted(p for p in (ROOT / 'docs' / 'examples').glob('*.yaml')

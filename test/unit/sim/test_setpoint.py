@@ -19,23 +19,22 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bag_runs import installed
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+from paths import DATA, ROOT
+from ros_procs import record_lockstep_demo, stamp_ns
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
-from bag_runs import installed
-from ros_procs import record_lockstep_demo, stamp_ns
-from screwgear_ros import Simulation
-from screwgear_ros.sim.control import SETPOINT_REPEAT, DemoController
-from screwgear_ros.sim.events import Command, Setpoint
-from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.bag.reader import read_run
+from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.runs.plot import Mark, Panel, plt, run_figure
 from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.sim.control import SETPOINT_REPEAT
+from screwgear_ros.sim.events import Command, Setpoint
 from screwgear_ros.sim.scenario import load_scenario
 from screwgear_ros.sim.session import Session, row_of
-from paths import DATA, ROOT
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 EXAMPLES = ROOT / 'docs' / 'examples'

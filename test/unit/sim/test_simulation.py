@@ -7,20 +7,19 @@ import math
 import pickle
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
-
 from bag_runs import installed_check_run
+from paths import ROOT
+
 from screwgear_ros import InputRejected, ParameterError, Simulation
-from screwgear_ros.sim.commands import apply_command
+from screwgear_ros.bag.reader import read_run
 from screwgear_ros.params.sets import split_parameters
 from screwgear_ros.params.table import SimSettings, TableParams
+from screwgear_ros.sim.commands import apply_command
 from screwgear_ros.sim.plant import DriveInput
-from screwgear_ros.bag.reader import read_run
-from paths import ROOT
 
 CONFIG = ROOT / 'config'
 ROS = ('rclpy', 'rosidl_runtime_py', 'std_msgs', 'sensor_msgs')

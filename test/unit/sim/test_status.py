@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from screwgear_ros.sim.pacing import PacerStats
 from screwgear_ros.params.table import TableParams
+from screwgear_ros.sim.pacing import PacerStats
 from screwgear_ros.sim.plant import DriveInput, Outputs, Plant
 from screwgear_ros.sim.simtime import sim_time_ns
 from screwgear_ros.sim.status import (
