@@ -140,3 +140,103 @@ def test_no_issue_numbers_in_the_package():
              for number, line in enumerate(path.read_text(encoding='utf-8').splitlines(), 1)
              if re.search(r'\bissue [0-9]', line, re.IGNORECASE)]
     assert not found, '\n'.join(found)
+
+
+def _folder(name: str) -> str:
+    """The sub-package a module belongs to (the package itself for root modules)."""
+    parts = name.split('.')
+    return '.'.join(parts[:2]) if len(parts) > 2 or MODULES[name].name == '__init__.py' else PACKAGE
+
+
+def test_no_folder_import_cycle():
+    """Sub-packages import each other along one direction only (lazy imports included):
+    the folder tree is the architecture's layering."""
+    edges = {(_folder(a), _folder(b)) for a, targets in GRAPH.items() for b in targets
+             if _folder(a) != _folder(b) and PACKAGE not in (_folder(a), _folder(b))}
+    folders = {f for edge in edges for f in edge}
+    reach = {f: {b for a, b in edges if a == f} for f in folders}
+    changed = True
+    while changed:
+        changed = False
+        for f in folders:
+            more = set().union(*(reach[g] for g in reach[f])) - reach[f]
+            if more:
+                reach[f] |= more
+                changed = True
+    cycles = sorted(f for f in folders if f in reach[f])
+    paths = sorted(f'{a} → {b}' for a, b in edges if a in cycles and b in cycles and a in reach[b])
+    assert not cycles, 'folders in an import cycle:\n' + '\n'.join(paths)
+
+
+def test_the_root_holds_only_the_public_face():
+    root = sorted(p.name for p in ROOT.glob('*.py') if p.name != '__init__.py')
+    assert len(root) <= 6, f'{len(root)} modules at the package root: {root}'
+
+
+def test_every_module_has_one_job_and_at_most_450_lines():
+    long = sorted(f'{p.relative_to(ROOT.parent)}: {n}' for p in MODULES.values()
+                  if (n := len(p.read_text(encoding='utf-8').splitlines())) > 450)
+    assert not long, 'split by job:\n' + '\n'.join(long)
+
+
+def _string_comparisons(tree: ast.AST, values: set[str]) -> list[tuple[int, str]]:
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Compare):
+            operands = [node.left, *node.comparators]
+        elif isinstance(node, ast.match_case) and isinstance(node.pattern, ast.MatchValue):
+            operands = [node.pattern.value]
+        else:
+            continue
+        for operand in operands:
+            items = operand.elts if isinstance(operand, (ast.Tuple, ast.List, ast.Set)) else [operand]
+            found += [(node.lineno if hasattr(node, 'lineno') else operand.lineno, item.value)
+                      for item in items
+                      if isinstance(item, ast.Constant) and item.value in values]
+    return found
+
+
+def test_no_input_name_is_compared_as_a_string():
+    """Inputs are compared with :class:`screwgear_ros.interface.Input` members; a string
+    literal would not follow a rename of the input."""
+    from screwgear_ros.interface import Input
+    values = {member.value for member in Input}
+    found = [f'{path.relative_to(ROOT.parent)}:{line}: {value!r}'
+             for name, path in MODULES.items() if name != f'{PACKAGE}.interface'
+             for line, value in _string_comparisons(ast.parse(path.read_text(encoding='utf-8')),
+                                                    values)]
+    assert not found, 'compare with interface.Input instead:\n' + '\n'.join(found)
+
+
+def test_the_string_comparison_finder_sees_what_it_must():
+    tree = ast.parse("a == 'cmd_effort'\nb in ('x', 'cmd_torque')\nmatch c:\n    case 'setpoint': pass\n"
+                     "d == 'other'\n")
+    assert [v for _, v in _string_comparisons(tree, {'cmd_effort', 'cmd_torque', 'setpoint'})] \
+        == ['cmd_effort', 'cmd_torque', 'setpoint']
+
+
+def test_every_exception_derives_from_the_package_error_base():
+    import importlib
+
+    from screwgear_ros.errors import ScrewgearError
+    outside = []
+    for name in MODULES:
+        if _in_shell(name) or name.endswith('._moved'):
+            continue  # the shell imports rclpy at module level; checked below by source
+        module = importlib.import_module(name)
+        outside += [f'{name}.{obj.__name__}' for obj in vars(module).values()
+                    if isinstance(obj, type) and issubclass(obj, BaseException)
+                    and obj.__module__ == name and not issubclass(obj, ScrewgearError)]
+    for name in MODULES:
+        if not _in_shell(name):
+            continue
+        tree = ast.parse(MODULES[name].read_text(encoding='utf-8'))
+        for node in tree.body:
+            if isinstance(node, ast.ClassDef) and any(
+                    isinstance(b, ast.Name) and (b.id.endswith(('Error', 'Exception')) or b.id in
+                                                 ('Exception', 'ValueError', 'RuntimeError'))
+                    for b in node.bases):
+                module = importlib.import_module(name)
+                if not issubclass(getattr(module, node.name), ScrewgearError):
+                    outside.append(f'{name}.{node.name}')
+    assert not outside, 'derive from screwgear_ros.errors.ScrewgearError:\n' + '\n'.join(outside)
