@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import sys
 from collections.abc import Callable, Mapping
+from typing import Self
 
 #: The tools' exit code for work done (and, where a tool gives a verdict, a good one).
 EXIT_OK = 0
@@ -80,18 +81,15 @@ class Failures:
         why = (exc.strerror or exc) if isinstance(exc, OSError) else exc
         return message.format(exc=exc, kind=type(exc).__name__, why=why, **self.context)
 
-    def __enter__(self) -> Failures:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
                  traceback: object) -> bool:
         if not isinstance(exc, Exception):      # none, or KeyboardInterrupt / SystemExit
             return False
-        for errors, message, code in self.rungs:
-            if isinstance(exc, errors):
-                break
-        else:
-            message, code = self.unexpected, EXIT_ERROR
+        message, code = next(((m, c) for errors, m, c in self.rungs if isinstance(exc, errors)),
+                             (self.unexpected, EXIT_ERROR))
         print(f'{self.tool}: {self.message(exc, message)}', file=sys.stderr)
         self.code = code
         return True

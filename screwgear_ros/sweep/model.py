@@ -69,6 +69,12 @@ class Axis:
     def column(self) -> str:
         return f'{self.name}_scale' if self.scale else self.name
 
+    def sample(self, rng: np.random.Generator) -> float:
+        """One value of this axis' draw (a grid axis has none: ValueError)."""
+        if self.draw is None:
+            raise ValueError(f'{self.name} is a grid axis: it has no draw')
+        return self.draw.sample(rng)
+
     def apply(self, base: Any, value: Any) -> Any:
         if not self.scale:
             return value
@@ -143,7 +149,7 @@ class Sweep:
             'grid': {a.column: plain(list(a.values)) for a in self.grid},
             'monte_carlo': {'count': self.count, 'seed': self.seed,
                             'parameters': {a.column: {a.draw.law.value: list(a.draw.arguments)}
-                                           for a in self.draws}},
+                                           for a in self.draws if a.draw is not None}},
             'runs': [{'index': r.index, 'seed': r.seed, 'key': r.key,
                       'values': plain(dict(r.swept))} for r in self.runs],
         }

@@ -32,7 +32,7 @@ def resolve_runs(reader: YamlReader, bundle: Bundle, scenario: Any, grid: tuple[
         point = points[index // count]
         rng_seed = run_seed(seed, index)
         rng = np.random.default_rng(rng_seed)
-        chosen = [*zip(grid, point, strict=True), *((a, a.draw.sample(rng)) for a in draws)]
+        chosen = [*zip(grid, point, strict=True), *((a, a.sample(rng)) for a in draws)]
         overrides = {a.name: a.apply(base.get(a.name, _default(a.name)), v)
                      for a, v in chosen}
         _validate(reader, scenario, base, overrides, chosen, index)

@@ -97,7 +97,8 @@ def load_sweep(path: str | Path) -> Sweep:
         time_limit = reader.number(top['time_limit'][1], 'time_limit (s of wall time per '
                                    'run)', low=0.0, strict=True)
     grid = _grid(reader, top['grid'][1]) if 'grid' in top else ()
-    count, seed, draws = 1, 0, ()
+    count, seed = 1, 0
+    draws: tuple[model.Axis, ...] = ()
     if 'monte_carlo' in top:
         count, seed, draws = _monte_carlo(reader, top['monte_carlo'][1])
     names = [a.name for a in (*grid, *draws)]
