@@ -1,4 +1,5 @@
-"""The imperative shell: the node and command-line tools (these import rclpy where needed).
+"""The executables' ``main()`` functions: each parses its command line and calls the
+node (:mod:`screwgear_ros.ros`) or the work it runs; these import rclpy where needed.
 
 Every tool ends with its documented exit code and a reason, never a traceback: the
 long-running offline tools stop on Ctrl-C through :func:`interruptible`, with one line
