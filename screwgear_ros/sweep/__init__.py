@@ -6,8 +6,8 @@ the node's parameters, on this process, a Dask LocalCluster or a Dask cluster
 :mod:`.resolve` resolves and validates every run, :mod:`.worker` runs one run anywhere,
 :mod:`.engine` places the runs, :mod:`.progress` runs the pending ones with a progress
 bar, :mod:`.store` keeps the results directory, :mod:`.report` writes the results and
-says what they hold, :mod:`.summary` draws them. Only :mod:`.engine` imports Dask, and only for more than one
-worker; only :mod:`.store` imports pyarrow.
+says what they hold, :mod:`.summary` draws them. Only :mod:`.engine` imports Dask, and
+only for more than one worker; only :mod:`.store` imports pyarrow.
 """
 
 from .spec import Sweep, SweepError, load_sweep
