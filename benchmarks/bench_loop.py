@@ -178,7 +178,7 @@ _ECHO = textwrap.dedent('''
     from rclpy.executors import SingleThreadedExecutor
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
-    from screwgear_ros.cli.table_sim import NODE_EXECUTOR
+    from screwgear_ros.ros.node import NODE_EXECUTOR
     rclpy.init()
     node = rclpy.create_node('bench_loop_echo')
     pub = node.create_publisher(Float64MultiArray, '/bench_loop/answer', 10)

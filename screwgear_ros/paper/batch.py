@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 from tqdm import tqdm
@@ -100,7 +101,7 @@ class Coefficients:
         shape = mesh[0].shape if mesh else ()
         n = int(np.prod(shape))
         values = {name: np.full(n, float(getattr(base, name))) for name in _SCALAR_FIELDS}
-        for name, m in zip(axes, mesh):
+        for name, m in zip(axes, mesh, strict=True):
             values[name] = m.reshape(-1)
         fa, ph = base.harmonics()
         return cls(**values, excitation_amplitudes=np.tile(fa, (n, 1)),
@@ -166,7 +167,7 @@ def integrate(c: Coefficients, n_steps: int, dtau: float | np.ndarray, stride: i
     """
     y = np.stack([c.initial_displacement if x0 is None else np.asarray(x0, dtype=np.float64),
                   c.initial_velocity if v0 is None else np.asarray(v0, dtype=np.float64)])
-    h_all = dtau if np.ndim(dtau) == 0 else np.asarray(dtau, dtype=np.float64)
+    h_all: Any = dtau if np.ndim(dtau) == 0 else np.asarray(dtau, dtype=np.float64)
     kept_steps = [k for k in range(keep_from, n_steps + 1) if k % stride == 0]
     xs = np.empty((len(kept_steps), len(c)))
     vs = np.empty_like(xs)
@@ -195,7 +196,7 @@ def response(c: Coefficients, tau_end: float, dtau: float = 0.01, stride: int = 
 
     Returns (τ (m,), x (m, N), x' (m, N)), sample 0 = the initial state.
     """
-    n = int(round(tau_end / (dtau * stride)))
+    n = round(tau_end / (dtau * stride))
     return integrate(c, n * stride, dtau, stride, progress=progress)
 
 

@@ -6,6 +6,7 @@ import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 from tqdm import tqdm
 
@@ -55,10 +56,10 @@ class Report:
 
 
 def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
     try:
-        from importlib.metadata import version
         return version(package_name)
-    except Exception:  # not installed (running from the source tree)
+    except PackageNotFoundError:  # not installed (running from the source tree)
         return 'source tree'
 
 
@@ -67,7 +68,7 @@ def build(outdir: str | Path, quick: bool = False) -> Report:
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     sections: list[Section] = []
-    results: dict[ModuleType, object] = {}
+    results: dict[ModuleType, Any] = {}
     seconds: dict[int, float] = {}
     for number, module in enumerate(tqdm(SECTIONS, desc='paper report', unit='section'),
                                     start=1):

@@ -38,7 +38,8 @@ def quasi_static(p: NormalizedParams, tau: np.ndarray) -> np.ndarray:
     force = p.mean_load + sum(a * (n + 1) ** 2 * p.frequency_ratio ** 2 *
                               np.sin((n + 1) * p.frequency_ratio * tau + ph)
                               for n, (a, ph) in enumerate(zip(p.excitation_amplitudes,
-                                                              p.excitation_phases)))
+                                                              p.excitation_phases,
+                                                              strict=True)))
     return force / (p.stiffness_ratio + p.stiffness_fluctuation *
                     np.cos(p.frequency_ratio * tau + p.stiffness_phase))
 

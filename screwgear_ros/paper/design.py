@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..design.frequency import Measurement, default_bias, measure
+from ..design.frequency import Input, Measurement, default_bias, measure
 from ..design.linearize import OUTPUTS, ModeInfo, linearize
 from ..params.table import TableParams
 from ..physics.quantities import natural_frequency
@@ -67,7 +67,7 @@ def _peak(frequency: np.ndarray, magnitude: np.ndarray) -> float:
 
 
 def _case(label: str, params: TableParams, quick: bool) -> Case:
-    torque, load = default_bias(params, 'torque', AMPLITUDE, None, None, 1)
+    torque, load = default_bias(params, Input.TORQUE, AMPLITUDE, None, None, 1)
     model = linearize(params, torque, load)
     linear = next(m.hz for m in model.modes() if m.shape == AGAINST_TABLE)
     frozen = frozen_modes(params, torque, load)
@@ -75,7 +75,7 @@ def _case(label: str, params: TableParams, quick: bool) -> Case:
     # the band is centred on the frozen model's mode; the peak is found in the measurement
     centre = frozen_hz if math.isfinite(frozen_hz) else linear
     band = np.linspace(0.85 * centre, 1.15 * centre, 11 if quick else 21)
-    m = measure(params, outputs=('table_angle',), frequencies=band, amplitude=AMPLITUDE)
+    m = measure(params, outputs=('table_angle',), frequencies=list(band), amplitude=AMPLITUDE)
     accel = np.abs(m.measured[0]) * (2.0 * math.pi * m.frequency) ** 2
     return Case(label, linear, frozen_hz, _peak(m.frequency, accel))
 
@@ -84,7 +84,7 @@ def compute(quick: bool = False) -> DesignStudy:
     paper = TableParams()
     modes = linearize(paper).modes()
     bode = measure(paper, outputs=('table_angle', 'transmission_error'),
-                   frequencies=np.geomspace(1.0, 500.0, 12 if quick else 40),
+                   frequencies=list(np.geomspace(1.0, 500.0, 12 if quick else 40)),
                    amplitude=AMPLITUDE)
     preloads = (100.0, PAPER_PRELOAD) if quick else (100.0, 200.0, PAPER_PRELOAD, 600.0)
     stiffnesses = (0.0, 1e7) if quick else (0.0, 2e6, 5e6, 1e7)

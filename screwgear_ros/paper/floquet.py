@@ -16,6 +16,7 @@ forcing has period T: y_p(0) = (I − M)⁻¹·y_f(T), with y_f the response fro
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit, prange, set_parallel_chunksize
@@ -26,6 +27,9 @@ from ..numerics.jit import OPTIONS, inline_kernel
 from . import normalized
 from .batch import Coefficients, integrate
 
+_OPTIONS: dict[str, Any] = dict(OPTIONS)
+_UNCACHED: dict[str, Any] = {**OPTIONS, 'cache': False}
+
 #: Default largest step in τ: 0.05 of the unit natural period 2π (~126 steps per
 #: natural period; RK4 error over a period ~1e-7).
 MAX_STEP = 0.05
@@ -34,14 +38,14 @@ MAX_STEP = 0.05
 def steps_per_period(omega: np.ndarray | float, max_step: float = MAX_STEP) -> int:
     """Steps per mesh period 2π/Ω so that no step exceeds ``max_step`` (at least 64)."""
     period = 2.0 * math.pi / float(np.min(omega))
-    return max(64, int(math.ceil(period / max_step)))
+    return max(64, math.ceil(period / max_step))
 
 
 #: :func:`normalized.rhs` itself (its Python source), compiled to be inlined here, so that
 #: the compiler sees equal cos(Ωτ + ϕ_k) calls: one for both solutions at a stage time,
 #: one for stages 1 and 2 of a step (both at τ + Δτ/2). 3 cosines a step instead of 8.
 #: Not cached: it has normalized.rhs's source and name, whose cache entries it would share.
-_rhs = njit(inline='always', **{**OPTIONS, 'cache': False})(
+_rhs = njit(inline='always', **_UNCACHED)(
     getattr(normalized.rhs, 'py_func', normalized.rhs))     # plain with NUMBA_DISABLE_JIT=1
 
 
@@ -60,7 +64,7 @@ def _fundamental_slope(tau: float, y: tuple[float, float, float, float],
 _THREAD_CHUNK = 16
 
 
-@njit(parallel=True, **OPTIONS)
+@njit(parallel=True, **_OPTIONS)
 def _monodromy_kernel(coefficients: np.ndarray, n_steps: int, out: np.ndarray) -> None:
     """out[i] = M of the homogeneous equation with the packed coefficients
     ``coefficients[i]`` (:data:`normalized.KERNEL` layout, forcing zero): ``n_steps``
@@ -107,7 +111,7 @@ def monodromy(zeta: np.ndarray | float, ka: np.ndarray | float, omega: np.ndarra
     n = flat[0].size
     packed = np.zeros((n, len(normalized.KERNEL)))     # mean load, load fluctuation: 0
     for index, values in zip((normalized.ZETA, normalized.KA, normalized.OMEGA,
-                              normalized.KAPPA, normalized.PHI_K), flat):
+                              normalized.KAPPA, normalized.PHI_K), flat, strict=True):
         packed[:, index] = values
     m = np.empty((n, 2, 2))
     chunk = n if progress is None else _PROGRESS_CHUNK

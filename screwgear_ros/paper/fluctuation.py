@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 from tqdm import tqdm
 
 from ..params.table import TableParams
@@ -58,8 +59,8 @@ def sweep(zetas: tuple[float, ...], omegas_v: np.ndarray, dtau: float = DTAU,
     x, v = x0[start], v0[start]
     settle = TRANSIENT_DECAY / min(zetas)
     window = max(2 * 2 * math.pi / float(np.min(omegas_v)), 2 * math.pi / PAPER_OMEGA)
-    n_settle = int(math.ceil(settle / dtau))
-    n_total = n_settle + int(math.ceil(window / dtau))
+    n_settle = math.ceil(settle / dtau)
+    n_total = n_settle + math.ceil(window / dtau)
     high = np.full(len(c) // 2, -np.inf)
     low = np.full(len(c) // 2, np.inf)
     step = 0
@@ -107,8 +108,15 @@ def render(s: FluctuationStudy, outdir: Path) -> Section:
     ax.set(xlabel='torque fluctuation frequency Ω_v = ω_v/ω0',
            ylabel='amplification: amplitude of x / (f_v/κ)', ylim=(0.08, 20),
            title='Response to a torque fluctuation f_v·sin(Ω_v τ), f_v = 0.1·f0')
-    top = ax.secondary_xaxis('top', functions=(lambda w: w * s.omega_0,
-                                               lambda w: w / s.omega_0))
+    omega_0 = s.omega_0
+
+    def to_rad_s(w: ArrayLike) -> ArrayLike:
+        return np.asarray(w) * omega_0
+
+    def from_rad_s(w: ArrayLike) -> ArrayLike:
+        return np.asarray(w) / omega_0
+
+    top = ax.secondary_xaxis('top', functions=(to_rad_s, from_rad_s))
     top.set_xlabel('ω_v (rad/s) for the paper\'s ω0 = 1394 rad/s')
     ax.legend(loc='upper left')
     fig.tight_layout()

@@ -152,7 +152,7 @@ def integrate(x0: float, v0: float, tau0: float, dtau: float, stride: int, out: 
 def response(params: NormalizedParams, tau_end: float, dtau: float = 0.01,
              stride: int = 10) -> tuple[np.ndarray, np.ndarray]:
     """RK4 response from τ = 0: (τ samples, states (n, 2) of x and x'), sample 0 = x(0)."""
-    n = int(round(tau_end / (dtau * stride)))
+    n = round(tau_end / (dtau * stride))
     out = np.empty((n, 2))
     fa, phases = params.harmonics()
     integrate(params.initial_displacement, params.initial_velocity, 0.0, dtau, stride, out,

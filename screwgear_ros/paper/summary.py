@@ -104,11 +104,11 @@ def render(s: Summary, sections: list[Section]) -> str:
         ('inertia at the table I2 + (I1 + I3)·(r2/r1)²', f'{s.reflected_inertia:.1f} kg·m²',
          'both pinions reflected'),
         ('equivalent mass of a mesh m_e', f'{s.m_e:.4f} kg', 'I1·I2/(I1·r2² + I2·r1²)'),
-        ('mesh stiffness k_m ± k_a', f'{fmt(p.mesh_stiffness_mean, 3)} ± '
-         f'{fmt(p.mesh_stiffness_amplitude, 3)} N/m', f"k_a' = {stiffness_fluctuation(p):g}"),
+        ('mesh stiffness k_m ± k_a', (f'{fmt(p.mesh_stiffness_mean, 3)} ± '
+         f'{fmt(p.mesh_stiffness_amplitude, 3)} N/m'), f"k_a' = {stiffness_fluctuation(p):g}"),
         ('mesh damping c', f'{p.mesh_damping:.1f} N·s/m', 'ζ = 0.05'),
-        ('drive torque, pinion speed', f'{PAPER_DRIVE_TORQUE:.0f} N·m at '
-         f'{s.pinion_speed / RPM:.0f} r/min = {s.pinion_speed:.3f} rad/s',
+        ('drive torque, pinion speed', (f'{PAPER_DRIVE_TORQUE:.0f} N·m at '
+         f'{s.pinion_speed / RPM:.0f} r/min = {s.pinion_speed:.3f} rad/s'),
          f'table {s.table_speed:.4f} rad/s'),
         ('STE amplitude ε_1', f'{s.ste_amplitude * 1e3:.2f} mm', 'fa·l; implausibly large (§1)'),
         ('preload torque T_p (package default)', f'{p.preload_torque:.0f} N·m',
@@ -120,32 +120,33 @@ def render(s: Summary, sections: list[Section]) -> str:
         ('mesh resonance, 1-DOF (paper) = conventional drive: ω0 = √(k_m/m_e)',
          f'{s.omega_0:.1f} rad/s = **{s.omega_0 / TWO_PI:.1f} Hz**'),
         ('mesh resonances of the preloaded table (3-DOF, both meshes in contact)',
-         ', '.join(f'{w:.0f} rad/s = **{f:.1f} Hz**' for w, f in zip(s.mesh_modes, hz))),
+         ', '.join(f'{w:.0f} rad/s = **{f:.1f} Hz**'
+                   for w, f in zip(s.mesh_modes, hz, strict=True))),
         ('mesh frequency at the paper\'s speed z1·ω1',
-         f'{s.mesh_frequency:.2f} rad/s = {s.mesh_frequency / TWO_PI:.2f} Hz '
-         f'({s.mesh_frequency / s.omega_0:.3f}·ω0: quasi-static)'),
+         (f'{s.mesh_frequency:.2f} rad/s = {s.mesh_frequency / TWO_PI:.2f} Hz '
+         f'({s.mesh_frequency / s.omega_0:.3f}·ω0: quasi-static)')),
         ('table speed at which the mesh frequency reaches ω0',
-         f'{s.resonance_table_speed:.2f} rad/s ({s.resonance_table_speed / s.table_speed:.0f}× '
-         'the paper\'s)'),
+         (f'{s.resonance_table_speed:.2f} rad/s ({s.resonance_table_speed / s.table_speed:.0f}× '
+         'the paper\'s)')),
         ('static mesh deflection under 400 N·m, F_m/k_m', f'{s.deflection * 1e6:.0f} µm'),
         ('transmission-error ripple from k_a\' at the paper\'s speed (half range)',
          f'± {s.ripple * 1e6:.1f} µm'),
         ('lost motion of the conventional drive at a reversal, one gap 2b/r2',
-         f'**{s.lost_motion * 1e6:.0f} µrad = {s.lost_motion / ARCSEC:.1f}″** at the table = '
+         (f'**{s.lost_motion * 1e6:.0f} µrad = {s.lost_motion / ARCSEC:.1f}″** at the table = '
          f'{s.lost_motion * s.pitch_radius * 1e6:.0f} µm on the '
-         f'{s.pitch_radius * 1e3:.0f} mm pitch circle'),
+         f'{s.pitch_radius * 1e3:.0f} mm pitch circle')),
         ('the same, simulated through an abrupt 400 N·m reversal (§9)',
-         f'{s.dead_travel * 1e6:.0f} µrad = {s.dead_travel / ARCSEC:.0f}″ = '
+         (f'{s.dead_travel * 1e6:.0f} µrad = {s.dead_travel / ARCSEC:.0f}″ = '
          f'{s.dead_travel * s.pitch_radius * 1e6:.0f} µm on the pitch circle: the gap is crossed '
          f'{s.dead_travel / s.lost_motion:.1f} times ({s.separations} separations, impact '
-         f'{s.impact:.1f}·T/r1)'),
+         f'{s.impact:.1f}·T/r1)')),
         ('lost motion of the anti-backlash drive at the same reversal', '0 (no contact loss)'),
         ('**minimum preload** for a 400 N·m reversal at the paper\'s speed',
-         f'**{s.preload_needed:.0f} N·m** (worst of {s.preload_phases} reversal instants, '
+         (f'**{s.preload_needed:.0f} N·m** (worst of {s.preload_phases} reversal instants, '
          f'bisected to {s.preload_resolution:g} N·m; '
          f'{s.preload_needed / PAPER_DRIVE_TORQUE:.2f}·T), '
          f'so the default {p.preload_torque:.0f} N·m '
-         f'{"holds" if p.preload_torque >= s.preload_needed else "does not hold"}'),
+         f'{"holds" if p.preload_torque >= s.preload_needed else "does not hold"}')),
         ('table load that holds the paper\'s speed at 400 N·m (used in §9)',
          f'c_t = {s.table_damping:.0f} N·m·s/rad'),
     ))

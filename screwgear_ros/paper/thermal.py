@@ -49,7 +49,7 @@ def _cases(params: list[TableParams], labels: list[str]) -> tuple[list[Case], np
     sp = steady_period(c, samples=512)
     deflection = sp.x * LENGTH * 1e6   # µm
     cases = []
-    for i, (p, label) in enumerate(zip(params, labels)):
+    for i, (p, label) in enumerate(zip(params, labels, strict=False)):
         _, amps = measures.harmonics(sp.x[:, i])
         k_eff = effective_stiffness(p)
         cases.append(Case(label, k_eff, p.mesh_stiffness_amplitude / k_eff,

@@ -21,6 +21,7 @@ from typing import Any
 
 from rclpy.serialization import deserialize_message
 
+from ..interface import Input
 from ..sim.commands import command_value
 from .messages import INPUT_TYPES
 
@@ -55,7 +56,7 @@ def value(topic: str, data: bytes) -> Any:
     """The command value (:func:`~screwgear_ros.sim.commands.command_value`) of the message of
     input ``topic`` in ``data`` (serialized CDR); a cmd_effort without layout dimensions
     is read without a message object (module docstring), with the same values."""
-    if topic == 'cmd_effort' and len(data) >= 16 and data[:2] == _CDR_LE:
+    if topic == Input.CMD_EFFORT and len(data) >= 16 and data[:2] == _CDR_LE:
         dims, count = _MULTI_ARRAY.unpack_from(data, 4)
         if not dims and not count:
             return []

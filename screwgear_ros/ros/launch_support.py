@@ -27,6 +27,8 @@ from dataclasses import dataclass
 
 import yaml
 
+from ..errors import ScrewgearError
+
 #: The hardware parameters of the topic hardware interface that name table_sim's topics.
 TOPIC_PARAMS = ('joint_commands_topic', 'joint_states_topic')
 
@@ -57,7 +59,7 @@ class Unmet:
         return f'{self.need.package}: {self.found} installed, needs >= {self.need.minimum}'
 
 
-class MissingPackages(RuntimeError):
+class MissingPackages(ScrewgearError, RuntimeError):
     """A launch cannot run: the message lists every unmet need and how to install it."""
 
 
@@ -67,9 +69,12 @@ def _version(text: str) -> tuple[int, ...]:
 
 def minimum_versions(package_xml: str) -> dict[str, str]:
     """exec_depend name → its ``version_gte``, from a package.xml's text."""
-    root = ET.fromstring(package_xml)
-    return {e.text.strip(): e.get('version_gte') for e in root.iter('exec_depend')
-            if e.text and e.get('version_gte')}
+    found = {}
+    for element in ET.fromstring(package_xml).iter('exec_depend'):
+        version = element.get('version_gte')
+        if element.text and version:
+            found[element.text.strip()] = version
+    return found
 
 
 def plugin_package(lookup_name: str) -> str:
@@ -85,7 +90,7 @@ def ros2_control_needs(processes: Iterable[tuple[str, str]], urdf: str,
     """What ros2_control.launch.py needs (see the module docstring), in a stable order;
     ``processes`` are the (package, executable) pairs it starts."""
     block = ET.fromstring(urdf).find('ros2_control')
-    plugins = [block.findtext('hardware/plugin').strip()] if block is not None else []
+    plugins = [block.findtext('hardware/plugin', default='').strip()] if block is not None else []
     manager = (yaml.safe_load(controllers_yaml) or {}).get('controller_manager', {})
     for entry in manager.get('ros__parameters', {}).values():
         if isinstance(entry, dict) and 'type' in entry:
@@ -149,8 +154,8 @@ def message(launch: str, problems: Iterable[Unmet], share: str,
     problems = list(problems)
     distro = distro or os.environ.get('ROS_DISTRO') or 'jazzy'
     apt = ' '.join(f'ros-{distro}-{p.need.package.replace("_", "-")}' for p in problems)
-    lines = [f'{launch} needs packages this ROS 2 install does not have; nothing was '
-             'started:']
+    lines = [(f'{launch} needs packages this ROS 2 install does not have; nothing was '
+             'started:')]
     lines += [f'  {p}' for p in problems]
     lines += ['install them with:', f'  sudo apt install {apt}',
               'or every dependency of this package with:',
@@ -204,7 +209,7 @@ def in_namespace(urdf: str, namespace: str) -> str:
         return urdf
     root, params = _topics(urdf)
     for element in params.values():
-        element.text = namespace + '/' + element.text.strip().rpartition('/')[2]
+        element.text = namespace + '/' + (element.text or '').strip().rpartition('/')[2]
     return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding='unicode') + '\n'
 
 

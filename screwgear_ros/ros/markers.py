@@ -80,7 +80,7 @@ def table_markers(params: TableParams, joint_names: list[str] | tuple[str, ...],
                                                     0.18 * wheel.radius)
         mark.color = _colour('mark')
         markers.append(mark)
-    for ident, (pinion, contact) in enumerate(zip((gears[0], gears[2]), contacts)):
+    for ident, (pinion, contact) in enumerate(zip((gears[0], gears[2]), contacts, strict=False)):
         spot = _marker(MESHES, ident, Marker.SPHERE, stamp)
         x, y = mesh_point(pinion, gears[1])
         spot.pose.position.x, spot.pose.position.y, spot.pose.position.z = x, y, TOP

@@ -7,13 +7,21 @@ its own thread, so a message handed over must never change afterwards.
 from __future__ import annotations
 
 import importlib
+from typing import Any
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Int8, String
 
-from ..interface import BY_KEY, COMMAND_TOPICS, INFO_TOPICS, OUTPUT_TOPICS, RECORDED_TOPICS
+from ..interface import (
+    BY_KEY,
+    COMMAND_TOPICS,
+    INFO_TOPICS,
+    OUTPUT_TOPICS,
+    RECORDED_TOPICS,
+    Input,
+)
 from ..sim.commands import JointCommand
 
 MESH_NAMES = ['mesh_1', 'mesh_3']
@@ -37,18 +45,18 @@ OUTPUT_TYPES = {key: (BY_KEY[key].name, message_class(name))
 PRIVATE_TYPES = {key: message_class(name) for key, name in RECORDED_TOPICS.items()}
 
 
-def input_message(topic: str, value: object, time_ns: int = 0) -> object:
+def input_message(topic: str, value: Any, time_ns: int = 0) -> object:
     """The message of a command on input ``topic`` whose value
     (:func:`screwgear_ros.sim.commands.command_value`) is ``value``; a JointState is
     stamped ``time_ns``."""
-    if topic == 'joint_commands':
+    if topic == Input.JOINT_COMMANDS:
         if not isinstance(value, JointCommand):
             raise TypeError(f'joint_commands: not a JointCommand: {value!r}')
         msg = JointState(name=list(value.name), position=list(value.position),
                          velocity=list(value.velocity), effort=list(value.effort))
         msg.header.stamp = stamp(time_ns)
         return msg
-    data = [float(v) for v in value] if topic == 'cmd_effort' else value
+    data = [float(v) for v in value] if topic == Input.CMD_EFFORT else value
     return INPUT_TYPES[topic](data=data)
 
 

@@ -32,6 +32,8 @@ from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+from ..errors import ScrewgearError
+
 #: Parameters that name where one run writes: a restored table must not reuse them.
 RUN_OUTPUTS = ('record',)
 #: Where ``--params-file`` applies the file: every node, any namespace.
@@ -43,7 +45,7 @@ _YAML11_WORDS = re.compile(r'y|Y|yes|Yes|YES|n|N|no|No|NO|true|True|TRUE|false|F
                            r'on|On|ON|off|Off|OFF|null|Null|NULL|~')
 
 
-class Unwritable(ValueError):
+class Unwritable(ScrewgearError, ValueError):
     """A value no parameter file can carry exactly."""
 
 

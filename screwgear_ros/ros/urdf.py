@@ -21,7 +21,7 @@ from __future__ import annotations
 import sys
 import xml.etree.ElementTree as ET
 
-from ..interface import topic_names
+from ..interface import Input, topic_names
 from ..params.table import SimSettings, TableParams
 from ..physics.layout import BASE_LINK, FACE_WIDTH, MARK_FROM, MARK_TO, PALETTE, Wheel, wheels
 from ..sim.commands import COMMAND_INTERFACE, COMMANDED_JOINT, load_limit
@@ -124,7 +124,7 @@ def robot_description(params: TableParams, settings: SimSettings, commands_topic
 def shipped_description() -> str:
     """``urdf/screwgear_table.urdf``: the defaults, table_sim in PLANT_NAMESPACE."""
     names = topic_names(PLANT_NAMESPACE)
-    return robot_description(TableParams(), SimSettings(), names['joint_commands'],
+    return robot_description(TableParams(), SimSettings(), names[Input.JOINT_COMMANDS],
                              names['joint_states'])
 
 

@@ -13,7 +13,7 @@ import os
 from collections.abc import Iterator, Sequence
 from typing import Any
 
-from .spec import Bundle, RunSpec
+from .model import Bundle, RunSpec
 from .worker import Outcome, Status, execute, execute_batch, hard_limit, warm_up
 
 

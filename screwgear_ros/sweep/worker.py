@@ -1,6 +1,6 @@
 """One run of a sweep, wherever it runs (this process, a LocalCluster worker, a remote
-worker): :func:`execute` takes the shared :class:`~screwgear_ros.sweep.spec.Bundle` (file
-contents, not paths) and a :class:`~screwgear_ros.sweep.spec.RunSpec` and returns the
+worker): :func:`execute` takes the shared :class:`~screwgear_ros.sweep.model.Bundle` (file
+contents, not paths) and a :class:`~screwgear_ros.sweep.model.RunSpec` and returns the
 run's row. A run depends on nothing else (no worker state, no order), so its row is the
 same bits wherever it runs. A run that faults, fails or overruns its time limit is a row
 with its status and reason; nothing escapes.
@@ -20,7 +20,7 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
-from .spec import Bundle, RunSpec
+from .model import Bundle, RunSpec
 
 
 class Status(StrEnum):

@@ -29,7 +29,7 @@ START = '''
 import sys, threading
 import rclpy
 from rclpy.signals import SignalHandlerOptions
-from screwgear_ros.cli.table_sim import TableSim
+from screwgear_ros.ros.node import TableSim
 rclpy.init(args=['--ros-args', '-r', '__ns:=/start_test'],
            signal_handler_options=SignalHandlerOptions.NO)
 node = TableSim(threading.Event())

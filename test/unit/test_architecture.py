@@ -240,3 +240,17 @@ def test_every_exception_derives_from_the_package_error_base():
                 if not issubclass(getattr(module, node.name), ScrewgearError):
                     outside.append(f'{name}.{node.name}')
     assert not outside, 'derive from screwgear_ros.errors.ScrewgearError:\n' + '\n'.join(outside)
+
+
+#: The one class the tools' package holds: the error ladder their main() functions share.
+CLI_CLASSES = {f'{PACKAGE}.cli': {'Failures'}}
+
+
+@pytest.mark.parametrize('name', sorted(n for n in MODULES if n == f'{PACKAGE}.cli'
+                                        or n.startswith(f'{PACKAGE}.cli.')))
+def test_the_tools_hold_only_their_main_functions(name):
+    """A node, a loop or a report belongs in ros/ or its sub-package; cli/ parses the
+    command line and calls it."""
+    tree = ast.parse(MODULES[name].read_text(encoding='utf-8'))
+    classes = {node.name for node in tree.body if isinstance(node, ast.ClassDef)}
+    assert classes <= CLI_CLASSES.get(name, set()), f'{name} defines {sorted(classes)}'
