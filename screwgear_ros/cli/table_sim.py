@@ -70,7 +70,7 @@ from ..interface import (
 from ..numerics.warmup import compiled_now, without_blas_probe
 from ..params.sets import split_parameters
 from ..params.table import ParameterError, SimSettings, TableParams
-from ..physics.model import pack
+from ..physics.packed import pack
 from ..ros import inputs, messages, param_dump, parameters
 from ..ros.messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES
 from ..ros.run_io import RunIO
