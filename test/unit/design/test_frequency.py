@@ -15,8 +15,8 @@ import pytest
 from bag_runs import installed
 
 from screwgear_ros.design.closed_loop import LOOP, SENSITIVITY, margins, measure_loop
-from screwgear_ros.design.frequency import CSV_COLUMNS, measure
 from screwgear_ros.design.errors import UnknownOutput
+from screwgear_ros.design.frequency import CSV_COLUMNS, measure
 from screwgear_ros.design.linearize import linearize
 from screwgear_ros.params.table import Mode, TableParams
 
