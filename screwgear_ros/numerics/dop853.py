@@ -5,7 +5,7 @@ and 3 (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.10), adaptive step size
 tableau is data: the published coefficients, taken at run time from SciPy's
 ``scipy.integrate._ivp.dop853_coefficients`` (A, B, C, E3, E5), so this module holds
 the algorithm only. The kernel calls the compiled model right-hand side
-:func:`screwgear_ros.physics.model.state_rate` directly and allocates nothing per step (one stage
+:func:`screwgear_ros.physics.motion.state_rate` directly and allocates nothing per step (one stage
 array per call).
 
 Output: the kernel steps *exactly* onto every requested time (the step is cut to end
@@ -42,38 +42,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy
 
 from ..physics.friction import FrictionPiece, speed_dip
-from ..physics.model import BY_LAW, N_MECHANICAL, N_STATE, TAU, Pieces, pieces, state_rate
+from ..physics.motion import BY_LAW, Pieces, pieces, state_rate
+from ..physics.packed import N_MECHANICAL, N_STATE, TAU, Drive, PackedModel
+from .dop853_tableau import E3, E5, TABLEAU, A, B, C, Tableau
 from .jit import allocating_kernel, inline_kernel, kernel
-
-#: SciPy's private module of the tableau, and the names taken from it.
-TABLEAU_MODULE = 'scipy.integrate._ivp.dop853_coefficients'
-TABLEAU_NAMES = ('N_STAGES', 'A', 'B', 'C', 'E3', 'E5')
-try:
-    from scipy.integrate._ivp import dop853_coefficients as _tableau
-    _missing = [name for name in TABLEAU_NAMES if not hasattr(_tableau, name)]
-except ImportError as _error:
-    _missing = [f'the module ({_error})']
-if _missing:
-    # Private to SciPy: an upgrade may move it; say so instead of an AttributeError.
-    raise ImportError(
-        f"screwgear_ros's DOP853 takes its tableau from SciPy's private {TABLEAU_MODULE}, "
-        f'and SciPy {scipy.__version__} lacks {", ".join(_missing)}. Install the versions '
-        'in constraints.txt (pip install -c constraints.txt ...), or adapt '
-        'screwgear_ros/numerics/dop853.py.')
-
-#: Stages of the 8th-order step (the 13th evaluation is f at the new point, reused).
-N_STAGES = _tableau.N_STAGES
-#: The tableau (C nodes, A coupling, B weights, E3/E5 error weights incl. the new point).
-A = np.ascontiguousarray(_tableau.A[:N_STAGES, :N_STAGES], dtype=np.float64)
-B = np.ascontiguousarray(_tableau.B, dtype=np.float64)
-C = np.ascontiguousarray(_tableau.C[:N_STAGES], dtype=np.float64)
-E3 = np.ascontiguousarray(_tableau.E3, dtype=np.float64)
-E5 = np.ascontiguousarray(_tableau.E5, dtype=np.float64)
-#: The tableau as :func:`integrate` takes it.
-TABLEAU = (A, B, C, E3, E5)
 
 #: Error exponent: 1/(order of the error estimator + 1), Hairer's choice for DOP853.
 ERROR_EXPONENT = -1.0 / 8.0
@@ -93,7 +67,8 @@ EVENT_BISECTIONS = 60
 
 
 @kernel
-def _f(t, y, out, k, model, drive, held):
+def _f(t: float, y: np.ndarray, out: np.ndarray, k: int, model: PackedModel, drive: Drive,
+       held: Pieces) -> None:
     """out[k, :] = f(t, y) through the model's compiled equations of motion and current
     loops, each body's bearing friction on the piece ``held`` names (the contact law and
     the drive line pick theirs from the state, as in the model's rhs)."""
@@ -110,13 +85,13 @@ def _f(t, y, out, k, model, drive, held):
 
 
 @kernel
-def _spacing(t):
+def _spacing(t: float) -> float:
     """Distance from t to the next larger float (t ≥ 0 here)."""
     return np.nextafter(t, np.inf) - t
 
 
 @kernel
-def _normed(model):
+def _normed(model: PackedModel) -> int:
     """How many leading state entries the error norms take: all, or with no current-loop
     lag (τ_d = 0: the lagged torques have slope 0 and stay as they are, unused) the
     mechanical ones alone, so that norms and steps are those of the mechanical model."""
@@ -124,7 +99,8 @@ def _normed(model):
 
 
 @kernel
-def _initial_step(t0, y0, k, t_span, model, drive, rtol, atol, y1, held):
+def _initial_step(t0: float, y0: np.ndarray, k: np.ndarray, t_span: float, model: PackedModel, drive: Drive,
+                  rtol: float, atol: float, y1: np.ndarray, held: Pieces) -> float:
     """Hairer's starting step (Solving ODEs I, §II.4), k[0] = f(t0, y0) given; uses
     k[1] and y1 as scratch."""
     n = _normed(model)
@@ -147,10 +123,7 @@ def _initial_step(t0, y0, k, t_span, model, drive, rtol, atol, y1, held):
         d2 += ((k[1, i] - k[0, i]) / sc) ** 2
     d2 = math.sqrt(d2 / n) / h0
     big = max(d1, d2)
-    if big <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / big) ** (1.0 / 8.0)
+    h1 = max(1e-6, h0 * 1e-3) if big <= 1e-15 else (0.01 / big) ** (1.0 / 8.0)
     h = min(100.0 * h0, h1, t_span)
     if not (h > 0.0) or not math.isfinite(h):
         h = t_span
@@ -158,7 +131,7 @@ def _initial_step(t0, y0, k, t_span, model, drive, rtol, atol, y1, held):
 
 
 @inline_kernel
-def _stage_state(y, h, k, a, s, y_stage):
+def _stage_state(y: np.ndarray, h: float, k: np.ndarray, a: np.ndarray, s: int, y_stage: np.ndarray) -> None:
     """y_stage = the state of stage s of a step of h from y (slopes k[0:s] given)."""
     for i in range(N):
         acc = 0.0
@@ -168,7 +141,8 @@ def _stage_state(y, h, k, a, s, y_stage):
 
 
 @kernel
-def _stages(t, y, h, k, tableau, y_stage, y_new, model, drive, held):
+def _stages(t: float, y: np.ndarray, h: float, k: np.ndarray, tableau: Tableau, y_stage: np.ndarray, y_new: np.ndarray,
+            model: PackedModel, drive: Drive, held: Pieces) -> bool:
     """Stages 2..12 of a step of h from (t, y), k[0] = f(t, y) given, into k; the new
     state into y_new. Returns whether it is finite."""
     a, b, c = tableau[0], tableau[1], tableau[2]
@@ -188,9 +162,9 @@ def _stages(t, y, h, k, tableau, y_stage, y_new, model, drive, held):
 
 
 @kernel
-def _law(t, y, model, drive, held):
+def _law(t: float, y: np.ndarray, model: PackedModel, drive: Drive, held: Pieces) -> Pieces:
     """What a step holds at (t, y) coming from ``held``: each bearing's friction piece
-    (:func:`~screwgear_ros.physics.model.pieces`), the contact law and the drive line by the
+    (:func:`~screwgear_ros.physics.motion.pieces`), the contact law and the drive line by the
     state (FROM_STATE)."""
     now = pieces(t, (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]), model, drive, held)
     return Pieces(BY_LAW.branch_1, BY_LAW.branch_3, BY_LAW.drive, now.friction_1,
@@ -198,7 +172,9 @@ def _law(t, y, model, drive, held):
 
 
 @kernel
-def _event(t, y, h, k, tableau, y_stage, y_new, model, drive, held, top, after):
+def _event(t: float, y: np.ndarray, h: float, k: np.ndarray, tableau: Tableau, y_stage: np.ndarray, y_new: np.ndarray,
+           model: PackedModel, drive: Drive, held: Pieces, top: float,
+           after: Pieces) -> tuple[float, Pieces]:
     """The first instant t + s·h (0 < s ≤ top ≤ 1) at which a bearing leaves its piece in
     ``held`` within the accepted step of h from (t, y), by bisection on s, each trial a
     step of s·h from (t, y) (k[0] = f(t, y) kept; k and y_new are scratch): s, and the
@@ -218,7 +194,8 @@ def _event(t, y, h, k, tableau, y_stage, y_new, model, drive, held, top, after):
 
 
 @kernel
-def _inside(t, y, h, k, tableau, y_stage, y_new, model, drive, held):
+def _inside(t: float, y: np.ndarray, h: float, k: np.ndarray, tableau: Tableau, y_stage: np.ndarray, y_new: np.ndarray,
+            model: PackedModel, drive: Drive, held: Pieces) -> tuple[float, Pieces]:
     """Where a bearing may leave its piece and come back inside the accepted step of h
     from (t, y) to y_new, which the pieces at the step's end cannot show: a slipping
     body's speed through zero and back (the first extremum past zero of its speed's
@@ -267,7 +244,7 @@ def _inside(t, y, h, k, tableau, y_stage, y_new, model, drive, held):
 
 
 @inline_kernel
-def _store(out, tau_out, done, tau, y):
+def _store(out: np.ndarray, tau_out: np.ndarray, done: int, tau: float, y: np.ndarray) -> int:
     """Every output time not after ``tau`` (elapsed from the start) still to fill gets the
     state ``y``; returns how many are filled."""
     while done < tau_out.shape[0] and tau_out[done] <= tau:
@@ -278,9 +255,11 @@ def _store(out, tau_out, done, tau, y):
 
 
 @allocating_kernel
-def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps):
-    """Integrate y' = rhs(t, y) of the model (a :class:`~screwgear_ros.physics.model.PackedModel`)
-    under the input ``drive`` (a :class:`~screwgear_ros.physics.model.Drive`) from (t0, y0)
+def integrate(t0: float, y0: np.ndarray, tau_out: np.ndarray, out: np.ndarray, model: PackedModel, drive: Drive,
+              rtol: float, atol: float, tableau: Tableau, max_steps: int
+              ) -> tuple[int, float, float, int, int, int]:
+    """Integrate y' = rhs(t, y) of the model (a :class:`~screwgear_ros.physics.packed.PackedModel`)
+    under the input ``drive`` (a :class:`~screwgear_ros.physics.packed.Drive`) from (t0, y0)
     through the sorted times t0 + ``tau_out`` (``tau_out``: time elapsed since t0, all
     ≥ 0), writing the state at each into ``out[j]``, with the method ``tableau``
     (:data:`TABLEAU`).
@@ -299,7 +278,7 @@ def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps
     the time reached (absolute; where it failed), the last step size, step counts, and
     how many rows of ``out`` were written.
     """
-    a, b, c, e3, e5 = tableau
+    _a, b, _c, e3, e5 = tableau
     normed = _normed(model)
     n_stages = b.shape[0]
     k = np.empty((n_stages + 1, N))
@@ -395,10 +374,8 @@ def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps
                 last_rejected = False
                 done = _store(out, tau_out, done, tau, y)
                 continue
-            if err == 0.0:
-                factor = MAX_FACTOR
-            else:
-                factor = min(MAX_FACTOR, SAFETY * err ** ERROR_EXPONENT)
+            factor = (MAX_FACTOR if err == 0.0
+                      else min(MAX_FACTOR, SAFETY * err ** ERROR_EXPONENT))
             if last_rejected:
                 factor = min(1.0, factor)
             # a step cut short to land on an output time does not shrink the next one
@@ -426,7 +403,7 @@ def integrate(t0, y0, tau_out, out, model, drive, rtol, atol, tableau, max_steps
 def warm() -> None:
     """Compile (or load) the kernel for the types the reference uses."""
     from ..params.table import TableParams
-    from ..physics.model import Drive, pack
+    from ..physics.packed import pack
     out = np.empty((2, N))
     integrate(0.0, np.zeros(N), np.array([1e-4, 2e-4]), out, pack(TableParams()),
               Drive(10.0, 1.0, 0.0), 1e-11, 1e-13, TABLEAU, MAX_STEPS)

@@ -5,14 +5,14 @@ scalars, with no allocation per step; every step is :func:`screwgear_ros.numeric
 Time is never accumulated: step k starts at t = (step0 + k)·dt, so long runs do not
 drift and a run is reproducible from the integer step at which each input took effect.
 The kernels take the model, the input and the held pieces as the named tuples of
-:mod:`screwgear_ros.physics.model` (:class:`~screwgear_ros.physics.model.PackedModel`,
-:class:`~screwgear_ros.physics.model.Drive`, :class:`~screwgear_ros.physics.model.Pieces`), whole. The input
+:mod:`screwgear_ros.physics` (:class:`~screwgear_ros.physics.packed.PackedModel`,
+:class:`~screwgear_ros.physics.packed.Drive`, :class:`~screwgear_ros.physics.motion.Pieces`), whole. The input
 is constant over a call; it changes only at step boundaries.
 
 Contact location (``locate``, the default): the mesh force jumps (a flank is hit with
 δ̇ ≠ 0) or kinks (it lifts off) where a mesh changes its branch of the contact law
-(:class:`~screwgear_ros.physics.model.ContactBranch`), the drive torque kinks where the command
-meets the drive's torque–speed line (:class:`~screwgear_ros.physics.model.DrivePiece`), a
+(:class:`~screwgear_ros.physics.mesh.ContactBranch`), the drive torque kinks where the command
+meets the drive's torque–speed line (:class:`~screwgear_ros.physics.drive.DrivePiece`), a
 bearing's friction jumps where its body sticks or breaks away
 (:class:`~screwgear_ros.physics.friction.FrictionPiece`), and an RK4 step across such a point
 is only first- or second-order accurate. So each step is integrated with the meshes,
@@ -43,16 +43,8 @@ import math
 import numpy as np
 
 from ..physics.friction import FrictionPiece, speed_dip
-from ..physics.model import (
-    BY_LAW,
-    N_STATE,
-    TAU,
-    Drive,
-    PackedModel,
-    effort_and_meshes,
-    pieces,
-    state_rate,
-)
+from ..physics.motion import BY_LAW, Pieces, effort_and_meshes, pieces, state_rate
+from ..physics.packed import N_STATE, TAU, Drive, PackedModel
 from . import rk
 from .jit import inline_kernel, kernel
 
@@ -66,20 +58,21 @@ MAX_BISECTIONS = 60
 
 
 @inline_kernel
-def _slope(t, y, args):
+def _slope(t: float, y: tuple[float, ...], args: tuple[PackedModel, Drive, Pieces]) -> tuple[float, ...]:
     """dy/dt with the meshes, the drive and the bearings held on the pieces args =
     (model, drive, held) give (a stuck body's slope is exactly 0)."""
     return state_rate(t, y, args[0], args[1], args[2])[0]
 
 
 @inline_kernel
-def _law(t, y, model, drive):
+def _law(t: float, y: tuple[float, ...], model: PackedModel, drive: Drive) -> tuple[tuple[float, ...], Pieces]:
     """dy/dt by the contact law and drive line themselves, and the pieces they are on."""
     return state_rate(t, y, model, drive, BY_LAW)
 
 
 @kernel
-def _locate(t, h, y0, f0, y1, f1, model, drive, held, top, after):
+def _locate(t: float, h: float, y0: tuple[float, ...], f0: tuple[float, ...], y1: tuple[float, ...], f1: tuple[float, ...], model: PackedModel,
+            drive: Drive, held: Pieces, top: float, after: Pieces) -> tuple[float, Pieces]:
     """First instant t + θ·h at which the law leaves the ``held`` pieces, on the Hermite
     interpolant of the step (y0, f0) → (y1, f1), by bisection: (θ just past the change,
     the pieces the law gives there, coming from ``held``). The law has left them at
@@ -98,7 +91,7 @@ def _locate(t, h, y0, f0, y1, f1, model, drive, held, top, after):
 
 
 @inline_kernel
-def _stick(y, held, after):
+def _stick(y: tuple[float, ...], held: Pieces, after: Pieces) -> tuple[float, ...]:
     """``y`` with the speed of each body that sticks (from a slip piece in ``held`` to
     STUCK in ``after``) set to exactly 0; the drives' lagged torques as they are."""
     stuck = FrictionPiece.STUCK
@@ -109,7 +102,8 @@ def _stick(y, held, after):
 
 
 @inline_kernel
-def _located_step(t0, t_end, dt, y, slope, held, model, drive):
+def _located_step(t0: float, t_end: float, dt: float, y: tuple[float, ...], slope: tuple[float, ...], held: Pieces,
+                  model: PackedModel, drive: Drive) -> tuple[tuple[float, ...], tuple[float, ...], Pieces, int]:
     """One step from t0 to t_end = t0 + dt with changes located (module docstring).
     ``slope`` and ``held`` are the law's at (t0, y); returns the new state, the law's
     slope and pieces there, and how many changes were located."""
@@ -145,7 +139,9 @@ def _located_step(t0, t_end, dt, y, slope, held, model, drive):
 
 
 @inline_kernel
-def _switch(t, h, t_end, y, slope, theta, held, after, model, drive):
+def _switch(t: float, h: float, t_end: float, y: tuple[float, ...], slope: tuple[float, ...], theta: float, held: Pieces,
+            after: Pieces, model: PackedModel, drive: Drive
+            ) -> tuple[tuple[float, ...], float, float, Pieces, tuple[float, ...]]:
     """The step from (t, y) redone up to the change at t + θ·h, switched there from the
     ``held`` pieces to ``after`` (a body that sticks stopped exactly): (y, t, the rest
     of the step, the new pieces, their slope)."""
@@ -156,7 +152,7 @@ def _switch(t, h, t_end, y, slope, theta, held, after, model, drive):
 
 
 @inline_kernel
-def _dip(y0, f0, y1, f1, h, held):
+def _dip(y0: tuple[float, ...], f0: tuple[float, ...], y1: tuple[float, ...], f1: tuple[float, ...], h: float, held: Pieces) -> float:
     """The first θ of the step (y0, f0) → (y1, f1) over h at which a slipping body's
     speed has, on the Hermite interpolant, an extremum past zero
     (:func:`~screwgear_ros.physics.friction.speed_dip`); 1.0 if none."""
@@ -169,7 +165,7 @@ def _dip(y0, f0, y1, f1, h, held):
 def advance(state: np.ndarray, step0: int, n: int, dt: float, model: PackedModel,
             drive: Drive, locate: bool = True) -> int:
     """Advance ``state`` (θ1, θ2, θ3 in rad, ω1, ω2, ω3 in rad/s, the lagged drive torques
-    L1, L3 in N·m: :data:`~screwgear_ros.physics.model.N_STATE` long) in place by n RK4 steps.
+    L1, L3 in N·m: :data:`~screwgear_ros.physics.packed.N_STATE` long) in place by n RK4 steps.
 
     Step k runs from t = (step0 + k)·dt to (step0 + k + 1)·dt, s. ``locate``: changes of
     contact (and of the drive line's piece) located inside the steps (module docstring),
@@ -201,7 +197,7 @@ def advance(state: np.ndarray, step0: int, n: int, dt: float, model: PackedModel
 
 
 #: Length of :func:`advance_observed`'s ``out``: the mechanical state (6), then
-#: :func:`screwgear_ros.physics.model.effort_and_meshes` of it (9), in their orders.
+#: :func:`screwgear_ros.physics.motion.effort_and_meshes` of it (9), in their orders.
 OBSERVED = 15
 
 
@@ -209,7 +205,7 @@ OBSERVED = 15
 def observe(state: np.ndarray, out: np.ndarray, t: float, model: PackedModel,
             drive: Drive) -> None:
     """``out`` (float64[OBSERVED]) = the state, then
-    :func:`~screwgear_ros.physics.model.effort_and_meshes` of it at time t (s)."""
+    :func:`~screwgear_ros.physics.motion.effort_and_meshes` of it at time t (s)."""
     th1, th2, th3, w1, w2, w3 = state[0], state[1], state[2], state[3], state[4], state[5]
     lagged = state.shape[0] >= N_STATE
     o = effort_and_meshes(t, (th1, th2, th3, w1, w2, w3, state[6] if lagged else 0.0,

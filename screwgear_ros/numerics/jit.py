@@ -24,6 +24,8 @@ message saying so (instead of a ``KeyError`` at the first compile deep inside nu
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 from numba import njit
 
@@ -37,7 +39,7 @@ def require_nrt_option() -> None:
         flags = CPUTargetOptions.parse_as_flags(Flags(), {'_nrt': False})
         known = flags.nrt is False
         reason = 'it no longer switches the nrt flag off'
-    except Exception as error:     # whatever the change is, it is this API that broke
+    except Exception as error:     # noqa: BLE001  whatever the change is, it is this API that broke
         known, reason = False, f'{type(error).__name__}: {error}'
     if not known:
         raise ImportError(
@@ -49,10 +51,11 @@ def require_nrt_option() -> None:
 
 require_nrt_option()
 
-#: Options of every kernel.
-OPTIONS = {'cache': True, 'error_model': 'numpy'}
+#: Options of every kernel. Any: numba's typed keywords do not include the private
+#: ``_nrt``, and a dict of mixed values matches none of them.
+OPTIONS: dict[str, Any] = {'cache': True, 'error_model': 'numpy'}
 #: Options of a kernel that allocates no array.
-NO_ALLOCATION = {**OPTIONS, '_nrt': False}
+NO_ALLOCATION: dict[str, Any] = {**OPTIONS, '_nrt': False}
 
 #: Decorators: a kernel that allocates nothing, the same inlined into its callers (which
 #: compile it with their own options), and a kernel that allocates.

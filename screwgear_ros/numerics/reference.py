@@ -24,8 +24,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ScrewgearError
 from ..params.table import TableParams
-from ..physics.model import N_MECHANICAL, N_STATE, pack, rhs_vector
+from ..physics.motion import rhs_vector
+from ..physics.packed import N_MECHANICAL, N_STATE, pack
 from ..sim.plant import DriveInput
 from . import dop853
 
@@ -45,7 +47,7 @@ class Segment:
     params: TableParams
 
 
-class ReferenceFailure(RuntimeError):
+class ReferenceFailure(ScrewgearError, RuntimeError):
     """The reference solver cannot follow the run: why (``reason``), when (``time``,
     s of simulation) and in which segment (``segment``, counted from 0, of ``segments``;
     it spans ``start``..``end`` s with input ``drive``)."""
@@ -64,7 +66,8 @@ class ReferenceFailure(RuntimeError):
                 f'(t = {self.start:.6f} s to {self.end:.6f} s, torque {d.torque:g} N·m, '
                 f'direction {int(d.direction):+d}, load {d.load:g} N·m)')
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[type[ReferenceFailure], tuple[str, float, int, int, float, float,
+                                                               DriveInput]]:
         return (ReferenceFailure, (self.reason, self.time, self.segment, self.segments,
                                    self.start, self.end, self.drive))
 

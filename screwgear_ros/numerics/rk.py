@@ -28,6 +28,7 @@ from collections.abc import Callable
 from functools import cache
 from typing import Any
 
+import numpy as np
 from numba import njit, types
 from numba.cpython.unsafe.tuple import tuple_setitem
 from numba.extending import overload
@@ -37,9 +38,10 @@ from numba.extending import overload
 STABILITY = (1.0, 1.0, 1.0 / 2.0, 1.0 / 6.0, 1.0 / 24.0)
 
 
-def amplification(z: complex) -> complex:
-    """R(z), the factor one RK4 step multiplies y' = λy by, at z = λ·h (Horner)."""
-    result: complex = 0.0
+def amplification(z: complex | np.ndarray) -> complex | np.ndarray:
+    """R(z), the factor one RK4 step multiplies y' = λy by, at z = λ·h (Horner); on an
+    array of z, elementwise."""
+    result: complex | np.ndarray = 0.0
     for gamma in reversed(STABILITY):
         result = result * z + gamma
     return result
@@ -47,19 +49,22 @@ def amplification(z: complex) -> complex:
 
 # ------------------------------------------------------------------ vector operations
 # Python bodies serve floats, NumPy arrays and (with NUMBA_DISABLE_JIT=1) tuples; the
-# overloads give compiled code the same operations on tuples of floats, unrolled.
+# overloads give compiled code the same operations on tuples of floats, unrolled. An
+# overload is called with numba types and its implementation with values under the same
+# parameter names, and numba wants both signatures, annotations included, to be equal:
+# so both take Any.
 
 def axpy(y: Any, a: float, x: Any) -> Any:
     """y + a·x, componentwise."""
     if isinstance(y, tuple):
-        return tuple(yi + a * xi for yi, xi in zip(y, x))
+        return tuple(yi + a * xi for yi, xi in zip(y, x, strict=True))
     return y + a * x
 
 
 def add(x: Any, y: Any) -> Any:
     """x + y, componentwise."""
     if isinstance(x, tuple):
-        return tuple(xi + yi for xi, yi in zip(x, y))
+        return tuple(xi + yi for xi, yi in zip(x, y, strict=True))
     return x + y
 
 
@@ -71,44 +76,53 @@ def scale(a: float, x: Any) -> Any:
 
 
 @overload(axpy)
-def _axpy_compiled(y, a, x):
+def _axpy_compiled(y: Any, a: Any, x: Any) -> Callable | None:
     if isinstance(y, types.BaseTuple):
-        def impl(y, a, x):
+        def impl(y: Any, a: Any, x: Any) -> Any:
             out = y
             for i in range(len(y)):
-                out = tuple_setitem(out, i, y[i] + a * x[i])
+                # an intrinsic, called in compiled code only (numba supplies its context)
+                out = tuple_setitem(out, i, y[i] + a * x[i])  # type: ignore[call-arg]
             return out
         return impl
     if isinstance(y, types.Number):
-        return lambda y, a, x: y + a * x
+        def scalar(y: Any, a: Any, x: Any) -> Any:
+            return y + a * x
+        return scalar
     return None
 
 
 @overload(add)
-def _add_compiled(x, y):
+def _add_compiled(x: Any, y: Any) -> Callable | None:
     if isinstance(x, types.BaseTuple):
-        def impl(x, y):
+        def impl(x: Any, y: Any) -> Any:
             out = x
             for i in range(len(x)):
-                out = tuple_setitem(out, i, x[i] + y[i])
+                # an intrinsic, called in compiled code only (numba supplies its context)
+                out = tuple_setitem(out, i, x[i] + y[i])  # type: ignore[call-arg]
             return out
         return impl
     if isinstance(x, types.Number):
-        return lambda x, y: x + y
+        def scalar(x: Any, y: Any) -> Any:
+            return x + y
+        return scalar
     return None
 
 
 @overload(scale)
-def _scale_compiled(a, x):
+def _scale_compiled(a: Any, x: Any) -> Callable | None:
     if isinstance(x, types.BaseTuple):
-        def impl(a, x):
+        def impl(a: Any, x: Any) -> Any:
             out = x
             for i in range(len(x)):
-                out = tuple_setitem(out, i, a * x[i])
+                # an intrinsic, called in compiled code only (numba supplies its context)
+                out = tuple_setitem(out, i, a * x[i])  # type: ignore[call-arg]
             return out
         return impl
     if isinstance(x, types.Number):
-        return lambda a, x: a * x
+        def scalar(a: Any, x: Any) -> Any:
+            return a * x
+        return scalar
     return None
 
 
@@ -124,7 +138,7 @@ def _rk4(fun: Callable, wrap: Callable) -> Callable:
     ``njit(inline='always')`` for compiled callers (``fun`` is then a compiled function,
     called directly)."""
 
-    def run(t, y, h, k0, args):
+    def run(t: float, y: Any, h: float, k0: Any, args: Any) -> Any:
         half = 0.5 * h
         k1 = fun(t + half, axpy(y, half, k0), args)
         k2 = fun(t + half, axpy(y, half, k1), args)
@@ -158,20 +172,20 @@ def _compiled_step(dispatcher: Any) -> Callable:
 
 
 @overload(step_from, inline='always')
-def _step_from_compiled(fun, t, y, h, slope, args):
+def _step_from_compiled(fun: Any, t: Any, y: Any, h: Any, slope: Any, args: Any) -> Callable:
     run = _compiled_step(fun.dispatcher)
 
-    def impl(fun, t, y, h, slope, args):
+    def impl(fun: Any, t: Any, y: Any, h: Any, slope: Any, args: Any) -> Any:
         return run(t, y, h, slope, args)
     return impl
 
 
 @overload(step, inline='always')
-def _step_compiled(fun, t, y, h, args):
+def _step_compiled(fun: Any, t: Any, y: Any, h: Any, args: Any) -> Callable:
     run = _compiled_step(fun.dispatcher)
     f = fun.dispatcher
 
-    def impl(fun, t, y, h, args):
+    def impl(fun: Any, t: Any, y: Any, h: Any, args: Any) -> Any:
         return run(t, y, h, f(t, y, args), args)
     return impl
 
@@ -194,7 +208,8 @@ def hermite(y0: Any, f0: Any, y1: Any, f1: Any, h: float, theta: float) -> Any:
 
 
 @overload(hermite, inline='always')
-def _hermite_compiled(y0: Any, f0: Any, y1: Any, f1: Any, h: float, theta: float):
+def _hermite_compiled(y0: Any, f0: Any, y1: Any, f1: Any, h: float, theta: float
+                      ) -> Callable | None:
     # The body above uses only the vector operations, which compile for tuples and floats
     # (numba wants the implementation's parameters, annotations included, to be these).
     return hermite if isinstance(y0, (types.BaseTuple, types.Number)) else None

@@ -1,7 +1,7 @@
 """RK4's stability on the linearized model: the largest stable step, and the check that
 refuses a larger one.
 
-It sits above :mod:`screwgear_ros.physics.model` (it linearizes the model), so that the parameter
+It sits above :mod:`screwgear_ros.physics.motion` (it linearizes the model), so that the parameter
 types below the model stay free of it.
 """
 
@@ -12,11 +12,11 @@ from functools import lru_cache
 import numpy as np
 
 from ..params.table import ParameterError, TableParams, effective_stiffness
-from ..physics.model import stiffest_linearization
+from ..physics.motion import stiffest_linearization
 from .rk import amplification
 
 
-def rk4_amplification(z: complex) -> complex:
+def rk4_amplification(z: complex | np.ndarray) -> complex | np.ndarray:
     """RK4's amplification factor R(z) = 1 + z + z²/2 + z³/6 + z⁴/24 for z = λ·dt
     (:func:`screwgear_ros.numerics.rk.amplification`)."""
     return amplification(z)
@@ -27,7 +27,7 @@ def max_stable_dt(p: TableParams) -> float:
     """Largest dt, s, for which RK4 is stable on the linearized 3-DOF model.
 
     Takes every eigenvalue λ of the model linearized at its stiffest
-    (:func:`screwgear_ros.physics.model.stiffest_linearization`) and bisects dt on
+    (:func:`screwgear_ros.physics.motion.stiffest_linearization`) and bisects dt on
     max |R(λ·dt)| ≤ 1. Remembered per parameter set (an eigenvalue problem and a
     bisection are too slow for the real-time thread): the node validates a change on its
     executor thread, and the plant that takes the change on

@@ -33,8 +33,8 @@ from ..sim.session import ROW, Session
 from ..sim.status import contact_states, mesh_frequency_ratio
 
 #: The modules holding the core's compiled functions.
-_MODULES = ('physics.friction', 'physics.model', 'numerics.integrator', 'paper.normalized',
-            'numerics.dop853', 'paper.floquet')
+_MODULES = ('physics.friction', 'physics.mesh', 'physics.drive', 'physics.motion',
+            'numerics.integrator', 'paper.normalized', 'numerics.dop853', 'paper.floquet')
 
 
 def kernels(imported_only: bool = False) -> list:
@@ -43,8 +43,10 @@ def kernels(imported_only: bool = False) -> list:
     names = [f'screwgear_ros.{name}' for name in _MODULES]
     modules = ([sys.modules[n] for n in names if n in sys.modules] if imported_only
                else [importlib.import_module(n) for n in names])
+    # a kernel counts once, in the module that defines it, not in each that imports it
     return [obj for module in modules for obj in vars(module).values()
-            if hasattr(obj, 'stats') and hasattr(obj, 'py_func')]
+            if hasattr(obj, 'stats') and hasattr(obj, 'py_func')
+            and obj.py_func.__module__ == module.__name__]
 
 
 def compiled_now() -> int:

@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from ..design.frequency import Input, Measurement, default_bias, measure
-from ..design.linearize import OUTPUTS, ModeInfo, linearize
+from ..design.linear_model import OUTPUTS, ModeInfo
+from ..design.linearize import linearize
 from ..params.table import TableParams
 from ..physics.quantities import natural_frequency
 from .common import HOLDS, Section, Verdict, fmt, save_figure, table

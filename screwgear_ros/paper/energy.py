@@ -19,7 +19,7 @@ import numpy as np
 from tqdm import tqdm
 
 from ..params.table import PAPER_PINION_SPEED, TableParams
-from ..physics.model import equilibrium_state
+from ..physics.equilibrium import equilibrium_state
 from ..sim import energy
 from .antibacklash import paper_table_speed
 from .common import COLORS, FAILS, HOLDS, Section, Verdict, fmt, plt, save_figure, table

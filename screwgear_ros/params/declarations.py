@@ -21,8 +21,10 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ScrewgearError
 
-class ParameterError(ValueError):
+
+class ParameterError(ScrewgearError, ValueError):
     """A parameter value that breaks a rule; says which, what and why."""
 
     def __init__(self, name: str, value: Any, rule: str) -> None:

@@ -15,6 +15,7 @@ from typing import Any
 
 import yaml
 
+from ..errors import ScrewgearError
 from .sets import split_parameters
 from .table import ParameterError, SimSettings, TableParams
 
@@ -34,7 +35,7 @@ INTRODUCED = {'command_timeout': 0.0, 'drive_no_load_speed': 0.0, 'effort_deadba
 _REQUIRED = ({f.name for f in fields(TableParams)} | set(EXTRA_KEYS)) - set(INTRODUCED)
 
 
-class RunParametersError(ValueError):
+class RunParametersError(ScrewgearError, ValueError):
     """A run_parameters document that cannot rebuild the model; says what is wrong."""
 
 

@@ -26,7 +26,7 @@ def split_parameters(values: Mapping[str, Any]) -> tuple[TableParams, SimSetting
     """
     unknown = set(values) - _TABLE_FIELDS - _SIM_FIELDS
     if unknown:
-        name = sorted(unknown)[0]
+        name = min(unknown)
         raise ParameterError(name, values[name], 'is not a parameter of table_sim')
     params = TableParams(**{k: v for k, v in values.items() if k in _TABLE_FIELDS})
     settings = SimSettings(**{k: v for k, v in values.items() if k in _SIM_FIELDS})

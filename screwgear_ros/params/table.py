@@ -11,10 +11,6 @@ Beside this module: the paper's derived quantities (:mod:`~screwgear_ros.physics
 RK4's stability limit (:mod:`~screwgear_ros.numerics.stability`), a whole validated set from a
 mapping or a parameter file (:mod:`~screwgear_ros.params.sets`), and the documents
 generated from these declarations (:mod:`~screwgear_ros.params.docs`).
-
-Why one module of this length: it is the one declaration of every parameter (value,
-unit, range, meaning); the length is the table itself, and splitting it would split
-the one place a parameter is declared.
 """
 
 from __future__ import annotations
@@ -217,12 +213,13 @@ class TableParams:
     cogging_order: int = parameter(
         1, 'n_cog', '', 'harmonic of the pinion angle the cogging ripple has (periods per '
         'pinion revolution)', low=1, high=TEETH, kernel=True)
-    mode: Mode = parameter(Mode.ANTI_BACKLASH, '', '', 'both pinions under preload, or '
+    # parameter() is a dataclasses.field() carrying its declaration (ruff sees a call)
+    mode: Mode = parameter(Mode.ANTI_BACKLASH, '', '', 'both pinions under preload, or '  # noqa: RUF009
                            'pinion 1 alone with backlash', read_only=True)
-    mesh_phase: MeshPhase = parameter(MeshPhase.ANGLE, '', '', 'what drives the mesh phase: '
+    mesh_phase: MeshPhase = parameter(MeshPhase.ANGLE, '', '', 'what drives the mesh phase: '  # noqa: RUF009
                                       'the pinion angle (φ = z·θ) or time (φ = ω_e·t)',
                                       read_only=True)
-    mesh_formulation: MeshFormulation = parameter(
+    mesh_formulation: MeshFormulation = parameter(  # noqa: RUF009
         MeshFormulation.PAPER, '', '', "how the mesh acts on the bodies: the paper's "
         'equations (lever r) or forces from the mesh potential ½·K(φ)·f(δ)² (lever '
         'r − z·dε/dφ, plus ½·z·dK/dφ·f²)', read_only=True)
@@ -389,7 +386,7 @@ class SimSettings:
     @property
     def steps_per_publish(self) -> int:
         """Integration steps per publish period."""
-        return int(round(1.0 / (self.publish_rate * self.dt)))
+        return round(1.0 / (self.publish_rate * self.dt))
 
     def as_dict(self) -> dict[str, Any]:
         return {p.name: plain(getattr(self, p.name)) for p in declared(SimSettings)}

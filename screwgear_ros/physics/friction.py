@@ -134,9 +134,8 @@ def speed_dip(piece: FrictionPiece, w0: float, a0: float, w1: float, a1: float,
                 r1 = 0.0
     first, second = min(r1, r2), max(r1, r2)
     for theta in (first, second):
-        if 0.0 < theta < 1.0:
-            if sense * (w0 + theta * (h * a0 + theta * (q + theta * c))) < 0.0:
-                return theta
+        if 0.0 < theta < 1.0 and sense * (w0 + theta * (h * a0 + theta * (q + theta * c))) < 0.0:
+            return theta
     return 1.0
 
 

@@ -103,12 +103,13 @@ class SensorConfig:
     @classmethod
     def of(cls, settings: Any) -> SensorConfig:
         """The sensors a :class:`~screwgear_ros.params.table.SimSettings` declares."""
-        return cls(tuple(JointSensor(getattr(settings, f'encoder_counts_{j}'),
-                                     getattr(settings, f'position_noise_{j}'),
-                                     getattr(settings, f'velocity_noise_{j}'),
-                                     getattr(settings, f'measurement_delay_{j}'),
-                                     getattr(settings, f'velocity_filter_cutoff_{j}'))
-                         for j in JOINTS), settings.sensor_seed)
+        first, second, third = (JointSensor(getattr(settings, f'encoder_counts_{j}'),
+                                            getattr(settings, f'position_noise_{j}'),
+                                            getattr(settings, f'velocity_noise_{j}'),
+                                            getattr(settings, f'measurement_delay_{j}'),
+                                            getattr(settings, f'velocity_filter_cutoff_{j}'))
+                                for j in JOINTS)
+        return cls((first, second, third), settings.sensor_seed)
 
     @property
     def ideal(self) -> bool:
@@ -201,7 +202,8 @@ class _Joint:
     def measure(self, step: int, dt: float, theta: float, omega: float,
                 noise: tuple[float, float] | None) -> tuple[float, float]:
         s = self.sensor
-        angle = theta + s.position_noise * noise[0] if s.position_noise else theta
+        angle = (theta + s.position_noise * noise[0]
+                 if s.position_noise and noise is not None else theta)
         if s.counts:
             per_rad, increment = self.per_rad, self.increment
             position = math.floor(angle * per_rad) * increment
@@ -212,7 +214,7 @@ class _Joint:
                 speed = (position - previous) / ((step - self.step) * dt)
         else:
             position, speed = angle, omega
-        if s.velocity_noise:
+        if s.velocity_noise and noise is not None:
             speed = speed + s.velocity_noise * noise[1]
         if s.cutoff and self.step is not None:
             gap = step - self.step
@@ -244,7 +246,7 @@ class SensorChain:
     def configure(self, config: SensorConfig) -> None:
         """Use ``config`` from the next sample on, keeping the chain's state."""
         self.config = config
-        for joint, sensor in zip(self._joints, config.joints):
+        for joint, sensor in zip(self._joints, config.joints, strict=True):
             joint.use(sensor)
         self._ideal = config.ideal
         if not config.noisy:
@@ -265,7 +267,8 @@ class SensorChain:
         dt = self.dt
         (p1, v1), (p2, v2), (p3, v3) = [
             joint.measure(step, dt, theta, omega, noise)
-            for joint, theta, omega, noise in zip(self._joints, position, velocity, pairs)]
+            for joint, theta, omega, noise in zip(self._joints, position, velocity, pairs,
+                                                  strict=True)]
         return (p1, p2, p3), (v1, v2, v3)
 
     def measure(self, outputs: Any) -> Any:

@@ -58,7 +58,7 @@ from ..interface import (
 from ..numerics.warmup import compiled_now, without_blas_probe
 from ..params.sets import split_parameters
 from ..params.table import ParameterError, SimSettings, TableParams
-from ..physics.model import pack
+from ..physics.packed import pack
 from ..sim.commands import carries_no_command
 from ..sim.events import Command, ParameterChange, Reset, Setpoint
 from ..sim.pacing import AnswerGate, wall_period

@@ -62,7 +62,9 @@ import numpy as np
 from ..bag.reader import BagError, RecordedRun
 from ..numerics.reference import ATOL, RTOL, ReferenceFailure, Segment, solve
 from ..params.table import TableParams
-from ..physics.model import N_STATE, active_path, equilibrium_state
+from ..physics.drive import active_path
+from ..physics.equilibrium import equilibrium_state
+from ..physics.packed import N_STATE
 from ..physics.sensors import SensorChain
 from ..sim.events import ParameterChange, Reset
 from ..sim.plant import DriveInput, Plant

@@ -30,7 +30,7 @@ from matplotlib.lines import Line2D
 from ..bag.reader import BagError, RecordedRun
 from ..paper.common import COLORS, plt
 from ..params.table import Mode, TableParams
-from ..physics.model import active_path
+from ..physics.drive import active_path
 from ..sim.events import ParameterChange, Reset
 from ..sim.plant import DriveInput
 from ..sim.session import Tick

@@ -52,7 +52,16 @@ import numpy as np
 
 from ..numerics.jit import kernel
 from ..params.table import SimSettings, TableParams
-from ..physics.model import (
+from ..physics.drive import DrivePiece, pinion_torques
+from ..physics.mesh import (
+    branch_force,
+    branch_penetration,
+    contact_branch,
+    mesh_motion,
+    mesh_phase,
+    mesh_stiffness_slope,
+)
+from ..physics.packed import (
     CT,
     I1,
     I2,
@@ -68,16 +77,8 @@ from ..physics.model import (
     Z3,
     B,
     C,
-    DrivePiece,
     PackedModel,
-    branch_force,
-    branch_penetration,
-    contact_branch,
-    mesh_motion,
-    mesh_phase,
-    mesh_stiffness_slope,
     pack,
-    pinion_torques,
 )
 from .events import Command, Event
 from .plant import DriveInput

@@ -24,15 +24,9 @@ import numpy as np
 from ..numerics.integrator import OBSERVED, advance_observed, advance_ticks, observe
 from ..numerics.stability import check_step
 from ..params.table import TableParams
-from ..physics.model import (
-    N_MECHANICAL,
-    N_STATE,
-    Drive,
-    PackedModel,
-    active_path,
-    equilibrium_state,
-    pack,
-)
+from ..physics.drive import active_path
+from ..physics.equilibrium import equilibrium_state
+from ..physics.packed import N_MECHANICAL, N_STATE, Drive, PackedModel, pack
 from .simtime import sim_time_ns
 
 
@@ -243,7 +237,7 @@ class Plant:
         """``ticks`` calls of :meth:`advance_outputs` (n steps each) in one compiled call
         (:func:`screwgear_ros.numerics.integrator.advance_ticks`, the same calls bit for bit), for
         replays: row i of ``rows`` (float64, at least ticks × OBSERVED) gets tick i's
-        observed vector (the state, then :func:`~screwgear_ros.physics.model.effort_and_meshes` of it;
+        observed vector (the state, then :func:`~screwgear_ros.physics.motion.effort_and_meshes` of it;
         :data:`OBSERVED_DELTA` has where δ1 and δ3 are). Stops after a tick that faults
         (:attr:`fault` then says why). Returns the ticks done, 0 if the plant already
         stands still."""

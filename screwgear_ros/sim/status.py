@@ -14,15 +14,9 @@ from functools import lru_cache
 
 from ..interface import ANSWERS
 from ..params.table import TableParams
-from ..physics.model import (
-    Z1,
-    Z3,
-    ContactBranch,
-    PackedModel,
-    contact_branches,
-    mesh_phase,
-    pack,
-)
+from ..physics.mesh import ContactBranch, mesh_phase
+from ..physics.motion import contact_branches
+from ..physics.packed import Z1, Z3, PackedModel, pack
 from ..physics.quantities import natural_frequency
 from .pacing import PacerStats
 from .plant import Outputs
@@ -44,7 +38,7 @@ def _packed(params: TableParams) -> PackedModel:
 
 def mesh_phase_rates(params: TableParams, outputs: Outputs) -> tuple[float, float]:
     """φ̇ of mesh 1 and mesh 3 at ``outputs``, rad/s, by the model's mesh phase
-    (:func:`screwgear_ros.physics.model.mesh_phase`: z·ω in `angle` phase, ω_e in `time`)."""
+    (:func:`screwgear_ros.physics.mesh.mesh_phase`: z·ω in `angle` phase, ω_e in `time`)."""
     p = _packed(params).p
     (th1, _, th3), (w1, _, w3) = outputs.position, outputs.velocity
     return (mesh_phase(th1, w1, p[Z1], outputs.time, p)[1],
@@ -65,7 +59,7 @@ def mesh_frequency_ratio(params: TableParams, outputs: Outputs) -> float:
 
 class Contact(StrEnum):
     """How a mesh is in contact, as diagnostics and markers show it: one member per
-    branch of the contact law (:class:`screwgear_ros.physics.model.ContactBranch`, same names)."""
+    branch of the contact law (:class:`screwgear_ros.physics.mesh.ContactBranch`, same names)."""
 
     FORWARD = 'forward flank'
     REVERSE = 'reverse flank'
@@ -87,7 +81,7 @@ class Contact(StrEnum):
 
 def contact_states(params: TableParams, outputs: Outputs) -> tuple[Contact, Contact]:
     """Contact of mesh 1 and mesh 3 at ``outputs``: the branches the model's contact law
-    is on there (:func:`screwgear_ros.physics.model.contact_branches`)."""
+    is on there (:func:`screwgear_ros.physics.motion.contact_branches`)."""
     branch_1, branch_3 = contact_branches(outputs.time, (*outputs.position, *outputs.velocity),
                                           _packed(params))
     return Contact.of(branch_1), Contact.of(branch_3)

@@ -40,7 +40,7 @@ LAUNCH_FILES = ('table_sim.launch.py', 'ros2_control.launch.py')
 LIGHT = ('os', 'ament_index_python', 'launch', 'launch_ros', 'screwgear_ros.ros.launch_support')
 #: Modules that must not be loaded into the `ros2 launch` process by our files (rclpy is
 #: not among them: launch_ros loads it anyway).
-HEAVY = ('numba', 'llvmlite', 'scipy', 'matplotlib', 'screwgear_ros.physics.model',
+HEAVY = ('numba', 'llvmlite', 'scipy', 'matplotlib', 'screwgear_ros.physics.motion',
          'screwgear_ros.sim.plant', 'screwgear_ros.sim.session', 'screwgear_ros.ros.urdf',
          'screwgear_ros.ros.run_io')
 HAS_LAUNCH = all(importlib.util.find_spec(m) is not None for m in ('launch', 'launch_ros'))

@@ -87,7 +87,7 @@ def test_the_start_without_jit_loads_no_tool_module_either():
 @pytest.mark.ros
 def test_warmup_finds_every_kernel_module_and_compiled_now_imports_none():
     code = ('import json, sys\n'
-            'from screwgear_ros import warmup\n'
+            'from screwgear_ros.numerics import warmup\n'
             'warmup.compiled_now()\n'
             'before = {k.py_func.__module__ for k in warmup.kernels(imported_only=True)}\n'
             'unloaded = [m for m in ("screwgear_ros.numerics.dop853", "screwgear_ros.paper.normalized",\n'
@@ -95,9 +95,12 @@ def test_warmup_finds_every_kernel_module_and_compiled_now_imports_none():
             'every = {k.py_func.__module__ for k in warmup.kernels()}\n'
             'print(json.dumps([sorted(before), unloaded, sorted(every)]))\n')
     before, unloaded, every = json.loads(_run(code, NUMBA_DISABLE_JIT='0'))
-    assert before == ['screwgear_ros.physics.friction', 'screwgear_ros.numerics.integrator', 'screwgear_ros.physics.model']
+    assert before == sorted(f'screwgear_ros.{m}'
+                            for m in ('physics.friction', 'physics.mesh', 'physics.drive',
+                                      'physics.motion', 'numerics.integrator'))
     assert unloaded == ['screwgear_ros.numerics.dop853', 'screwgear_ros.paper.normalized',
                         'screwgear_ros.paper.floquet']
     assert every == sorted(f'screwgear_ros.{m}'
-                           for m in ('friction', 'model', 'integrator', 'normalized', 'dop853',
-                                     'floquet'))
+                           for m in ('physics.friction', 'physics.mesh', 'physics.drive',
+                                     'physics.motion', 'numerics.integrator', 'paper.normalized',
+                                     'numerics.dop853', 'paper.floquet'))

@@ -116,7 +116,7 @@ def test_ros_wheels_are_not_install_requires():
 @pytest.mark.ros
 def test_physics_core_imports_no_ros():
     code = ('import sys\n'
-            'import screwgear_ros.params.table, screwgear_ros.physics.model, screwgear_ros.numerics.integrator\n'
+            'import screwgear_ros.params.table, screwgear_ros.physics.motion, screwgear_ros.numerics.integrator\n'
             'import screwgear_ros.sim.plant, screwgear_ros.numerics.reference, screwgear_ros.paper.normalized\n'
             'import screwgear_ros.sim.commands, screwgear_ros.sim.session, screwgear_ros.sim.events\n'
             'import screwgear_ros.sim.energy, screwgear_ros.params.declarations, screwgear_ros.numerics.dop853\n'

@@ -50,7 +50,7 @@ def _cases():
 
 def _derived_are_finite(values: dict) -> None:
     """Everything the node derives from a parameter set, computed and finite."""
-    from screwgear_ros.physics.model import pack
+    from screwgear_ros.physics.packed import pack
     from screwgear_ros.ros.urdf import robot_description
     from screwgear_ros.sim.pacing import wall_period
     params, settings = split_parameters(values)

@@ -55,15 +55,15 @@ def test_the_stamps_follow_only_their_inputs(tree: Path):
     assert stamps(tree) == base                                   # deterministic
 
     # Not inputs: dates, files outside the installation, numba's and Python's caches.
-    model = tree / 'screwgear_ros' / 'model.py'
+    model = tree / 'screwgear_ros' / 'physics' / 'motion.py'
     os.utime(model, (1.0, 1.0))
     (tree / 'README.md').write_text('edited\n')
     (tree / 'test' / 'conftest.py').write_text('# edited\n')
     (tree / 'docs' / 'new.md').write_text('new\n')
-    cache = tree / 'screwgear_ros' / '__pycache__'
+    cache = tree / 'screwgear_ros' / 'physics' / '__pycache__'
     cache.mkdir()
-    (cache / 'model.cpython-311.pyc').write_bytes(b'x')
-    (cache / 'model.rhs-1.py311.nbi').write_bytes(b'x')
+    (cache / 'motion.cpython-311.pyc').write_bytes(b'x')
+    (cache / 'motion.rhs-1.py311.nbi').write_bytes(b'x')
     assert stamps(tree) == base
 
     # A source of the package: reinstall and recompile, dependencies kept.

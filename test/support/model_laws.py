@@ -5,17 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from screwgear_ros.physics.model import (
-    B,
-    C,
-    ContactBranch,
-    PackedModel,
-    drive_on,
-    drive_piece,
-    mesh_force,
-    mesh_load_on,
-    mesh_motion,
-)
+from screwgear_ros.physics.drive import drive_on, drive_piece
+from screwgear_ros.physics.mesh import ContactBranch, mesh_force, mesh_load_on, mesh_motion
+from screwgear_ros.physics.packed import B, C, PackedModel
 
 
 def mesh_state(theta_pinion: float, omega_pinion: float, radius_pinion: float, teeth: float,

@@ -15,8 +15,9 @@ import pytest
 from bag_runs import installed
 
 from screwgear_ros.design.closed_loop import LOOP, SENSITIVITY, margins, measure_loop
+from screwgear_ros.design.errors import UnknownOutput
 from screwgear_ros.design.frequency import CSV_COLUMNS, measure
-from screwgear_ros.design.linearize import OperatingPointError, linearize
+from screwgear_ros.design.linearize import linearize
 from screwgear_ros.params.table import Mode, TableParams
 
 #: The paper's table with backlash 0 and its preload, the mesh excitation (stiffness
@@ -152,7 +153,7 @@ def test_bad_requests_exit_2_with_the_reason(tmp_path, args, says):
 
 
 def test_an_unknown_output_is_refused():
-    with pytest.raises(OperatingPointError, match='unknown output'):
+    with pytest.raises(UnknownOutput, match='unknown output'):
         measure(LINEAR_TABLE, outputs=('table_angel',))
 
 

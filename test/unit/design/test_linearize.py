@@ -14,23 +14,21 @@ import numpy as np
 import pytest
 from bag_runs import installed
 
-from screwgear_ros.design.linearize import (
-    INPUTS,
-    OUTPUTS,
-    STATES,
-    OperatingPointError,
-    linearize,
-    operating_point,
+from screwgear_ros.design.errors import (
+    DesignError,
+    MeshModelUnsupported,
+    NoSteadyState,
+    OperatingPointRefused,
 )
+from screwgear_ros.design.linear_model import INPUTS, OUTPUTS, STATES
+from screwgear_ros.design.linearize import linearize
+from screwgear_ros.design.operating_point import operating_point
+from screwgear_ros.errors import ScrewgearError
 from screwgear_ros.params.table import MeshPhase, Mode, TableParams
-from screwgear_ros.physics.model import (
-    ContactBranch,
-    Drive,
-    DrivePiece,
-    pack,
-    rhs,
-    stiffest_linearization,
-)
+from screwgear_ros.physics.drive import DrivePiece
+from screwgear_ros.physics.mesh import ContactBranch
+from screwgear_ros.physics.motion import rhs, stiffest_linearization
+from screwgear_ros.physics.packed import Drive, pack
 from screwgear_ros.sim.simulation import Simulation
 
 PAPER = TableParams()
@@ -234,11 +232,33 @@ def test_bad_input_exits_2_with_the_reason(tmp_path, args, says):
     assert says in proc.stderr and 'Traceback' not in proc.stderr + proc.stdout
 
 
-def test_bad_values_in_the_core_raise_operating_point_error():
+def test_bad_values_in_the_core_are_refused_as_operating_point_values():
     for kwargs in ({'torque': -1.0}, {'direction': 0}, {'load': math.inf},
                    {'load': 1e9}):
-        with pytest.raises(OperatingPointError):
+        with pytest.raises(OperatingPointRefused):
             linearize(PAPER, **kwargs)
+
+
+def test_valid_inputs_without_a_steady_motion_are_no_steady_state():
+    # no drive torque, no table damping: any load accelerates the table for ever
+    with pytest.raises(NoSteadyState, match='accelerates the table forever') as caught:
+        operating_point(PAPER.replace(table_damping=0.0), load=10.0)
+    assert not isinstance(caught.value, OperatingPointRefused)
+    assert isinstance(caught.value, ScrewgearError) and isinstance(caught.value, ValueError)
+
+
+def test_the_old_error_name_warns_and_still_catches_every_refusal():
+    import importlib
+
+    import screwgear_ros.design as package
+    module = importlib.import_module('screwgear_ros.design.linearize')
+    with pytest.warns(DeprecationWarning, match='OperatingPointError'):
+        old = module.OperatingPointError
+    with pytest.warns(DeprecationWarning, match='OperatingPointError'):
+        assert package.OperatingPointError is old
+    assert old is DesignError
+    with pytest.raises(old):
+        linearize(PAPER, torque=-1.0)
 
 
 def test_the_frozen_mesh_is_the_average_without_mesh_excitation():
@@ -254,9 +274,9 @@ def test_the_frozen_mesh_is_the_average_without_mesh_excitation():
 
 @pytest.mark.ros
 def test_a_frozen_mesh_is_refused_where_the_phase_advances(tmp_path):
-    with pytest.raises(OperatingPointError, match='static operating point'):
+    with pytest.raises(MeshModelUnsupported, match='static operating point'):
         linearize(PAPER, 100.0, 0.0, 1, 'frozen')
-    with pytest.raises(OperatingPointError, match='angle mesh phase'):
+    with pytest.raises(MeshModelUnsupported, match='angle mesh phase'):
         linearize(PAPER.replace(mesh_phase=MeshPhase.TIME), mesh='frozen')
     proc = installed('linearize', '--mesh', 'frozen', '--torque', '100', '-o', tmp_path / 'm.npz')
     assert proc.returncode == 2 and 'static operating point' in proc.stderr

@@ -20,7 +20,7 @@ from paths import DATA
 
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.numerics.reference import Segment, solve
-from screwgear_ros.physics.model import equilibrium_state
+from screwgear_ros.physics.equilibrium import equilibrium_state
 from screwgear_ros.runs import check
 from screwgear_ros.sim.control import DemoController
 from screwgear_ros.sim.plant import DriveInput

@@ -24,30 +24,12 @@ from scipy.integrate import solve_ivp
 
 from screwgear_ros.params import run_file as run_parameters
 from screwgear_ros.params.table import SimSettings, TableParams
+from screwgear_ros.physics.drive import DrivePiece, active_speed, drive_piece
+from screwgear_ros.physics.equilibrium import equilibrium_state
 from screwgear_ros.physics.friction import FrictionPiece
-from screwgear_ros.physics.model import (
-    R1,
-    R3,
-    TS,
-    WNL,
-    Z1,
-    Z3,
-    B,
-    C,
-    ContactBranch,
-    Drive,
-    DrivePiece,
-    PackedModel,
-    Pieces,
-    active_speed,
-    contact_branches,
-    drive_piece,
-    equilibrium_state,
-    mesh_motion,
-    motion,
-    pack,
-    rhs_vector,
-)
+from screwgear_ros.physics.mesh import ContactBranch, mesh_motion
+from screwgear_ros.physics.motion import Pieces, contact_branches, motion, rhs_vector
+from screwgear_ros.physics.packed import R1, R3, TS, WNL, Z1, Z3, B, C, Drive, PackedModel, pack
 from screwgear_ros.sim.session import Session
 
 TORQUE = 400.0

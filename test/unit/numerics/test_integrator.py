@@ -20,7 +20,8 @@ import pytest
 from screwgear_ros.numerics.integrator import advance, trajectory
 from screwgear_ros.numerics.reference import Segment, solve
 from screwgear_ros.params.table import TableParams
-from screwgear_ros.physics.model import Drive, equilibrium_state, pack
+from screwgear_ros.physics.equilibrium import equilibrium_state
+from screwgear_ros.physics.packed import Drive, pack
 from screwgear_ros.physics.quantities import equivalent_mass
 from screwgear_ros.sim.plant import DriveInput
 
@@ -149,7 +150,8 @@ NO_JIT_SCRIPT = r'''
 import json, sys
 import numba
 from screwgear_ros.numerics.integrator import advance
-from screwgear_ros.physics.model import Drive, equilibrium_state, pack
+from screwgear_ros.physics.equilibrium import equilibrium_state
+from screwgear_ros.physics.packed import Drive, pack
 from screwgear_ros.params.table import TableParams
 assert numba.config.DISABLE_JIT and not hasattr(advance, 'py_func'), 'JIT still on'
 mode, locate = sys.argv[1], sys.argv[2] == 'located'

@@ -20,7 +20,8 @@ from numba.core.errors import TypingError
 from screwgear_ros.numerics import jit
 from screwgear_ros.numerics.integrator import advance
 from screwgear_ros.params.table import TableParams
-from screwgear_ros.physics.model import Drive, equilibrium_state, pack
+from screwgear_ros.physics.equilibrium import equilibrium_state
+from screwgear_ros.physics.packed import Drive, pack
 
 #: A run through reversals (conventional: backlash impacts, contact changes located)
 #: with the drive line's corner crossed; the state and outputs after every 20-step tick.
@@ -28,7 +29,8 @@ RUN = '''
 import json, sys
 import numpy as np
 from screwgear_ros.numerics.integrator import OBSERVED, advance_observed
-from screwgear_ros.physics.model import Drive, equilibrium_state, pack
+from screwgear_ros.physics.equilibrium import equilibrium_state
+from screwgear_ros.physics.packed import Drive, pack
 from screwgear_ros.params.table import TableParams
 
 def run(mode):

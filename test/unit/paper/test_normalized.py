@@ -17,7 +17,7 @@ import pytest
 from screwgear_ros.numerics.integrator import trajectory
 from screwgear_ros.paper import normalized as nz
 from screwgear_ros.params.table import ParameterError, TableParams
-from screwgear_ros.physics.model import Drive, pack
+from screwgear_ros.physics.packed import Drive, pack
 from screwgear_ros.physics.quantities import natural_frequency
 
 LENGTH = 1e-6   # l, m: the paper's length scale

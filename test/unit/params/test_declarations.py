@@ -23,7 +23,7 @@ from screwgear_ros.params import (
 )
 from screwgear_ros.params.declarations import Kind, declared, yaml_value
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.physics import model
+from screwgear_ros.physics import packed as layout
 from screwgear_ros.ros.parameters import PARAMETERS, complete_harmonics, descriptor
 
 
@@ -74,16 +74,16 @@ def test_descriptors_carry_the_declared_ranges_and_read_only_flags():
 
 def test_the_kernel_layout_packs_every_kernel_field_by_name():
     p = TableParams(table_damping=12.5, preload_torque=321.0, mesh_frequency=7.0)
-    packed = model.pack(p).p
-    assert len(packed) == model.N_PACKED == len(model.KERNEL) + 4     # k_eff and three enums
-    for index, name in enumerate(model.KERNEL):
+    packed = layout.pack(p).p
+    assert len(packed) == layout.N_PACKED == len(layout.KERNEL) + 4     # k_eff and three enums
+    for index, name in enumerate(layout.KERNEL):
         assert packed[index] == getattr(p, name), name
-    assert (packed[model.CT], packed[model.TP], packed[model.WE]) == (12.5, 321.0, 7.0)
-    assert packed[model.K_EFF] == params.effective_stiffness(p)
-    assert packed[model.FORMULATION] == model.FORM_PAPER
-    assert model.pack(p.replace(mesh_formulation='energy_consistent')).p[
-        model.FORMULATION] == model.FORM_ENERGY
-    assert len(set(model.KERNEL)) == len(model.KERNEL)
+    assert (packed[layout.CT], packed[layout.TP], packed[layout.WE]) == (12.5, 321.0, 7.0)
+    assert packed[layout.K_EFF] == params.effective_stiffness(p)
+    assert packed[layout.FORMULATION] == layout.FORM_PAPER
+    assert layout.pack(p.replace(mesh_formulation='energy_consistent')).p[
+        layout.FORMULATION] == layout.FORM_ENERGY
+    assert len(set(layout.KERNEL)) == len(layout.KERNEL)
 
 
 def test_the_parameter_file_is_generated_from_the_declarations():
@@ -114,7 +114,7 @@ def test_harmonics_are_completed_with_zeros_to_the_array_being_set():
     assert (amps, phases) == ([1e-6], [0.5]) and 'ste_amplitudes' in note
     assert complete_harmonics([1.0], [2.0], 'ste_phases') == ([1.0], [2.0], None)
     TableParams(ste_amplitudes=amps, ste_phases=phases)      # a valid set again
-    assert np.isfinite(model.pack(TableParams()).p).all()
+    assert np.isfinite(layout.pack(TableParams()).p).all()
 
 
 def test_the_normalized_coefficients_are_declared_once_too():

@@ -22,7 +22,8 @@ from screwgear_ros.params import table as P
 from screwgear_ros.params.declarations import excerpt
 from screwgear_ros.params.table import ParameterError, SimSettings, TableParams
 from screwgear_ros.physics import quantities as Q
-from screwgear_ros.physics.model import Drive, equilibrium_state, pack
+from screwgear_ros.physics.equilibrium import equilibrium_state
+from screwgear_ros.physics.packed import Drive, pack
 
 CONFIG = ROOT / 'config'
 

@@ -31,7 +31,8 @@ import pytest
 
 from screwgear_ros.numerics.integrator import trajectory
 from screwgear_ros.params.table import TableParams
-from screwgear_ros.physics.model import Drive, equilibrium_state, pack
+from screwgear_ros.physics.equilibrium import equilibrium_state
+from screwgear_ros.physics.packed import Drive, pack
 
 TORQUE = 400.0              # N·m, the paper's drive torque
 TABLE_DAMPING = 8867.0      # N·m·s/rad: steady table speed 0.337 rad/s at 400 N·m

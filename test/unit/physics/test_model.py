@@ -15,20 +15,11 @@ from model_laws import drive_line, mesh_load, mesh_state
 
 from screwgear_ros.numerics.integrator import advance
 from screwgear_ros.params.table import TableParams
-from screwgear_ros.physics.model import (
-    R1,
-    Z1,
-    Drive,
-    active_path,
-    applied_torques,
-    drive_torques,
-    equilibrium_state,
-    mesh_force,
-    mesh_stiffness,
-    pack,
-    rhs,
-    static_transmission_error,
-)
+from screwgear_ros.physics.drive import active_path, applied_torques, drive_torques
+from screwgear_ros.physics.equilibrium import equilibrium_state
+from screwgear_ros.physics.mesh import mesh_force, mesh_stiffness, static_transmission_error
+from screwgear_ros.physics.motion import rhs
+from screwgear_ros.physics.packed import R1, Z1, Drive, pack
 
 K, C = 1.1e7, 717.0   # a mesh stiffness (N/m) and damping (N·s/m) for the force-law cases
 

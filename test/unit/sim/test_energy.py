@@ -19,7 +19,7 @@ from paths import DATA
 
 from screwgear_ros.params.run_file import RunParameters, dump, load
 from screwgear_ros.params.table import PAPER_PINION_SPEED, SimSettings, TableParams
-from screwgear_ros.physics.model import equilibrium_state
+from screwgear_ros.physics.equilibrium import equilibrium_state
 from screwgear_ros.physics.quantities import natural_frequency, terminal_speed
 from screwgear_ros.sim import energy
 from screwgear_ros.sim.events import Command, ParameterChange

@@ -10,7 +10,7 @@ import pytest
 
 from screwgear_ros.numerics.stability import max_stable_dt
 from screwgear_ros.params.table import ParameterError, SimSettings, TableParams
-from screwgear_ros.physics.model import EquilibriumNotFound, equilibrium_state
+from screwgear_ros.physics.equilibrium import EquilibriumNotFound, equilibrium_state
 from screwgear_ros.sim.plant import DriveInput, Plant
 from screwgear_ros.sim.session import Session
 
@@ -153,7 +153,7 @@ def test_one_call_ticks_equal_advance_then_outputs_and_the_model_itself():
     advance() then compute_outputs() give, and compute_outputs() is
     model.effort_and_meshes of the state, also across input changes, conventional mode
     and the fault path."""
-    from screwgear_ros.physics.model import effort_and_meshes as model_outputs
+    from screwgear_ros.physics.motion import effort_and_meshes as model_outputs
     for mode in ('anti_backlash', 'conventional'):
         p = TableParams(mode=mode, table_damping=8867.0)
         fused, split = Plant(p, DT), Plant(p, DT)

@@ -20,7 +20,7 @@ from bag_runs import record_session
 
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.physics.model import equilibrium_state
+from screwgear_ros.physics.equilibrium import equilibrium_state
 from screwgear_ros.physics.quantities import natural_frequency
 from screwgear_ros.runs.replay import replay_in_process
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
