@@ -42,6 +42,7 @@ from ..params.run_file import RunParameters, RunParametersError, load
 from ..sim.commands import INPUT_TOPICS, command_value
 from ..sim.events import Command, Event, ParameterChange, Reset
 from .cdr import Template, float64_template, joint_state_template
+from .errors import BagError, InvalidBag, NoParameters, NotABag, TruncatedBag
 from .format import MCAP_MAGIC, MCAP_MESSAGE, MCAP_MESSAGE_FIELDS, MCAP_RECORD, typestore
 
 #: The outputs the readers decode: relative name → the only type it may have.
@@ -50,24 +51,6 @@ OUTPUT_TOPICS = {key: name for key, name in CONTRACT.items()
 RUN_PARAMETERS = 'run_parameters'
 RESET = 'reset'
 SETPOINT = 'setpoint'
-
-
-class BagError(Exception):
-    """A path that cannot be checked; ``kind`` is 'not_a_bag', 'no_parameters',
-    'truncated', 'invalid', 'no_data' (plot_run) or 'nothing_to_compare'
-    (:class:`~screwgear_ros.runs.check.NothingToCompare`)."""
-
-    def __init__(self, kind: str, message: str) -> None:
-        self.kind = kind
-        super().__init__(message)
-
-    def report(self, verb: str, path: object) -> str:
-        """What a command-line tool says after its name: 'cannot <verb> <path>: why',
-        with the way out for a truncated bag."""
-        hint = (f' (use --allow-truncated to {verb} the readable part)'
-                if self.kind == 'truncated' else '')
-        return f'cannot {verb} {path}: {self}{hint}'
-
 
 
 @dataclass
@@ -131,10 +114,10 @@ def find_mcap(path: str | Path) -> tuple[Path, Path]:
     """(bag directory, its .mcap file) for a rosbag2 directory or an .mcap file path."""
     path = Path(path)
     if not path.exists():
-        raise BagError('not_a_bag', f'{path}: no such file or directory')
+        raise NotABag(f'{path}: no such file or directory')
     if path.is_file():
         if path.suffix != '.mcap':
-            raise BagError('not_a_bag', f'{path} is neither a rosbag2 directory nor an '
+            raise NotABag(f'{path} is neither a rosbag2 directory nor an '
                            '.mcap file')
         return path.parent, path
     meta = path / 'metadata.yaml'
@@ -149,20 +132,20 @@ def find_mcap(path: str | Path) -> tuple[Path, Path]:
                 raise TypeError('rosbag2_bagfile_information is not a mapping with a list of '
                                 'relative_file_paths')
             if info.get('storage_identifier') != 'mcap':
-                raise BagError('not_a_bag', f'{path}: storage {info.get("storage_identifier")!r}'
+                raise NotABag(f'{path}: storage {info.get("storage_identifier")!r}'
                                ' is not mcap')
             candidates = [path / Path(p).name for p in info.get('relative_file_paths', [])]
         except (yaml.YAMLError, KeyError, TypeError, AttributeError, UnicodeDecodeError,
                 OSError) as exc:
-            raise BagError('not_a_bag', f'{meta}: not a rosbag2 metadata file ({exc})') from None
+            raise NotABag(f'{meta}: not a rosbag2 metadata file ({exc})') from None
     else:
         candidates = sorted(path.glob('*.mcap'))
     candidates = [c for c in candidates if c.is_file()]
     if not candidates:
-        raise BagError('not_a_bag', f'{path} is not a rosbag2 directory: no metadata.yaml '
+        raise NotABag(f'{path} is not a rosbag2 directory: no metadata.yaml '
                        'naming an .mcap file, and no .mcap file in it')
     if len(candidates) > 1:
-        raise BagError('invalid', f'{path} holds {len(candidates)} .mcap files; a table_sim '
+        raise InvalidBag(f'{path} holds {len(candidates)} .mcap files; a table_sim '
                        'run is one file')
     return path, candidates[0]
 
@@ -258,7 +241,7 @@ class _Scan:
 
     def message(self, record: Message) -> None:
         if record.channel_id not in self.channels:
-            raise BagError('invalid', f'a message on channel {record.channel_id}, which no '
+            raise InvalidBag(f'a message on channel {record.channel_id}, which no '
                            'channel record declares')
         self._keep(record.channel_id, np.array([self.count]), np.array([record.log_time]),
                    [record.data])
@@ -356,10 +339,10 @@ def scan(mcap_path: Path, status: dict[str, Any]) -> _Scan:
     try:
         data = memoryview(mcap_path.read_bytes())
     except OSError as exc:
-        raise BagError('not_a_bag', f'{mcap_path}: cannot be read: {exc.strerror or exc}') from None
+        raise NotABag(f'{mcap_path}: cannot be read: {exc.strerror or exc}') from None
     if bytes(data[:len(MCAP_MAGIC)]) != MCAP_MAGIC:
         if not MCAP_MAGIC.startswith(bytes(data)):
-            raise BagError('not_a_bag', f'{mcap_path} is not an MCAP file')
+            raise NotABag(f'{mcap_path} is not an MCAP file')
         status['truncated'] = (f'{mcap_path.name} ends after {len(data)} bytes, within its '
                                'magic: the recording was not closed (killed?)')
         return result
@@ -490,7 +473,7 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
     events, active_path, setpoint = _events(reader, one_by_one, first_order, first)
     signals, stamp_mismatches = _signals(reader, bulk)
     if status['truncated'] and not allow_truncated:
-        raise BagError('truncated', f'{path}: {status["truncated"]}')
+        raise TruncatedBag(f'{path}: {status["truncated"]}')
     exact, measured = signals['joint_states'], None
     if len(signals['true_joint_states']):
         exact, measured = signals['true_joint_states'], exact
@@ -512,10 +495,10 @@ def _topics(path: str | Path, found: Any) -> tuple[dict[str, str], dict[str, str
         rel = _relative(topic)
         if names.setdefault(rel, topic) != topic and (rel in OUTPUT_TOPICS or rel in INPUT_TOPICS
                                                       or rel == RUN_PARAMETERS):
-            raise BagError('invalid', f'{path}: two topics named {rel!r} ({names[rel]}, '
+            raise InvalidBag(f'{path}: two topics named {rel!r} ({names[rel]}, '
                            f'{topic}); one table per bag')
         if rel in CONTRACT and msgtype != CONTRACT[rel]:
-            raise BagError('invalid', f'{path}: topic {topic} is declared as '
+            raise InvalidBag(f'{path}: topic {topic} is declared as '
                            f'{msgtype or "(no schema)"!s}, but table_sim records it as '
                            f'{CONTRACT[rel]}: the bag is inconsistent')
     return topics, names
@@ -557,7 +540,7 @@ class _Decoder:
         try:
             return self.store.deserialize_cdr(raw, msgtype)
         except Exception as exc:  # noqa: BLE001 - the codec's errors are of many types
-            raise BagError('invalid', f'{self.path}: a message on {topic} is not a valid '
+            raise InvalidBag(f'{self.path}: a message on {topic} is not a valid '
                            f'{msgtype} ({type(exc).__name__}: {exc})') from None
 
     def steps(self, log_time: np.ndarray, topic: str) -> np.ndarray:
@@ -566,13 +549,13 @@ class _Decoder:
         steps = np.rint(log_time / dt_ns)
         off = np.flatnonzero(np.abs(log_time - steps * dt_ns) > 0.5 + 1e-6 * dt_ns)
         if len(off):
-            raise BagError('invalid', f'{topic}: log time {int(log_time[off[0]])} ns is not on '
+            raise InvalidBag(f'{topic}: log time {int(log_time[off[0]])} ns is not on '
                            f'the step grid of dt = {dt_ns:g} ns')
         return steps.astype(np.int64)
 
     def _sized(self, msg: Any, topic: str, n: int) -> None:
         if not len(msg.position) == len(msg.velocity) == len(msg.effort) == n:
-            raise BagError('invalid', f'{self.path}: a message on {topic} has '
+            raise InvalidBag(f'{self.path}: a message on {topic} has '
                            f'{len(msg.position)} positions, {len(msg.velocity)} velocities '
                            f'and {len(msg.effort)} efforts for {n} names')
 
@@ -584,7 +567,7 @@ class _Decoder:
         try:
             idx = [list(msg.name).index(n) for n in self.joints]
         except ValueError:
-            raise BagError('invalid', f'{topic}: joints {list(msg.name)} do '
+            raise InvalidBag(f'{topic}: joints {list(msg.name)} do '
                            f'not include {self.joints}') from None
         self._sized(msg, topic, len(msg.name))
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
@@ -630,9 +613,9 @@ def _first_parameters(reader: _Decoder, one_by_one: list[_Message],
             return _parse(reader.decode(data, msgtype, topic).data, topic), order
     path = reader.path
     if status['truncated']:
-        raise BagError('truncated', f'{path}: {status["truncated"]}; no run_parameters '
+        raise TruncatedBag(f'{path}: {status["truncated"]}; no run_parameters '
                        'message is readable before that')
-    raise BagError('no_parameters', f'{path} holds no run_parameters message: the model '
+    raise NoParameters(f'{path} holds no run_parameters message: the model '
                    'cannot be rebuilt from it (recorded by something other than '
                    "table_sim's record parameter?)")
 
@@ -654,7 +637,7 @@ def _events(reader: _Decoder, one_by_one: list[_Message], first_order: int,
         if rel == 'active_path':
             value = reader.decode(data, msgtype, topic).data
             if value not in (1, 3):
-                raise BagError('invalid', f'{path}: {topic} says path {value}; the paths are '
+                raise InvalidBag(f'{path}: {topic} says path {value}; the paths are '
                                '1 and 3')
             active_path.add(step, order, value)
         elif rel in INPUT_TOPICS:
@@ -662,13 +645,13 @@ def _events(reader: _Decoder, one_by_one: list[_Message], first_order: int,
             try:
                 value = command_value(rel, msg)
             except (TypeError, ValueError) as exc:
-                raise BagError('invalid', f'{path}: a message on {topic} carries no command '
+                raise InvalidBag(f'{path}: a message on {topic} carries no command '
                                f'value ({exc})') from None
             events.append((order, Command(rel, value, step)))
         elif rel == RUN_PARAMETERS:
             params = _parse(reader.decode(data, msgtype, topic).data, topic)
             if params.settings.dt != first.settings.dt:
-                raise BagError('invalid', f'{topic}: dt changed during the run')
+                raise InvalidBag(f'{topic}: dt changed during the run')
             events.append((order, ParameterChange(params.params, params.settings, step)))
         elif rel == RESET:
             events.append((order, Reset(step)))
@@ -706,9 +689,9 @@ def _parse(text: str, topic: str) -> RunParameters:
     try:
         return load(text)
     except RunParametersError as exc:
-        raise BagError('no_parameters', f'{topic}: {exc}') from None
+        raise NoParameters(f'{topic}: {exc}') from None
     except Exception as exc:  # noqa: BLE001 - a value load() does not foresee (inf, NaN…)
-        raise BagError('no_parameters', f'{topic}: run_parameters refused: '
+        raise NoParameters(f'{topic}: run_parameters refused: '
                        f'{type(exc).__name__}: {exc}') from None
 
 

@@ -59,7 +59,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..bag.reader import BagError, RecordedRun
+from ..bag.errors import BagError, InvalidBag
+from ..bag.reader import RecordedRun
 from ..numerics.reference import ATOL, RTOL, ReferenceFailure, Segment, solve
 from ..params.table import TableParams
 from ..physics.model import N_STATE, active_path, equilibrium_state
@@ -354,7 +355,7 @@ class _FineReplay:
             conn.send(('ok', np.ascontiguousarray(fine.joint_states),
                        np.ascontiguousarray(fine.transmission_error)))
         except BagError as exc:
-            conn.send(('bag', exc.kind, str(exc)))
+            conn.send(('bag', exc))
         except BaseException as exc:  # noqa: BLE001 - handed back, redone in the parent
             conn.send(('error', f'{type(exc).__name__}: {exc}'))
         finally:
@@ -372,7 +373,7 @@ class _FineReplay:
         if answer is not None and answer[0] == 'ok':
             return answer[1], answer[2]
         if answer is not None and answer[0] == 'bag':
-            raise BagError(answer[1], answer[2])
+            raise answer[1]
         fine = replay_in_process(self.run, 2)
         return fine.joint_states, fine.transmission_error
 
@@ -386,12 +387,8 @@ class _FineReplay:
 
 
 class NothingToCompare(BagError):
-    """A comparison with no sample to compare: never a PASS. A :class:`BagError` (kind
-    'nothing_to_compare'), so every tool that reports an unusable bag reports it (exit 2
-    with this reason)."""
-
-    def __init__(self, message: str) -> None:
-        super().__init__('nothing_to_compare', message)
+    """A comparison with no sample to compare: never a PASS. A :class:`BagError`, so
+    every tool that reports an unusable bag reports it (exit 2 with this reason)."""
 
 
 #: The signals of mesh_state, in its columns' order (δ, δ̇ and F of meshes 1 and 3).
@@ -420,11 +417,11 @@ def require_samples(run: RecordedRun) -> None:
     if run.measured is None and not all(
             s.sensors.ideal for s in [run.parameters.settings] + [
                 e.settings for _, e in run.events if isinstance(e, ParameterChange)]):
-        raise BagError('invalid', f'{run.path}: its joint sensors are not ideal '
+        raise InvalidBag(f'{run.path}: its joint sensors are not ideal '
                        '(run_parameters), but it holds no true_joint_states: the exact state '
                        'was not recorded, so the physics cannot be judged')
     if not np.array_equal(run.mesh_state.steps, run.joint_states.steps[:len(run.mesh_state)]):
-        raise BagError('invalid', f'{run.path}: mesh_state and joint_states samples are not '
+        raise InvalidBag(f'{run.path}: mesh_state and joint_states samples are not '
                        'published at the same steps')
 
 

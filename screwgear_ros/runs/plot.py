@@ -27,7 +27,8 @@ from matplotlib.backend_bases import FigureCanvasBase
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from ..bag.reader import BagError, RecordedRun
+from ..bag.errors import NoData
+from ..bag.reader import RecordedRun
 from ..paper.common import COLORS, plt
 from ..params.table import Mode, TableParams
 from ..physics.model import active_path
@@ -226,13 +227,13 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
     would be guesses).
     """
     if len(run.joint_states) < 2:
-        raise BagError('no_data', f'{run.path}: no data to plot: {len(run.joint_states)} '
+        raise NoData(f'{run.path}: no data to plot: {len(run.joint_states)} '
                        'joint_states sample(s), a run needs two to be drawn over time'
                        + (f' ({run.truncated})' if run.truncated else ''))
     if zoom is not None:
         t = run.joint_states.steps * run.dt
         if not np.any((t >= zoom[0]) & (t <= zoom[1])):
-            raise BagError('no_data', f'{run.path}: no data to plot in --zoom '
+            raise NoData(f'{run.path}: no data to plot in --zoom '
                            f'{zoom[0]:g}:{zoom[1]:g} s: the run has samples from '
                            f'{t[0]:g} s to {t[-1]:g} s')
     ticks = replay_in_process(run).ticks
