@@ -19,9 +19,11 @@ from mcap.reader import make_reader
 from mcap_stream import iter_messages
 from rosbags.typesys import Stores, get_typestore
 
+from screwgear_ros.bag.bulk_decode import _bulk
 from screwgear_ros.bag.cdr import float64_template, joint_state_template
 from screwgear_ros.bag.errors import BagError, NotABag, TruncatedBag
-from screwgear_ros.bag.reader import OUTPUT_TOPICS, _bulk, read_run, scan
+from screwgear_ros.bag.mcap_scan import OUTPUT_TOPICS, scan
+from screwgear_ros.bag.reader import read_run
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 
