@@ -15,9 +15,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
-from bag_runs import BAGS, DATA
+from bag_runs import BAGS
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+from paths import DATA
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 

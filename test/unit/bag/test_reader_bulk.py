@@ -14,9 +14,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bag_runs import BAGS, DATA, copy_bag, damaged_copy
+from bag_runs import BAGS, copy_bag, damaged_copy
 from mcap.reader import make_reader
 from mcap_stream import iter_messages
+from paths import DATA
 from rosbags.typesys import Stores, get_typestore
 
 from screwgear_ros.bag.bulk_decode import _bulk
