@@ -10,14 +10,10 @@ through a reset). check_run's errors are the per-sample arrays its report keeps.
 inspect it); :func:`save` writes it and closes it. Each panel carries its
 :class:`Panel` (or its signal's name) as the axes label, and every mark drawn on
 it a :class:`Mark` as gid.
-
-Why one module of this length: every view of a run is drawn on the same panels and
-marks, which the tests read back by their labels and gids.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
 
@@ -29,13 +25,22 @@ from matplotlib.lines import Line2D
 
 from ..bag.errors import NoData
 from ..bag.reader import RecordedRun
+from ..errors import ScrewgearError
 from ..paper.common import COLORS, plt
-from ..params.table import Mode, TableParams
+from ..params.table import Mode
 from ..physics.model import active_path
-from ..sim.events import ParameterChange, Reset
-from ..sim.plant import DriveInput
 from ..sim.session import Tick
 from .check import MESH_SIGNALS, CheckReport, signal_names
+from .plot_series import (
+    ParameterMark,
+    RunMarks,
+    drive_series,
+    in_contact,
+    params_at,
+    run_marks,
+    setpoint_series,
+    tracking_error,
+)
 from .replay import replay_in_process
 
 #: Resolution the figures are written at (and readable at), dots per inch.
@@ -82,115 +87,11 @@ class Mark(StrEnum):
     TRACKING_ERROR = 'tracking error'
 
 
-class FigureFileError(Exception):
+class FigureFileError(ScrewgearError):
     """The figure cannot be written where asked (format unknown, directory not writable)."""
 
 
 # ----------------------------------------------------------------------------- data
-
-
-@dataclass(frozen=True)
-class ParameterMark:
-    """A recorded parameter change: when it took effect and which values it changed."""
-
-    time: float                 # s
-    changed: tuple[str, ...]    # ROS parameter names whose value differs from before
-
-
-@dataclass(frozen=True)
-class RunMarks:
-    """The events drawn across every panel, and the commanded reversals."""
-
-    parameter_changes: tuple[ParameterMark, ...]
-    resets: tuple[float, ...]                   # s
-    reversals: tuple[tuple[float, int], ...]    # (s, commanded direction after it)
-
-
-def _values(change: ParameterChange) -> dict[str, object]:
-    return {**change.params.as_dict(), **change.settings.as_dict()}
-
-
-def run_marks(run: RecordedRun, ticks: list[Tick] | None = None) -> RunMarks:
-    """Parameter changes and resets as recorded; reversals from the replayed ``ticks``."""
-    before = _values(ParameterChange(run.parameters.params, run.parameters.settings))
-    changes: list[ParameterMark] = []
-    resets: list[float] = []
-    for _, event in run.events:
-        if isinstance(event, ParameterChange):
-            now = _values(event)
-            changes.append(ParameterMark(event.step * run.dt,
-                                         tuple(k for k in now if now[k] != before.get(k))))
-            before = now
-        elif isinstance(event, Reset):
-            resets.append(event.step * run.dt)
-    reversals = tuple((t.start * run.dt, t.drive.direction) for t in ticks or () if t.reversal)
-    return RunMarks(tuple(changes), tuple(resets), reversals)
-
-
-def drive_series(run: RecordedRun, ticks: list[Tick]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(times s, signed drive torque N·m, load torque N·m): the input in force from each
-    time on (a step function), as the node folded the recorded commands; the last
-    point is the end of the run."""
-    drive = DriveInput()
-    steps, torque, load = [run.parameters.start_step], [drive.torque * drive.direction], [drive.load]
-    for tick in ticks:
-        signed = tick.drive.torque * tick.drive.direction
-        if (signed, tick.drive.load) != (torque[-1], load[-1]):
-            steps.append(tick.start)
-            torque.append(signed)
-            load.append(tick.drive.load)
-    steps.append(max(run.end_step, steps[-1]))
-    torque.append(torque[-1])
-    load.append(load[-1])
-    return np.asarray(steps) * run.dt, np.asarray(torque), np.asarray(load)
-
-
-def params_at(run: RecordedRun, ticks: list[Tick], steps: np.ndarray) -> list[TableParams]:
-    """The parameters in force for the output sampled at each of ``steps``."""
-    starts, params = [run.parameters.start_step], [run.parameters.params]
-    for tick in ticks:
-        if tick.params is not params[-1]:
-            starts.append(tick.start)
-            params.append(tick.params)
-    # A sample at step s was computed with what took effect strictly before s.
-    index = np.clip(np.searchsorted(starts, steps, side='left') - 1, 0, None)
-    return [params[i] for i in index]
-
-
-def in_contact(run: RecordedRun, ticks: list[Tick]) -> np.ndarray:
-    """(n, 2) bool per mesh_state sample: mesh 1, mesh 3 on a flank (|δ| > b, or b = 0)."""
-    sample_params = params_at(run, ticks, run.mesh_state.steps)
-    backlash = np.array([p.backlash for p in sample_params])[:, None]
-    delta = run.mesh_state.values[:, :2]
-    return (np.abs(delta) > backlash) | (backlash <= 0.0)
-
-
-# ------------------------------------------------------------------------- drawing
-
-
-def setpoint_series(run: RecordedRun) -> tuple[np.ndarray, np.ndarray]:
-    """(times s, setpoint rad) as recorded, a step function held to the end of the run;
-    empty without a recorded setpoint."""
-    sp = run.setpoint
-    if not len(sp):
-        return np.empty(0), np.empty(0)
-    steps = np.append(sp.steps, max(run.end_step, int(sp.steps[-1])))
-    values = sp.values[:, 0]
-    return steps * run.dt, np.append(values, values[-1])
-
-
-def tracking_error(run: RecordedRun) -> tuple[np.ndarray, np.ndarray]:
-    """(times s, setpoint − θ2 rad) at every joint_states sample from the first recorded
-    setpoint on: the setpoint recorded at a sample's step is the one the controller
-    computed from that sample, so it is paired with it (a zero-order hold after)."""
-    sp, js = run.setpoint, run.joint_states
-    if not len(sp):
-        return np.empty(0), np.empty(0)
-    index = np.searchsorted(sp.steps, js.steps, side='right') - 1
-    known = index >= 0
-    error = sp.values[index[known], 0] - js.values[known, 1]
-    return js.steps[known] * run.dt, error
-
 
 def _mark_events(ax: Axes, marks: RunMarks) -> None:
     for change in marks.parameter_changes:
