@@ -93,7 +93,7 @@ class BagFiles:
     def __init__(self, path: Path, topics: Sequence[TopicSpec]) -> None:
         self.path = path
         self.mcap_name = f'{path.name}_0.mcap'
-        self.topics = [{'name': t.name, 'type': t.msgtype,
+        self.topics: list[dict[str, Any]] = [{'name': t.name, 'type': t.msgtype,
                         'qos': [qos_profile(t.transient_local)]} for t in topics]
         self._specs = list(topics)
         self.custom = {'screwgear_ros.package_version': __version__}

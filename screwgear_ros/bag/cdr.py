@@ -164,7 +164,7 @@ class _Packed:
             sec, nanosec = divmod(time_ns, 1_000_000_000)
             for i in self._stamp_items:
                 items[i], items[i + 1] = sec, nanosec
-        for (i, count), values in zip(self._block_items, blocks):
+        for (i, count), values in zip(self._block_items, blocks, strict=False):
             items[i:i + count] = values
         return self._whole.pack(*items)
 
@@ -282,7 +282,7 @@ def template_of(msg: Any, stamps: Sequence[Path] = (),
     first path to its last, nothing but doubles)."""
     w = _Writer()
     w.message(msg)
-    return Template(type_name(msg), w.buf, [w.stamp(p) for p in stamps],
+    return Template(type_name(msg), bytes(w.buf), [w.stamp(p) for p in stamps],
                     [w.block(paths) for paths in blocks], w.free)
 
 

@@ -145,7 +145,10 @@ class _Scan:
                                else Channel.read(stream))
             pos = body + length
         for record in records:          # the chunk is whole: take what it declares
-            (self._schema if isinstance(record, Schema) else self._channel)(record)
+            if isinstance(record, Schema):
+                self._schema(record)
+            else:
+                self._channel(record)
         if not at:
             return
         buf = np.frombuffer(data, dtype=np.uint8)
@@ -168,7 +171,7 @@ class _Scan:
             if _wanted(_relative(topic), msgtype) == 'bulk' and np.all(sizes == sizes[0]):
                 part: np.ndarray | list[bytes] = _gather(buf, starts[mine], int(sizes[0]))
             else:
-                part = [data[a:a + n] for a, n in zip(starts[mine].tolist(), sizes.tolist())]
+                part = [data[a:a + n] for a, n in zip(starts[mine].tolist(), sizes.tolist(), strict=False)]
             self._keep(c, order[mine], log_time[mine], part)
         self.count += len(at)
 

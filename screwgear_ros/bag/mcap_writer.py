@@ -51,7 +51,7 @@ _pack_message = MCAP_MESSAGE.pack
 _MESSAGE_COLUMNS = tuple(zip(('opcode', 'length', 'channel', 'sequence', 'log_time',
                               'publish_time'),
                              [{'B': 'u1', 'H': '<u2', 'I': '<u4', 'Q': '<u8'}[code]
-                              for code in MCAP_MESSAGE.format[1:]]))
+                              for code in MCAP_MESSAGE.format[1:]], strict=False))
 assert np.dtype(list(_MESSAGE_COLUMNS)).itemsize == MCAP_MESSAGE.size
 _FOOTER_START = struct.Struct('<BQQQ')      # opcode, length, summary start, offsets start
 
@@ -204,7 +204,7 @@ class McapWriter:
             t = log_times[done:done + take]
             rows = np.empty(take, layout)
             for k, (channel_id, (first, stride), size) in enumerate(
-                    zip(channel_ids, sequences, sizes)):
+                    zip(channel_ids, sequences, sizes, strict=False)):
                 rows[f'opcode{k}'] = _MESSAGE_OPCODE
                 rows[f'length{k}'] = MCAP_MESSAGE_FIELDS + size
                 rows[f'channel{k}'] = channel_id

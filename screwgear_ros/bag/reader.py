@@ -210,11 +210,11 @@ def _routes(found: Any) -> tuple[list[_Message], dict[str, _Pieces]]:
         topic, msgtype = found.channels[channel]
         rel = _relative(topic)
         if _wanted(rel, msgtype) == 'bulk':
-            bulk.setdefault(rel, []).extend(zip(kept.order, kept.log_time, kept.parts))
+            bulk.setdefault(rel, []).extend(zip(kept.order, kept.log_time, kept.parts, strict=False))
             continue
-        for order, log_time, part in zip(kept.order, kept.log_time, kept.parts):
+        for order, log_time, part in zip(kept.order, kept.log_time, kept.parts, strict=False):
             one_by_one.extend(zip(order.tolist(), [topic] * len(part), [msgtype] * len(part),
-                                  log_time.tolist(), part))
+                                  log_time.tolist(), part, strict=False))
     one_by_one.sort(key=lambda m: m[0])
     return one_by_one, bulk
 
@@ -296,7 +296,7 @@ def _signals(reader: _Decoder, bulk: dict[str, _Pieces]
         signals[rel] = Signal(steps, order[sort], values[sort])
         if rel in ('joint_states', 'true_joint_states'):
             off = np.flatnonzero(stamps[sort] != log_time[sort])
-            stamp_mismatches += zip(log_time[sort][off].tolist(), stamps[sort][off].tolist())
+            stamp_mismatches += zip(log_time[sort][off].tolist(), stamps[sort][off].tolist(), strict=False)
     return signals, sorted(stamp_mismatches)
 
 

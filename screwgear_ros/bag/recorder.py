@@ -55,7 +55,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -220,7 +220,7 @@ class RunRecorder:
                 lambda: 2 * (self._accepted - self._handled + n) <= self._queue_size
                 or self._closed, ROOM_TIMEOUT)
 
-    def _undeclared(self, topic: str) -> None:
+    def _undeclared(self, topic: str) -> NoReturn:
         raise ValueError(f'topic {topic!r} was not declared to the recorder '
                          f'(declared: {", ".join(self._alone)})')
 
@@ -321,7 +321,7 @@ class RunRecorder:
         or after an error (the item-by-item path counts the drops)."""
         if self._abandon or self._error is not None:
             return False
-        columns = list(zip(*(messages for _, _, messages in rows)))
+        columns = list(zip(*(messages for _, _, messages in rows), strict=False))
         sizes = []
         for column in columns:
             if set(map(type, column)) != {bytes}:
@@ -356,7 +356,7 @@ class RunRecorder:
         log_time = int(log_time)
         added = mcap.added
         if not self._abandon and self._error is None:
-            for index, channel_id, msg in zip(group.indexes, group.channel_ids, messages):
+            for index, channel_id, msg in zip(group.indexes, group.channel_ids, messages, strict=False):
                 try:
                     mcap.add(channel_id, counts[index], log_time,      # counts: the sequence
                              msg if msg.__class__ is bytes else serialize(msg))

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from enum import StrEnum
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -48,9 +49,9 @@ DPI = 100
 #: Name of plot_run's figure inside the bag directory when no output is given.
 DEFAULT_NAME = 'plot.png'
 
-PARAMETER_STYLE = {'color': COLORS[3], 'linestyle': '--', 'linewidth': 1.2}
-RESET_STYLE = {'color': COLORS[6], 'linestyle': '-.', 'linewidth': 1.2}
-TOLERANCE_STYLE = {'color': COLORS[1], 'linestyle': '--', 'linewidth': 1.4}
+PARAMETER_STYLE: dict[str, Any] = {'color': COLORS[3], 'linestyle': '--', 'linewidth': 1.2}
+RESET_STYLE: dict[str, Any] = {'color': COLORS[6], 'linestyle': '-.', 'linewidth': 1.2}
+TOLERANCE_STYLE: dict[str, Any] = {'color': COLORS[1], 'linestyle': '--', 'linewidth': 1.4}
 
 
 class Panel(StrEnum):
@@ -150,7 +151,7 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
     fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(13, height), dpi=DPI,
                              height_ratios=[HEIGHTS.get(p, 1.0) for p in panels],
                              layout='constrained')
-    ax = dict(zip(panels, axes))
+    ax = dict(zip(panels, axes, strict=False))
     for panel, a in ax.items():
         a.set_label(panel)
 
@@ -347,6 +348,7 @@ def check_figure(run: RecordedRun, report: CheckReport) -> Figure:
             a.set_ylim(signal.tolerance * 1e-3, signal.tolerance * 10.0)
             a.text(0.5, 0.3, 'exactly 0 at every sample', transform=a.transAxes,
                    ha='center', color='0.3')
+        assert signal.times is not None and signal.errors is not None   # check_run's
         shown = np.where(signal.errors > 0.0, signal.errors, np.nan)   # log scale: 0 is -inf
         a.plot(signal.times, shown, color=COLORS[0], linewidth=0.9, gid=Mark.ERROR,
                label='|node − reference|')

@@ -46,6 +46,7 @@ def run_marks(run: RecordedRun, ticks: list[Tick] | None = None) -> RunMarks:
     changes: list[ParameterMark] = []
     resets: list[float] = []
     for _, event in run.events:
+        assert event.step is not None      # a recorded event carries its step
         if isinstance(event, ParameterChange):
             now = _values(event)
             changes.append(ParameterMark(event.step * run.dt,

@@ -78,10 +78,10 @@ def reference_outputs(run: RecordedRun, replayed: ReplayedOutputs,
     offsets = np.cumsum([0] + [len(p.segments) for p in pieces])
     states: list[dict[int, np.ndarray]] = [
         _solve_piece(p, run.dt, progress, int(first), total, rtol)
-        for p, first in zip(pieces, offsets)]
+        for p, first in zip(pieces, offsets, strict=False)]
     piece_of = np.array([x[0] for x in c.contexts], dtype=np.int64)[c.in_force]
     rows, mesh = _observe(run, c, np.array([states[k][s] for k, s in
-                                            zip(piece_of.tolist(), steps.tolist())]
+                                            zip(piece_of.tolist(), steps.tolist(), strict=False)]
                                            ).reshape(-1, N_STATE))
     return rows[:, ROW_JOINTS], rows[:len(run.transmission_error), ROW_TE], mesh
 
@@ -101,7 +101,7 @@ def _observe(run: RecordedRun, c: _Contexts, states: np.ndarray
     rows = np.empty((len(steps), ROW))
     mesh = np.empty((len(steps), 6))
     plants: dict[int, Plant] = {}
-    for i, (step, k) in enumerate(zip(steps.tolist(), c.in_force.tolist())):
+    for i, (step, k) in enumerate(zip(steps.tolist(), c.in_force.tolist(), strict=False)):
         _, drive, params = c.contexts[k]
         plant = plants.get(id(params))
         if plant is None:
@@ -159,7 +159,7 @@ def _solve_piece(piece: _Piece, dt: float, progress: Callable[[float], None] | N
         return result
     samples = np.array(sorted(piece.samples), dtype=np.int64)
     last = int(samples[-1])
-    block = max(1, int(round(BLOCK_SECONDS / dt)))
+    block = max(1, round(BLOCK_SECONDS / dt))
     y = np.zeros(N_STATE)       # the whole state: the drives' lagged torques from 0
     y[:len(piece.initial_state)] = piece.initial_state
     if samples[0] == piece.start_step:
@@ -177,7 +177,7 @@ def _solve_piece(piece: _Piece, dt: float, progress: Callable[[float], None] | N
             except ReferenceFailure as exc:
                 raise exc.located(first + k, total,
                                   seg.start_step * dt, seg_end * dt) from None
-            for s, state in zip(steps, out):
+            for s, state in zip(steps, out, strict=False):
                 result[int(s)] = state
             y = out[-1].copy()
             if progress is not None:

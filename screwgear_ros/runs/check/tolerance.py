@@ -26,6 +26,8 @@ import math
 import multiprocessing as mp
 import os
 from dataclasses import dataclass, field
+from multiprocessing.connection import Connection
+from multiprocessing.process import BaseProcess
 
 import numpy as np
 
@@ -102,7 +104,8 @@ class FineReplay:
 
     def __init__(self, run: RecordedRun, parallel: bool) -> None:
         self.run = run
-        self.proc = self.conn = None
+        self.proc: BaseProcess | None = None
+        self.conn: Connection | None = None
         cores = len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else 1
         if parallel and cores > 1 and 'fork' in mp.get_all_start_methods():
             ctx = mp.get_context('fork')
@@ -128,7 +131,7 @@ class FineReplay:
     def result(self) -> tuple[np.ndarray, np.ndarray]:
         """(joint_states rows, transmission errors) of the replay at dt/2."""
         answer = None
-        if self.proc is not None:
+        if self.proc is not None and self.conn is not None:
             try:
                 answer = self.conn.recv()
             except (EOFError, OSError):
@@ -142,7 +145,7 @@ class FineReplay:
         return fine.joint_states, fine.transmission_error
 
     def close(self) -> None:
-        if self.proc is not None:
+        if self.proc is not None and self.conn is not None:
             if self.proc.is_alive():
                 self.proc.terminate()
             self.proc.join()

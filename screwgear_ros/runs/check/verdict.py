@@ -137,11 +137,11 @@ def _path_mismatch(run: RecordedRun, replayed: ReplayedOutputs) -> str | None:
     end = run.end_step      # a change at or after the last output is not checked (cut bag)
     expected = [c for c in path_changes(run, replayed) if c[0] < end]
     recorded = [(int(s), int(v)) for s, v in zip(run.active_path.steps.tolist(),
-                                                 run.active_path.values[:, 0].tolist())
+                                                 run.active_path.values[:, 0].tolist(), strict=False)
                 if s < end]
     if recorded == expected:
         return None
-    for k, (a, b) in enumerate(zip(recorded, expected)):
+    for k, (a, b) in enumerate(zip(recorded, expected, strict=False)):
         if a != b:
             return (f'change {k + 1}: recorded path {a[1]} at t = {a[0] * run.dt:.6f} s, '
                     f'the replay gives path {b[1]} at t = {b[0] * run.dt:.6f} s')
@@ -161,7 +161,7 @@ def sensor_rows(run: RecordedRun) -> np.ndarray:
     takes = np.searchsorted(exact.order, [order for order, _ in events], side='right').tolist()
     rows = exact.values.copy()
     k = 0
-    for i, (step, values) in enumerate(zip(exact.steps.tolist(), exact.values.tolist())):
+    for i, (step, values) in enumerate(zip(exact.steps.tolist(), exact.values.tolist(), strict=False)):
         while k < len(events) and takes[k] <= i:
             event = events[k][1]
             if isinstance(event, Reset):
@@ -247,7 +247,7 @@ def check_run(run: RecordedRun, progress: Callable[[float], None] | None = None,
     columns += [(run.mesh_state.values[:, c], ref_mesh[:m, c], loose[2][:m, c],
                  richardson_mesh[:m, c], times_js[:m]) for c in range(6)]
     for (name, unit), (rec, ref, ref_loose, richardson, times) in zip(
-            signal_names(run) + MESH_SIGNALS, columns):
+            signal_names(run) + MESH_SIGNALS, columns, strict=False):
         estimate = float(np.max(np.abs(richardson)))
         scale = float(np.max(np.abs(ref)))
         tolerance = max(report.safety * estimate, FLOOR_REL * scale, FLOOR_ABS[unit])
@@ -265,8 +265,8 @@ def format_report(report: CheckReport) -> str:
     """The human-readable report check_run prints."""
     lines = [
         f'check_run {report.path}',
-        f'  {report.duration:.3f} s simulated at dt = {report.dt * 1e6:g} µs, '
-        f'{report.events} recorded events ({report.resets} resets)',
+        (f'  {report.duration:.3f} s simulated at dt = {report.dt * 1e6:g} µs, '
+        f'{report.events} recorded events ({report.resets} resets)'),
     ]
     if report.truncated:
         lines.append(f'  WARNING: {report.truncated}; checked what is readable')
@@ -274,18 +274,18 @@ def format_report(report: CheckReport) -> str:
         lines.append(f'  NOTE: {report.summary}; it is not used: the channels and messages '
                      'are read from the data section (the index rebuilt from the data)')
     lines += [
-        f'  reference: DOP853 (compiled, adaptive), rtol {RTOL / REFERENCE_REFINE:g}, '
+        (f'  reference: DOP853 (compiled, adaptive), rtol {RTOL / REFERENCE_REFINE:g}, '
         'restarted at every input/parameter change and reset; its own error ("ref. err") is '
         f'taken as its difference from the solution at rtol {RTOL:g} ÷ '
-        f'{REFERENCE_REFINE - 1:g}: a signal within that of its tolerance is undecided',
-        f'  tolerance = max({report.safety:g} × |RK4(dt) − RK4(dt/2)|, {FLOOR_REL:g} × '
-        'max|signal|): Richardson\'s estimate of RK4\'s global error',
+        f'{REFERENCE_REFINE - 1:g}: a signal within that of its tolerance is undecided'),
+        (f'  tolerance = max({report.safety:g} × |RK4(dt) − RK4(dt/2)|, {FLOOR_REL:g} × '
+        'max|signal|): Richardson\'s estimate of RK4\'s global error'),
         ('  (15/16 of it for a 4th-order method, kept through backlash impacts by locating '
          'contact changes),' if report.safety == SAFETY else
          '  (15/16 of it for a 4th-order method; recorded with the fixed step, whose order '
          'impacts lower),') + f' with a safety factor {report.safety:g}',
-        f'  {"signal":<26}{"unit":<7}{"max error":>12}{"RMS error":>12}{"at t [s]":>11}'
-        f'{"RK4 est.":>12}{"ref. err":>12}{"tolerance":>12}  verdict',
+        (f'  {"signal":<26}{"unit":<7}{"max error":>12}{"RMS error":>12}{"at t [s]":>11}'
+        f'{"RK4 est.":>12}{"ref. err":>12}{"tolerance":>12}  verdict'),
     ]
     for s in report.signals:
         lines.append(f'  {s.name:<26}{s.unit:<7}{s.max_error:>12.3e}{s.rms_error:>12.3e}'
