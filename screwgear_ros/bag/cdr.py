@@ -30,6 +30,12 @@ zeros too; rclpy leaves padding bytes uninitialized, so only its decoding is com
 :func:`joint_state_template`, :func:`float64_template` and :func:`clock_template` build
 the three layouts the node publishes every tick; :mod:`screwgear_ros.ros.markers` builds
 the markers' from the rclpy MarkerArray it draws.
+
+Why not ``rosbags``' serializer, which the package depends on anyway: to serialize a
+tick with it the node would build its messages as objects first, and the two together
+cost several times one pack of a bundle, on the pacing thread, every tick
+(``benchmarks/bench_serialization.py`` measures both on a recorded run's ticks and checks
+that their bytes are identical).
 """
 
 from __future__ import annotations

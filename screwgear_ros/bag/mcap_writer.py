@@ -13,6 +13,13 @@ chunk (:attr:`McapWriter.discarded` counts its messages) and re-raises. Only who
 chunks, with their message indexes, count as written (:attr:`McapWriter.written`,
 :meth:`McapWriter.counts`), so the counts are what a reader finds. :meth:`finish` can
 then still close the file with a summary of what it holds, if the disk has room for it.
+
+Why not ``mcap.writer.Writer``: the recorder's writer thread takes the interpreter lock
+from the pacing thread for as long as it writes, and ``Writer.add_message`` costs several
+times :meth:`McapWriter.add_rows` (and :meth:`McapWriter.add`) per message; nor does it
+cut a file back to its last whole chunk when a write fails
+(``benchmarks/bench_serialization.py`` measures both on the node's tick stream and
+compares the messages of the files they write).
 """
 
 from __future__ import annotations
