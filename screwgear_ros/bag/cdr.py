@@ -30,6 +30,12 @@ zeros too; rclpy leaves padding bytes uninitialized, so only its decoding is com
 :func:`joint_state_template`, :func:`float64_template` and :func:`clock_template` build
 the three layouts the node publishes every tick; :mod:`screwgear_ros.ros.markers` builds
 the markers' from the rclpy MarkerArray it draws.
+
+Why not ``rosbags``' serializer, which the package depends on anyway: to serialize a
+tick with it the node would build its messages as objects first, and the two together
+cost several times one pack of a bundle, on the pacing thread, every tick
+(``benchmarks/bench_serialization.py`` measures both on a recorded run's ticks and checks
+that their bytes are identical).
 """
 
 from __future__ import annotations
@@ -164,7 +170,7 @@ class _Packed:
             sec, nanosec = divmod(time_ns, 1_000_000_000)
             for i in self._stamp_items:
                 items[i], items[i + 1] = sec, nanosec
-        for (i, count), values in zip(self._block_items, blocks):
+        for (i, count), values in zip(self._block_items, blocks, strict=False):
             items[i:i + count] = values
         return self._whole.pack(*items)
 
@@ -282,7 +288,7 @@ def template_of(msg: Any, stamps: Sequence[Path] = (),
     first path to its last, nothing but doubles)."""
     w = _Writer()
     w.message(msg)
-    return Template(type_name(msg), w.buf, [w.stamp(p) for p in stamps],
+    return Template(type_name(msg), bytes(w.buf), [w.stamp(p) for p in stamps],
                     [w.block(paths) for paths in blocks], w.free)
 
 

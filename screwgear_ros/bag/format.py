@@ -105,7 +105,7 @@ def metadata_document(mcap_name: str, topics: Sequence[Mapping[str, Any]],
                 },
                 'message_count': int(count),
             }
-            for topic, count in zip(topics, counts)
+            for topic, count in zip(topics, counts, strict=False)
         ],
         'compression_format': '',
         'compression_mode': '',

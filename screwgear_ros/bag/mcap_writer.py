@@ -13,6 +13,13 @@ chunk (:attr:`McapWriter.discarded` counts its messages) and re-raises. Only who
 chunks, with their message indexes, count as written (:attr:`McapWriter.written`,
 :meth:`McapWriter.counts`), so the counts are what a reader finds. :meth:`finish` can
 then still close the file with a summary of what it holds, if the disk has room for it.
+
+Why not ``mcap.writer.Writer``: the recorder's writer thread takes the interpreter lock
+from the pacing thread for as long as it writes, and ``Writer.add_message`` costs several
+times :meth:`McapWriter.add_rows` (and :meth:`McapWriter.add`) per message; nor does it
+cut a file back to its last whole chunk when a write fails
+(``benchmarks/bench_serialization.py`` measures both on the node's tick stream and
+compares the messages of the files they write).
 """
 
 from __future__ import annotations
@@ -51,7 +58,7 @@ _pack_message = MCAP_MESSAGE.pack
 _MESSAGE_COLUMNS = tuple(zip(('opcode', 'length', 'channel', 'sequence', 'log_time',
                               'publish_time'),
                              [{'B': 'u1', 'H': '<u2', 'I': '<u4', 'Q': '<u8'}[code]
-                              for code in MCAP_MESSAGE.format[1:]]))
+                              for code in MCAP_MESSAGE.format[1:]], strict=False))
 assert np.dtype(list(_MESSAGE_COLUMNS)).itemsize == MCAP_MESSAGE.size
 _FOOTER_START = struct.Struct('<BQQQ')      # opcode, length, summary start, offsets start
 
@@ -204,7 +211,7 @@ class McapWriter:
             t = log_times[done:done + take]
             rows = np.empty(take, layout)
             for k, (channel_id, (first, stride), size) in enumerate(
-                    zip(channel_ids, sequences, sizes)):
+                    zip(channel_ids, sequences, sizes, strict=False)):
                 rows[f'opcode{k}'] = _MESSAGE_OPCODE
                 rows[f'length{k}'] = MCAP_MESSAGE_FIELDS + size
                 rows[f'channel{k}'] = channel_id

@@ -44,39 +44,22 @@ is held from the start in ``RESERVE_NAME``, a file beside the bag that grows wit
 recording's index and is deleted at the end, so a full disk still has it. The
 recorder's ``on_error`` callback then gets one line saying what failed and what the
 bag keeps; :attr:`RunRecorder.error` keeps the error.
-
-Why one module of this length: the producer side and the writer thread share the
-counters, the close lock and the stop mark, whose order is the whole correctness
-argument; the MCAP container itself is :mod:`screwgear_ros.bag.mcap_writer`.
 """
 
 from __future__ import annotations
 
 import atexit
-import contextlib
 import os
 import queue
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
-import yaml
 
-from .. import __version__
-from .format import (
-    MCAP_PROFILE,
-    MESSAGE_ENCODING,
-    SCHEMA_ENCODING,
-    message_definition,
-    metadata_document,
-    metadata_yaml,
-    qos_profile,
-    qos_yaml,
-)
+from .bag_files import RESERVE_NAME, BagFiles, TopicGroup, TopicSpec, create_file
 from .mcap_writer import McapWriter
 
 #: Default bound of the queue between the node and the writer thread, messages.
@@ -91,57 +74,7 @@ BATCH_PERIOD = 0.01
 #: then it goes on, and a full queue drops as it always does.
 ROOM_TIMEOUT = 1.0
 
-#: The file in the bag directory that holds the room for the bag's last records.
-RESERVE_NAME = '.recording_reserve'
-
 _STOP = object()
-
-
-def _create(path: Path) -> Any:
-    """A new file for writing, unbuffered (see :class:`McapWriter`)."""
-    return open(path, 'xb', buffering=0)
-
-
-class _Reserve:
-    """Bytes of the disk held in a file until the bag's last records need them."""
-
-    _BLOCK = bytes(64 * 1024)
-
-    def __init__(self, path: Path, open_file: Callable[[Path], Any], size: int) -> None:
-        self._path = path
-        self._file = open_file(path)
-        self.size = 0
-        self.grow(size)
-
-    def grow(self, size: int) -> None:
-        """Hold at least ``size`` bytes (OSError when the disk has no more)."""
-        while self.size < size:
-            self.size += self._file.write(self._BLOCK) or 0
-
-    def release(self) -> None:
-        self._file.truncate(0)
-        self._file.close()
-        self._path.unlink(missing_ok=True)
-
-
-@dataclass(frozen=True)
-class TopicGroup:
-    """Topics recorded together, one message on each (in this order) at one log time:
-    what a tick records. :meth:`RunRecorder.group` makes one, checking the topics once;
-    :meth:`RunRecorder.write_group` then takes the messages with nothing to look up."""
-
-    topics: tuple[str, ...]
-    indexes: tuple[int, ...]        # each topic's place among the recorder's topics
-    channel_ids: tuple[int, ...]    # each topic's MCAP channel
-
-
-@dataclass(frozen=True)
-class TopicSpec:
-    """A topic of the bag: fully resolved name, ROS type, and whether it is latched."""
-
-    name: str            # e.g. '/axis_c/joint_states'
-    msgtype: str         # e.g. 'sensor_msgs/msg/JointState'
-    transient_local: bool = False
 
 
 class RunRecorder:
@@ -163,7 +96,7 @@ class RunRecorder:
                  chunk_size: int = CHUNK_SIZE, flush_period: float = FLUSH_PERIOD,
                  batch_period: float = BATCH_PERIOD, compression: bool = True,
                  on_error: Callable[[str], None] | None = None,
-                 open_file: Callable[[Path], Any] = _create) -> None:
+                 open_file: Callable[[Path], Any] = create_file) -> None:
         """``on_error``: called once, on the writer thread, with a line saying what
         failed and what the bag keeps, after the bag was closed at a write error.
         ``open_file``: how the bag's MCAP file and its reserve are created (a new
@@ -198,70 +131,21 @@ class RunRecorder:
         self._hurry = threading.Event()
         self._progress = threading.Condition()
 
-        self._topics = [{'name': t.name, 'type': t.msgtype,
-                         'qos': [qos_profile(t.transient_local)]} for t in topics]
         self._counts = [0] * len(topics)     # added per topic = its next sequence number
         made = not self.path.exists()
-        self._mcap_name = f'{self.path.name}_0.mcap'
+        self._bag = BagFiles(self.path, topics)
         self.path.mkdir(parents=True, exist_ok=True)
         try:
-            self._open(topics, open_file, int(chunk_size), compression)
+            self._mcap: McapWriter = self._bag.open(open_file, int(chunk_size), compression)
+            self._alone = self._bag.alone
         except BaseException:
             # Nothing is recorded before the writer thread runs, so a start cut short
             # (Ctrl-C, a disk with no room) leaves no half-written bag behind.
-            self._discard(made)
+            self._bag.discard(made)
             raise
-        atexit.register(self.close)
-
-    def _open(self, topics: Sequence[TopicSpec], open_file: Callable[[Path], Any],
-              chunk_size: int, compression: bool) -> None:
-        """Start the bag: metadata.yaml, the MCAP header, schemas and channels, the
-        reserve, the writer thread."""
-        self._custom = {'screwgear_ros.package_version': __version__}
-        self._file = open_file(self.path / self._mcap_name)
-        self._mcap = McapWriter(self._file, chunk_size, compression)
-        self._channel_ids: list[int] = []     # per topic, in the order of ``topics``
-        self._write_metadata_yaml()
-        self._mcap.start(profile=MCAP_PROFILE, library=f'screwgear_ros-{__version__}')
-        self._mcap.add_metadata('rosbag2', {'serialized_metadata': self._serialized_metadata()})
-        schemas: dict[str, int] = {}
-        self._alone: dict[str, TopicGroup] = {}   # topic → the group of it alone
-        for index, (spec, topic) in enumerate(zip(topics, self._topics)):
-            if spec.msgtype not in schemas:
-                text, _ = message_definition(spec.msgtype)
-                schemas[spec.msgtype] = self._mcap.register_schema(
-                    spec.msgtype, SCHEMA_ENCODING, text.encode())
-            channel = self._mcap.register_channel(
-                spec.name, MESSAGE_ENCODING, schemas[spec.msgtype],
-                {'offered_qos_profiles': qos_yaml(topic['qos']),
-                 'topic_type_hash': message_definition(spec.msgtype)[1]})
-            self._alone[spec.name] = TopicGroup((spec.name,), (index,), (channel,))
-            self._channel_ids.append(channel)
-        # metadata.yaml and its copy in the MCAP file, with room for the counts' digits.
-        self._metadata_bound = 4 * len(self._serialized_metadata()) + 4096
-        self._reserve = _Reserve(self.path / RESERVE_NAME, open_file, 2 * self._end_bound())
         self._thread = threading.Thread(target=self._run, name='run_recorder', daemon=True)
         self._thread.start()
-
-    def _discard(self, made: bool) -> None:
-        """Remove what a start cut short had written (the directory too if it made it)."""
-        thread = getattr(self, '_thread', None)
-        if thread is not None and thread.is_alive():
-            self.close()                 # the writer runs: the bag is a bag, keep it
-            return
-        reserve = getattr(self, '_reserve', None)
-        if reserve is not None:
-            reserve.release()
-        file = getattr(self, '_file', None)
-        if file is not None:
-            file.close()
-        for name in (self._mcap_name, RESERVE_NAME, 'metadata.yaml', 'metadata.yaml.tmp'):
-            (self.path / name).unlink(missing_ok=True)
-        if made:
-            try:
-                self.path.rmdir()
-            except OSError:
-                pass
+        atexit.register(self.close)
 
     # ------------------------------------------------------------------ node side
 
@@ -336,7 +220,7 @@ class RunRecorder:
                 lambda: 2 * (self._accepted - self._handled + n) <= self._queue_size
                 or self._closed, ROOM_TIMEOUT)
 
-    def _undeclared(self, topic: str) -> None:
+    def _undeclared(self, topic: str) -> NoReturn:
         raise ValueError(f'topic {topic!r} was not declared to the recorder '
                          f'(declared: {", ".join(self._alone)})')
 
@@ -399,7 +283,7 @@ class RunRecorder:
             if dirty and now >= next_flush and self._error is None:
                 try:
                     self._mcap.flush()
-                    self._hold_room()
+                    self._bag.hold_room()
                 except Exception as exc:  # noqa: BLE001 - reported through .error
                     self._fail(exc)
                 dirty = False
@@ -437,7 +321,7 @@ class RunRecorder:
         or after an error (the item-by-item path counts the drops)."""
         if self._abandon or self._error is not None:
             return False
-        columns = list(zip(*(messages for _, _, messages in rows)))
+        columns = list(zip(*(messages for _, _, messages in rows), strict=False))
         sizes = []
         for column in columns:
             if set(map(type, column)) != {bytes}:
@@ -472,7 +356,7 @@ class RunRecorder:
         log_time = int(log_time)
         added = mcap.added
         if not self._abandon and self._error is None:
-            for index, channel_id, msg in zip(group.indexes, group.channel_ids, messages):
+            for index, channel_id, msg in zip(group.indexes, group.channel_ids, messages, strict=False):
                 try:
                     mcap.add(channel_id, counts[index], log_time,      # counts: the sequence
                              msg if msg.__class__ is bytes else serialize(msg))
@@ -489,15 +373,6 @@ class RunRecorder:
         if self._error is None:
             self._error = f'{type(exc).__name__}: {exc}'
 
-    def _end_bound(self) -> int:
-        """Bytes the end of the bag needs at most: the MCAP summary and the metadata."""
-        return self._mcap.summary_bound() + self._metadata_bound
-
-    def _hold_room(self) -> None:
-        """Keep the reserve at least what the end of the bag needs, doubling it."""
-        if self._reserve.size < self._end_bound():
-            self._reserve.grow(2 * self._end_bound())
-
     def _finish(self) -> None:
         """Count what is left, write summary and index, close, rewrite metadata.yaml;
         after an error, say once what the bag keeps."""
@@ -509,27 +384,7 @@ class RunRecorder:
             if item is not _STOP:
                 self._count_drop(len(item[2]))
                 self._handled += len(item[2])
-        unfinished = ''
-        with contextlib.suppress(OSError):
-            self._reserve.release()       # its room is the end's, whatever failed
-        try:
-            self._mcap.flush()            # the metadata counts what the file holds
-            self._mcap.add_metadata('rosbag2',
-                                    {'serialized_metadata': self._serialized_metadata()})
-            self._mcap.finish()
-        except Exception as exc:  # noqa: BLE001 - reported through .error and on_error
-            self._fail(exc)
-            unfinished = (f'; its summary could not be written ({type(exc).__name__}: {exc}): '
-                          'it ends at its last whole chunk, readable as a truncated bag')
-        finally:
-            self._file.close()
-        try:
-            self._write_metadata_yaml()
-        except OSError as exc:
-            (self.path / 'metadata.yaml.tmp').unlink(missing_ok=True)
-            self._fail(exc)
-            unfinished += (f'; metadata.yaml could not be rewritten ({exc}): it is the one '
-                           'written when the recording started, without counts')
+        unfinished = self._bag.finish(self._fail)
         with self._progress:
             self._progress.notify_all()
         if self._error is not None and self._on_error is not None:
@@ -541,21 +396,6 @@ class RunRecorder:
                    else '')
                 + f'; {self.dropped} dropped' + (unfinished or '; the bag is closed and '
                                                  'reads back up to the fault'))
-
-    def _document(self) -> dict[str, Any]:
-        written = self._mcap.counts()        # none before the channels are registered
-        return metadata_document(self._mcap_name, self._topics,
-                                 [written.get(channel, 0) for channel in self._channel_ids]
-                                 or [0] * len(self._topics),
-                                 *self._mcap.time_range(), self._custom)
-
-    def _serialized_metadata(self) -> str:
-        return yaml.safe_dump(self._document(), default_flow_style=False, sort_keys=False)
-
-    def _write_metadata_yaml(self) -> None:
-        tmp = self.path / 'metadata.yaml.tmp'
-        tmp.write_text(metadata_yaml(self._document()), encoding='utf-8')
-        tmp.replace(self.path / 'metadata.yaml')
 
 
 __all__ = [

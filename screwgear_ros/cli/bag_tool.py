@@ -3,7 +3,7 @@ plot_run): a bag they cannot read, recorded parameters the model refuses, anythi
 
 from __future__ import annotations
 
-from ..bag.reader import BagError
+from ..bag.errors import BagError
 from ..physics.equilibrium import EquilibriumNotFound
 from . import Errors, Failures, Message
 

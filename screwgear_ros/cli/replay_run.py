@@ -64,7 +64,8 @@ from typing import Any
 
 from rclpy.utilities import remove_ros_args
 
-from ..bag.reader import BagError, RecordedRun, read_run
+from ..bag.errors import BagError
+from ..bag.reader import RecordedRun, read_run
 from ..ros.replay_client import Interrupted, ReplayClient, ReplayError
 from ..ros.replaying import (
     CHILD_CLOSE,

@@ -14,6 +14,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Int8, String
 
+from ..bag.tick_encoder import MESH_NAMES
 from ..interface import (
     BY_KEY,
     COMMAND_TOPICS,
@@ -23,8 +24,6 @@ from ..interface import (
     Input,
 )
 from ..sim.commands import JointCommand
-
-MESH_NAMES = ['mesh_1', 'mesh_3']
 
 
 def message_class(name: str) -> type:

@@ -13,7 +13,7 @@ message packages: this module belongs to the ROS shell, and the core's
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import Any, Self
 
 from ..bag.recorder import RunRecorder
 from ..interface import topic_names
@@ -56,7 +56,7 @@ class SessionRecording:
         self.recorder.close()
         return self.recorder
 
-    def __enter__(self) -> SessionRecording:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -21,7 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bag.reader import BagError, RecordedRun
+from ..bag.errors import InvalidBag
+from ..bag.reader import RecordedRun
 from ..sim.events import Event, ParameterChange, describe
 from ..sim.schedule import Schedule, ros_values
 from ..sim.session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
@@ -66,7 +67,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
     rows = np.empty((n, ROW))
     m = len(run.transmission_error)
     if m and not np.array_equal(run.transmission_error.steps, samples.steps[:m]):
-        raise BagError('invalid', 'transmission_error and joint_states samples are not '
+        raise InvalidBag('transmission_error and joint_states samples are not '
                        'published at the same steps')
     replayed = ReplayedOutputs(rows[:, ROW_JOINTS], rows[:m, ROW_TE], None)
     if not n:
@@ -75,7 +76,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
                                              refine).settings,
                       np.asarray(start.initial_state), start.start_step * refine)
     if samples.steps[0] != start.start_step:
-        raise BagError('invalid', f'the first joint_states is at step {samples.steps[0]}, '
+        raise InvalidBag(f'the first joint_states is at step {samples.steps[0]}, '
                        f'the run starts at step {start.start_step}')
     rows[0] = row_of(session.last_outputs)
     events, k = run.events, 0
@@ -90,14 +91,14 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
             while k < len(events) and takes[k] <= i:
                 event = _refined(events[k][1], refine)
                 if event.step != session.step:
-                    raise BagError('invalid', f'{describe(events[k][1])} is recorded at '
+                    raise InvalidBag(f'{describe(events[k][1])} is recorded at '
                                    f'step {events[k][1].step}, but the node applied what '
                                    f'arrived then at step {session.step // refine}')
                 session.submit(event)
                 k += 1
             tick = session.tick()
             if tick.rejected:
-                raise BagError('invalid', f'step {tick.start // refine}: a recorded command '
+                raise InvalidBag(f'step {tick.start // refine}: a recorded command '
                                f'the node must have refused: {tick.rejected[0]}')
             rows[i] = row_of(tick.outputs)
             replayed.ticks.append(tick)
@@ -106,7 +107,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
         made = rows[i:i + done, ROW_STEP].astype(np.int64)
         off = np.flatnonzero(samples.steps[i:i + done] * refine != made)
         if len(off):
-            raise BagError('invalid', f'joint_states sample {i + off[0]} is at step '
+            raise InvalidBag(f'joint_states sample {i + off[0]} is at step '
                            f'{samples.steps[i + off[0]]}, but the tick that produced it '
                            f'ends at step {made[off[0]] // refine}')
         i += done

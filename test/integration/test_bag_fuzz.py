@@ -26,9 +26,10 @@ from pathlib import Path
 
 import pytest
 import yaml
-from bag_runs import BAGS, DATA, installed, retyped_copy
+from bag_runs import BAGS, installed, retyped_copy
 from mcap.records import Channel, DataEnd, Footer, Message, Schema
 from mcap.stream_reader import StreamReader
+from paths import DATA
 
 from screwgear_ros.cli import check_run, plot_run
 

@@ -12,8 +12,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from bag_runs import BAGS, DATA, copy_bag, nudge_table_angle, record_session, truncated_copy
+from bag_runs import BAGS, copy_bag, nudge_table_angle, record_session, truncated_copy
 from bag_runs import installed_check_run as check_run
+from paths import DATA
 from rosbags.typesys import Stores, get_typestore
 
 from screwgear_ros.params.table import SimSettings, TableParams

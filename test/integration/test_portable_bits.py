@@ -18,7 +18,8 @@ import subprocess
 import sys
 
 import pytest
-from bag_runs import BAGS, DATA
+from bag_runs import BAGS
+from paths import DATA
 
 REPLAY = '''
 import json, sys

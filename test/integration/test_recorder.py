@@ -45,7 +45,8 @@ from std_msgs.msg import (
 )
 
 from screwgear_ros.bag import RunRecorder, TopicSpec
-from screwgear_ros.bag.reader import BagError, read_run
+from screwgear_ros.bag.errors import BagError, NoParameters, TruncatedBag
+from screwgear_ros.bag.reader import read_run
 
 TOPICS = [
     TopicSpec('/axis_c/joint_states', 'sensor_msgs/msg/JointState'),
@@ -567,4 +568,4 @@ def test_kill_9_leaves_every_flushed_chunk_readable(tmp_path: Path) -> None:
           f'writer lost ({os.path.getsize(mcap_file)} bytes on disk)')
     with pytest.raises(BagError) as err:
         read_run(bag)
-    assert err.value.kind in ('truncated', 'no_parameters')
+    assert isinstance(err.value, (TruncatedBag, NoParameters))

@@ -5,7 +5,7 @@
 and records it with the node's :class:`~screwgear_ros.ros.run_io.RunIO` (publishers none),
 so a bag is written exactly as table_sim writes it, tick by tick, as fast as the machine goes.
 :func:`copy_bag` rewrites a bag message by message (to corrupt one on purpose); :data:`BAGS`
-names the runs checked in under :data:`DATA`.
+names the runs checked in under :data:`paths.DATA`.
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ from mcap.exceptions import InvalidMagic, McapError
 from mcap.records import Channel, DataEnd, Footer, Message, Schema
 from mcap.stream_reader import StreamReader
 
-from screwgear_ros.bag.reader import BagError
+from screwgear_ros.bag.errors import NotABag
 
 
 def iter_messages(mcap_path: Path, status: dict[str, Any]) -> Iterator[tuple[str, str, int, bytes]]:
@@ -33,7 +33,7 @@ def iter_messages(mcap_path: Path, status: dict[str, Any]) -> Iterator[tuple[str
                 break
             except InvalidMagic:
                 if stream.tell() <= 16:
-                    raise BagError('not_a_bag', f'{mcap_path} is not an MCAP file') from None
+                    raise NotABag(f'{mcap_path} is not an MCAP file') from None
                 status['truncated'] = f'{mcap_path.name} has no valid end magic'
                 break
             except (McapError, struct.error, ValueError, MemoryError) as exc:

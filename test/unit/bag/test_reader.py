@@ -15,9 +15,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
-from bag_runs import BAGS, DATA
+from bag_runs import BAGS
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+from paths import DATA
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
@@ -62,7 +63,7 @@ def test_rosbags_and_mcap_ros2_decode_every_message(name: str) -> None:
 def test_the_scenarios_are_in_the_bags() -> None:
     """Each bag holds what its scenario promises (so the tests on them mean something)."""
     runs = {name: read_run(DATA / name) for name in BAGS}
-    for name, run in runs.items():
+    for run in runs.values():
         assert run.parameters.params.table_damping == 8867.0
         assert run.parameters.settings.publish_rate == 200.0 and run.dt == 50e-6
         assert run.end_step * run.dt >= 4.0
