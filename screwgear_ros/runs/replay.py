@@ -81,28 +81,35 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
     events, k = run.events, 0
     # The sample whose tick takes each event: the first sample recorded after it.
     takes = np.searchsorted(samples.order, [order for order, _ in events], side='right')
+    full: list[Tick | None] = []
+
+    def stop(tick: Tick | None) -> bool:
+        full.append(tick)
+        return True
+
     i = 1
     while i < n:
-        due = k < len(events) and takes[k] <= i
-        done = 0 if due else session.tick_quietly(
-            (int(takes[k]) if k < len(events) else n) - i, rows[i:])
-        if not done:     # events due, or command_timeout at the next step: one tick()
-            while k < len(events) and takes[k] <= i:
-                event = _refined(events[k][1], refine)
-                if event.step != session.step:
-                    raise BagError('invalid', f'{describe(events[k][1])} is recorded at '
-                                   f'step {events[k][1].step}, but the node applied what '
-                                   f'arrived then at step {session.step // refine}')
-                session.submit(event)
-                k += 1
-            tick = session.tick()
+        while k < len(events) and takes[k] <= i:
+            event = _refined(events[k][1], refine)
+            if event.step != session.step:
+                raise BagError('invalid', f'{describe(events[k][1])} is recorded at '
+                               f'step {events[k][1].step}, but the node applied what '
+                               f'arrived then at step {session.step // refine}')
+            session.submit(event)
+            k += 1
+        # Up to the next sample that takes an event, the ticks between in compiled
+        # calls; stops after a full tick (one that applied events, or in which
+        # command_timeout came due), which check_run reads.
+        full.clear()
+        done = session.advance((int(takes[k]) if k < len(events) else n) - i,
+                               rows=rows[i:], monitor=stop)
+        tick = full[0] if full else None
+        if tick is not None:
             if tick.rejected:
                 raise BagError('invalid', f'step {tick.start // refine}: a recorded command '
                                f'the node must have refused: {tick.rejected[0]}')
-            rows[i] = row_of(tick.outputs)
             replayed.ticks.append(tick)
-            replayed.tick_samples.append(i)
-            done = 1
+            replayed.tick_samples.append(i + done - 1)
         made = rows[i:i + done, ROW_STEP].astype(np.int64)
         off = np.flatnonzero(samples.steps[i:i + done] * refine != made)
         if len(off):

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..bag.reader import RecordedRun
-from ..sim.events import Command, Event, ParameterChange
+from ..sim.events import Command, Event, ParameterChange, Timeline
 from ..sim.schedule import Schedule
 from .replay import replayed_events
 
@@ -94,15 +94,14 @@ def plan_from_schedule(schedule: Schedule) -> LockstepPlan:
     tick grid from step 0 (a parameter change of ``publish_rate`` changes the length of
     the ticks from the one that applies it), until a sample at ``end_step`` or later."""
     per_tick = schedule.settings.steps_per_publish
-    events, k, step, tick = [], 0, 0, 0
+    events: list[tuple[int, Event]] = []
+    timeline, step, tick = Timeline(schedule.events), 0, 0
     while step < schedule.end_step:
         tick += 1
-        while k < len(schedule.events) and schedule.events[k].step <= step:
-            event = schedule.events[k]
+        for event in timeline.due(step):
             events.append((tick, event))
             if isinstance(event, ParameterChange):
                 per_tick = event.settings.steps_per_publish
-            k += 1
         step += per_tick
     return LockstepPlan(events, tick)
 

@@ -42,17 +42,18 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
-from ..interface import INFO_TOPICS
+from ..interface import INFO_TOPICS, Input
 from ..numerics.integrator import OBSERVED
 from ..params.table import SimSettings, TableParams
 from ..physics.sensors import SensorChain
 from .commands import INPUT_TOPICS, InputRejected, apply_command, effort_drive, limit_input
-from .events import Command, Event, ParameterChange, Reset, Setpoint
+from .events import Command, Event, ParameterChange, Reset, Setpoint, Timeline
 from .plant import OBSERVED_DELTA, OBSERVED_JOINTS, DriveInput, Outputs, Plant
 
 #: Ticks per compiled call of :meth:`Session.tick_quietly` (its scratch rows: 0.5 MB).
@@ -173,6 +174,138 @@ class Session:
         with self._lock:
             self._pending.append(event)
 
+    def advance(self, ticks: int | None = None, *, until: int | None = None,
+                events: Sequence[Event] | Timeline = (),
+                controller: Callable[[], Any] | None = None,
+                monitor: Callable[[Tick | None], bool | None] | None = None,
+                every_tick: bool = False,
+                changes: Callable[[ParameterChange], None] | None = None,
+                rows: np.ndarray | None = None) -> int:
+        """Advance ``ticks`` ticks, or until the step ``until``, submitting the events due
+        on the way: the session's one loop.
+
+        Before each tick: the events of ``events`` whose step the session has reached are
+        submitted (:class:`~screwgear_ros.sim.events.Timeline`: they take effect at the
+        tick's first step), then ``controller()`` is asked for its answer. After each
+        tick: ``monitor(tick)``.
+
+        Parameters
+        ----------
+        ticks : int, optional
+            How many ticks to do.
+        until : int, optional
+            Tick while the session's step is below this one; stops early once the plant
+            has faulted (its time then stands still). At least one of ``ticks`` and
+            ``until`` is given; with both, whichever comes first.
+        events : sequence of Event or Timeline
+            Events with their step set, in step order (a Timeline continues where an
+            earlier advance left it).
+        controller : callable, optional
+            ``controller() -> effort``: cmd_effort's signed drive torque (N·m) for the
+            coming tick, or None for no command.
+        monitor : callable, optional
+            ``monitor(tick)`` after every tick; it gets None when the tick took nothing
+            but the controller's answer and ran the fast path (no :class:`Tick` made:
+            :attr:`last_outputs`, :attr:`measured` and the plant say what it did). A true
+            return stops the advance after that tick.
+        every_tick : bool
+            Make every tick a full :meth:`tick`, so the monitor always gets its Tick (a
+            recording writes it).
+        changes : callable, optional
+            Who submits a parameter change of ``events`` (a recording renders its texts
+            first); default: :meth:`submit`.
+        rows : ndarray, optional
+            Row i (``ROW`` columns, :func:`row_of`) gets tick i's exact outputs. With no
+            controller and not ``every_tick``, the ticks that take no event then run as
+            :meth:`tick_quietly` does, many in one compiled call, and the monitor sees
+            only the full ticks (those that applied an event or timed a command out).
+
+        Returns
+        -------
+        int
+            The ticks done.
+
+        Raises
+        ------
+        ValueError
+            Neither ``ticks`` nor ``until`` given, or an event without its step.
+
+        Examples
+        --------
+        >>> from screwgear_ros.params.table import SimSettings, TableParams
+        >>> session = Session(TableParams(), SimSettings())
+        >>> per_tick = session.settings.steps_per_publish
+        >>> session.advance(until=10 * per_tick)
+        10
+        >>> session.step == 10 * per_tick
+        True
+        """
+        if ticks is None and until is None:
+            raise ValueError('advance needs ticks, until or both')
+        timeline = events if isinstance(events, Timeline) else Timeline(events)
+        limit = math.inf if ticks is None else ticks
+        submit = self.submit
+        plant = self.plant
+        quiet = rows is not None and controller is None and not every_tick
+        done = 0
+        while done < limit and (until is None or (plant.step < until
+                                                   and (done == 0 or plant.fault is None))):
+            due = timeline.next_step
+            if due is not None and due <= plant.step:
+                for event in timeline.due(plant.step):
+                    if changes is not None and isinstance(event, ParameterChange):
+                        changes(event)
+                    else:
+                        submit(event)
+            elif quiet:
+                n = limit - done
+                if until is not None:         # ticks that start below ``until``
+                    n = min(n, -(-(until - plant.step) // self._steps))
+                if due is not None:           # ticks that start before the next event
+                    n = min(n, -(-(due - plant.step) // self._steps))
+                k = self.tick_quietly(int(n), rows[done:])   # type: ignore[index]
+                if k:
+                    done += k
+                    continue
+            effort = None if controller is None else controller()
+            if effort is None:
+                tick: Tick | None = self.tick()
+            elif every_tick:
+                tick = self.tick(Command.of(Input.CMD_EFFORT, [effort]))
+            else:
+                tick = self.tick_effort(effort)
+            if rows is not None:
+                rows[done] = row_of(self.last_outputs)
+            done += 1
+            if monitor is not None and monitor(tick):
+                break
+        return done
+
+    def advance_to(self, time: float, **kwargs: Any) -> int:
+        """:meth:`advance` until simulation time ``time`` (s): ticks while the step's
+        time is below it, so a time on the tick grid is where it stops exactly.
+
+        Parameters
+        ----------
+        time : float
+            Simulation time to reach, s.
+        **kwargs
+            As :meth:`advance` takes them (``events``, ``controller``, ``monitor`` ...).
+
+        Returns
+        -------
+        int
+            The ticks done.
+
+        Examples
+        --------
+        >>> from screwgear_ros.params.table import SimSettings, TableParams
+        >>> session = Session(TableParams(), SimSettings(dt=1e-4, publish_rate=100.0))
+        >>> session.advance_to(0.05)
+        5
+        """
+        return self.advance(until=math.ceil(round(time / self.settings.dt, 6)), **kwargs)
+
     def tick(self, command: Command | None = None) -> Tick:
         """Apply the queued events, integrate one tick, compute its outputs.
 
@@ -214,7 +347,7 @@ class Session:
                     fault is None and plant.fault is not None, self._measured)
 
     def tick_effort(self, effort: Any) -> Tick | None:
-        """``tick(Command.of('cmd_effort', [effort]))``: a closed loop's tick, answered
+        """``tick(Command.of(Input.CMD_EFFORT, [effort]))``: a closed loop's tick, answered
         by its controller's signed drive torque ``effort``.
 
         When that tick only takes the answer (nothing else is queued, the answer is
@@ -226,12 +359,12 @@ class Session:
         Otherwise it is :meth:`tick` itself, and returns its Tick."""
         plant = self.plant
         if self._pending or plant.fault is not None:
-            return self.tick(Command.of('cmd_effort', [effort]))
+            return self.tick(Command.of(Input.CMD_EFFORT, [effort]))
         params = plant.params
         try:
             torque, direction = effort_drive(effort, params.max_torque, params.effort_deadband)
         except InputRejected:                # tick refuses it, counts it and says why
-            return self.tick(Command.of('cmd_effort', [effort]))
+            return self.tick(Command.of(Input.CMD_EFFORT, [effort]))
         plant.set_drive(torque, direction)
         self._last_command, self.timed_out = plant.step, False
         plant.advance(self._steps)

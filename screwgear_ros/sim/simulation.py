@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from ..interface import Input
 from ..numerics.integrator import OBSERVED
 from ..params.sets import default_values, split_parameters
 from ..params.table import ParameterError, SimSettings, TableParams
@@ -386,11 +387,6 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
     outlives the tick), the ``setpoint`` submitted before them when due; ``measured``:
     the joint_states θ and ω of each sample, when the sensors are not ideal."""
     plant = session.plant
-    tick_once = session.tick
-    # A recorded tick is the full Tick the recording writes; else the session's fast
-    # path for a tick that takes one answer (None: it did, and only that).
-    answer = session.tick_effort if recording is None else \
-        (lambda effort: tick_once(Command.of('cmd_effort', [effort])))
     record = recording.tick if recording is not None else None
     steps, paths, directions = columns
     vector = plant.observed
@@ -401,13 +397,14 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
     paths.append(first.active_path)
     directions.append(plant.input.direction)
     observation = first
-    due = events[0].step if events else None
-    pending = 0
     notes, dt = SetpointNotes(), session.settings.dt
     plant_dt, ideal = plant.dt, session.sensors.ideal
-    for i in range(1, ticks + 1):
-        if due is not None and due <= observation.step:
-            pending, due = _submit_due(session, events, pending, recording)
+    i = 1
+    effort: Any = None
+
+    def answer() -> Any:
+        """Before tick i: the setpoint when due, then the controller's answer."""
+        nonlocal effort
         if setpoint is not None:
             # t as the controllers take it: from the integer ns stamp of the sample
             stamp = sim_time_ns(observation.step, dt)
@@ -419,9 +416,11 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
             if type(effort) is not float and isinstance(effort, np.generic):
                 effort = effort.item()
             command[i - 1] = effort
-            tick = answer(effort)
-        else:
-            tick = tick_once()
+        return effort
+
+    def observe(tick: Tick | None) -> None:
+        """After tick i: its sample, and the observation the controller gets next."""
+        nonlocal observation, ideal, i
         if tick is not None:
             if record is not None:
                 record(tick)
@@ -447,6 +446,14 @@ def _loop(session: Session, controller: Controller | None, first: Observation, t
         steps.append(step)
         paths.append(path)
         directions.append(plant.direction)
+        i += 1
+
+    def change(event: ParameterChange) -> None:
+        recording.submit_change(replace(event, step=None))
+
+    session.advance(ticks, events=events, controller=answer, monitor=observe,
+                    every_tick=recording is not None,
+                    changes=change if recording is not None else None)
 
 
 def _refused(tick: Tick, effort: Any, rejected: list[tuple[int, str]]) -> None:
@@ -454,24 +461,9 @@ def _refused(tick: Tick, effort: Any, rejected: list[tuple[int, str]]) -> None:
     raises (the session validated it as the node does; the tick ran with the last valid
     command, as in the node), a scheduled command's is kept in ``rejected``."""
     for error in tick.rejected:
-        if effort is not None and error.topic == 'cmd_effort' and error.value == [effort]:
+        if effort is not None and error.topic == Input.CMD_EFFORT and error.value == [effort]:
             raise error
         rejected.append((tick.start, str(error)))
-
-
-def _submit_due(session: Session, events: list[Event], first: int,
-                recording: Any) -> tuple[int, int | None]:
-    """Submit the events from ``first`` on whose step the session has reached; (the next
-    one, its step or None)."""
-    k = first
-    while k < len(events) and events[k].step <= session.step:
-        event = replace(events[k], step=None)
-        if recording is not None and isinstance(event, ParameterChange):
-            recording.submit_change(event)
-        else:
-            session.submit(event)
-        k += 1
-    return k, events[k].step if k < len(events) else None
 
 
 def stamp_ns(observation: Observation, dt: float) -> int:

@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bag_runs import BAGS, DATA
+from bag_runs import BAGS
+from paths import DATA
 
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.interface import topic_names
