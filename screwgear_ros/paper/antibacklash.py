@@ -8,9 +8,6 @@ flanks (δ1 > b, δ3 < −b) through a reversal. The table speed before the reve
 with a viscous table load c_t = T·(r2/r1)/ω2, so that torque T holds speed ω2; the drive is
 the paper's ideal torque source (``drive_no_load_speed`` 0), so every speed of the chart
 is reachable.
-
-Why one module of this length: as every module of ``report/``, it is one section of the
-paper report, its computation, figures and text together.
 """
 
 from __future__ import annotations
@@ -22,6 +19,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from ..interface import Input
 from ..params.table import (
     PAPER_DRIVE_TORQUE,
     PAPER_PINION_SPEED,
@@ -32,7 +30,7 @@ from ..params.table import (
 )
 from ..physics.quantities import stiffness_fluctuation
 from ..sim.events import Command, ParameterChange
-from ..sim.session import Session
+from ..sim.session import ROW, Session, Tick
 from .common import COLORS, HOLDS, VAGUE, Section, Verdict, plt, save_figure, table
 
 DT = 50e-6                 # s, the node's default step
@@ -71,6 +69,15 @@ class Reversal:
     force: np.ndarray      # (n, 2): F1, F3, N
 
 
+def _settled(p: TableParams, torque: float, steps: int) -> Session:
+    """A session that has driven the table at ``torque`` for ``steps`` steps: ticks of
+    one step, so that it stops at exactly that step, run many to a compiled call."""
+    session = Session(p, SimSettings(dt=DT, publish_rate=1.0 / DT))
+    session.advance(until=steps, events=[Command(Input.CMD_TORQUE, torque, step=0)],
+                    rows=np.empty((steps, ROW)))
+    return session
+
+
 def reversal(params: TableParams, torque: float, table_speed: float,
              delay: float = 0.0, stride: int = 2) -> Reversal:
     """Drive forward at ``torque`` until steady at ``table_speed``, then reverse abruptly.
@@ -87,16 +94,16 @@ def reversal(params: TableParams, torque: float, table_speed: float,
     n_after = int(round((0.05 + 3 * tm) / DT / stride))
     lead = n_forward - n_before * stride
     sampled = SimSettings(dt=DT, publish_rate=1.0 / (stride * DT))
-    session = Session(p, replace(sampled, publish_rate=1.0 / (lead * DT)))   # one long tick
-    session.submit(Command('cmd_torque', torque))
-    session.tick()
-    session.submit(ParameterChange(p, sampled))                              # then stride
-    rows = []
-    for k in range(n_before + n_after):
-        if k == n_before:
-            session.submit(Command('cmd_direction', -1))
-        o = session.tick().outputs
+    session = _settled(p, torque, lead)
+    rows: list[tuple[float, ...]] = []
+
+    def sample(tick: Tick | None) -> None:
+        o = session.last_outputs if tick is None else tick.outputs
         rows.append((o.time, o.position[1], o.velocity[1], *o.delta, *o.mesh_force))
+
+    session.advance(n_before + n_after, monitor=sample,
+                    events=[ParameterChange(p, sampled, step=lead),
+                            Command(Input.CMD_DIRECTION, -1, step=lead + n_before * stride)])
     a = np.array(rows)
     t = a[:, 0] - n_forward * DT
     return Reversal(p, torque, t, a[:, 1], a[:, 2], a[:, 3:5], a[:, 5:7])
@@ -262,12 +269,12 @@ def forward_harmonics(params: TableParams, torque: float, table_speed: float,
     settle = 0.1 + 6 * _mechanical_time(p)
     n_settle = int(round(settle / DT))
     n = int(round(periods * period / DT))
-    session = Session(p, SimSettings(dt=DT, publish_rate=1.0 / (n_settle * DT)))
-    session.submit(Command('cmd_torque', torque))
-    session.tick()
-    session.submit(ParameterChange(p, SimSettings(dt=DT, publish_rate=1.0 / DT)))
-    delta = np.array([session.tick().outputs.delta[0] for _ in range(n)])
-    spectrum = np.fft.rfft(delta - delta.mean()) * 2 / n
+    session = _settled(p, torque, n_settle)
+    delta: list[float] = []
+    session.advance(n, monitor=lambda tick: delta.append(tick.outputs.delta[0]),
+                    events=[ParameterChange(p, SimSettings(dt=DT, publish_rate=1.0 / DT),
+                                            step=n_settle)])
+    spectrum = np.fft.rfft(np.asarray(delta) - np.mean(delta)) * 2 / n
     # Whole periods: harmonic h of the mesh frequency is DFT bin h·periods (up to the
     # rounding of the period to whole steps).
     return np.abs(spectrum[periods * np.arange(1, harmonics + 1)])

@@ -272,9 +272,32 @@ class Scenario:
         return out
 
     def run(self, record: str | os.PathLike[str] | None = None,
-            simulation: Simulation | None = None) -> Run:
-        """Run the scenario in-process (optionally on ``simulation``, e.g. the scenario's
-        with some parameters changed), recording to ``record`` if given."""
+            simulation: Simulation | None = None,
+            guard: Callable[[Controller | None], Controller] | None = None) -> Run:
+        """Run the scenario in-process: the one code path that runs a scenario.
+
+        Parameters
+        ----------
+        record : path, optional
+            Record the run there, as table_sim records.
+        simulation : Simulation, optional
+            Run on it (e.g. the scenario's with some parameters changed); default: the
+            scenario's own.
+        guard : callable, optional
+            ``guard(controller) -> controller``: what answers each tick in the place of
+            the scenario's controller (None when it has none), e.g. one that stops a run
+            over its wall-time limit.
+
+        Returns
+        -------
+        Run
+            The run's samples.
+
+        Raises
+        ------
+        ScenarioError
+            The scenario changes publish_rate after its start.
+        """
         for action in self.actions:
             if action.kind == 'parameters' and 'publish_rate' in action.value:
                 raise ScenarioError(f'{self.path}: line {action.line}: an in-process run counts '
@@ -284,9 +307,10 @@ class Scenario:
         simulation = simulation or self.simulation()
         controller = (None if self.controller is None
                       else self.controller.make(simulation, self.setpoint))
-        return simulation.run(controller, self.duration, record,
-                              events=self.events(simulation),
-                              setpoint=self._table_target(simulation, controller))
+        target = self._table_target(simulation, controller)
+        return simulation.run(controller if guard is None else guard(controller),
+                              self.duration, record, events=self.events(simulation),
+                              setpoint=target)
 
     def _table_target(self, simulation: Simulation,
                       controller: Controller | None) -> Callable[[float], float] | None:

@@ -26,7 +26,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bag_runs import BAGS, DATA, copy_bag, installed
+from bag_runs import BAGS, copy_bag, installed
+from paths import DATA
 from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process, wait_until
 
 from screwgear_ros.bag.reader import RecordedRun, read_run
