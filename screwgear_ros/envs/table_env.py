@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium
 import numpy as np
@@ -50,7 +50,7 @@ DEFAULT_TARGET = Setpoint('square', amplitude=0.05, period=3.0)
 class ScrewgearTableEnv(gymnasium.Env):
     """The table as a Gymnasium environment; see the module docstring."""
 
-    metadata: dict[str, Any] = {'render_modes': []}
+    metadata: ClassVar[dict[str, Any]] = {'render_modes': []}
 
     def __init__(self, simulation: Simulation | None = None, *, duration: float = 3.0,
                  target: Callable[[float], float] | None = None, error_scale: float = 1e-3,
@@ -85,7 +85,7 @@ class ScrewgearTableEnv(gymnasium.Env):
         self.simulation = base
         self._t0 = 0.0
         self._steps = 0
-        self._max_steps = max(1, int(round(self.duration / base.tick_period)))
+        self._max_steps = max(1, round(self.duration / base.tick_period))
 
     def _observe(self, o: Observation) -> np.ndarray:
         target = self.target(o.time - self._t0)

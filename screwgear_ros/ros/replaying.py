@@ -146,7 +146,8 @@ def spawn_node(schedule: Schedule, record: Path, ros_args: list[str], workdir: P
     with open(log_path, 'w') as log:
         child = subprocess.Popen([exe, '--ros-args', *remaps, '--params-file', str(params_file)],
                                  stdout=log, stderr=subprocess.STDOUT,
-                                 preexec_fn=_die_with_parent)
+                                 # only sets the parent-death signal: no lock taken
+                                 preexec_fn=_die_with_parent)  # noqa: PLW1509
     return child, log_path
 
 

@@ -60,7 +60,7 @@ def plan_from_run(run: RecordedRun) -> LockstepPlan:
     if len(samples) == 0:
         return LockstepPlan([], 0)
     ticks = np.searchsorted(samples.order, [order for order, _ in kept], side='right')
-    plan = LockstepPlan([(int(t), e) for t, (_, e) in zip(ticks, kept)], len(samples) - 1)
+    plan = LockstepPlan([(int(t), e) for t, (_, e) in zip(ticks, kept, strict=False)], len(samples) - 1)
     problem = lost_tick(run, plan)
     if problem is not None:
         raise ValueError(f'a lockstep replay cannot reproduce this run: {problem}')

@@ -213,8 +213,8 @@ def run(params: TableParams, dt: float, duration: float,
     session = Session(params, settings_for(dt), initial_state)
     events: dict[int, list[Event]] = {}
     for time, command in commands:
-        events.setdefault(int(round(time / dt)), []).append(command)
-    return audit(record(session, int(round(duration / dt)), events))
+        events.setdefault(round(time / dt), []).append(command)
+    return audit(record(session, round(duration / dt), events))
 
 
 # ---------------------------------------------------------------- the audit

@@ -20,6 +20,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -112,7 +113,7 @@ def run_metrics(run: Any, setpoint: Callable[[float], float] | None = None,
             raise ValueError(f'joint {joint!r} is not one of {names}')
         joint = names.index(joint)
     t = run.time - run.time[0]
-    angle = run.position[:, joint]
+    angle = run.true_position[:, joint]
     force = np.abs(run.mesh_force)
     peak = (float(force[:, 0].max()), float(force[:, 1].max())) if len(run) else (0.0, 0.0)
     rms = None
@@ -162,7 +163,7 @@ def _reversals(run: Any, t: np.ndarray) -> list[Reversal]:
     # lost motion at the table, rad: pinion 1's mesh deflection over the table radius
     lag = run.delta[:, 0] / run.params.radius_table
     bounds = [0, *at.tolist(), len(direction)]
-    settled = [_settled(lag[a:b]) for a, b in zip(bounds, bounds[1:])]
+    settled = [_settled(lag[a:b]) for a, b in itertools.pairwise(bounds)]
     return [Reversal(float(t[i - 1]), int(direction[i]), abs(settled[k + 1] - settled[k]))
             for k, i in enumerate(at)]
 

@@ -15,6 +15,7 @@ its checks must name the file's line, so the format's rules stay together.
 from __future__ import annotations
 
 import importlib
+import itertools
 import math
 import os
 import sys
@@ -25,6 +26,8 @@ from typing import Any
 
 import yaml
 
+from ..errors import ScrewgearError
+from ..interface import Input
 from ..params.sets import default_values, split_parameters
 from ..params.table import ParameterError
 from ..params.yaml_reader import YamlReader
@@ -51,7 +54,7 @@ PROFILES: dict[str, dict[str, Any]] = {
 CONTROLLER_KEYS = ('use', 'parameters')
 
 
-class ScenarioError(ValueError):
+class ScenarioError(ScrewgearError, ValueError):
     """A scenario that cannot be run; the message names the file and the line."""
 
 
@@ -82,7 +85,7 @@ class Setpoint:
         points = self.points
         if t < points[0][0]:
             return points[0][1]
-        for (t0, v0), (t1, v1) in zip(points, points[1:]):
+        for (t0, v0), (t1, v1) in itertools.pairwise(points):
             if t < t1:
                 return v0 if p == 'steps' else v0 + (v1 - v0) * (t - t0) / (t1 - t0)
         return points[-1][1]
@@ -108,7 +111,7 @@ def _setpoint(reader: YamlReader, node: yaml.Node) -> Setpoint:
     entries = reader.mapping(node, 'setpoint')
     if 'profile' not in entries:
         raise reader.error(node, f'setpoint needs a profile: one of {", ".join(PROFILES)}')
-    profile_key, profile_node = entries['profile']
+    _profile_key, profile_node = entries['profile']
     profile = reader.value(profile_node)
     if profile not in PROFILES:
         raise reader.error(profile_node, f'unknown setpoint profile {profile!r} (known: '
@@ -127,7 +130,7 @@ def _setpoint(reader: YamlReader, node: yaml.Node) -> Setpoint:
     for name in keys:
         if name not in entries:
             continue
-        key, value = entries[name]
+        _key, value = entries[name]
         if name == 'points':
             values['points'] = _points(reader, value)
         else:
@@ -260,7 +263,7 @@ class Scenario:
         values = {**simulation.params.as_dict(), **simulation.settings.as_dict()}
         out: list[Event] = []
         for action in self.actions:
-            step = int(round(action.time / dt))
+            step = round(action.time / dt)
             if action.kind == 'reset':
                 out.append(Reset(step))
             elif action.kind == 'parameters':
@@ -329,7 +332,7 @@ class Scenario:
         actions at their steps (:class:`~screwgear_ros.sim.schedule.Schedule`)."""
         simulation = self.simulation()
         return Schedule(simulation.params, simulation.settings, self.events(simulation),
-                        end_step=int(round(self.duration / simulation.settings.dt)))
+                        end_step=round(self.duration / simulation.settings.dt))
 
 
 def load_scenario(path: str | os.PathLike[str]) -> Scenario:
@@ -418,19 +421,19 @@ def _parameters(reader: YamlReader, node: yaml.Node, values: dict[str, Any],
 def _command(reader: YamlReader, topic: str, node: yaml.Node) -> Any:
     """The value of a command action, as its message would carry it."""
     value = reader.value(node)
-    if topic == 'cmd_effort':
+    if topic == Input.CMD_EFFORT:
         if not isinstance(value, list):
             raise reader.error(node, 'cmd_effort takes a list of one signed torque, e.g. '
                                '[-350.0]')
         return value
-    if topic == 'joint_commands':
+    if topic == Input.JOINT_COMMANDS:
         from .commands import JointCommand
         if not isinstance(value, dict) or not set(value) <= {'name', 'position', 'velocity',
                                                              'effort'}:
             raise reader.error(node, 'joint_commands takes {name: [...], effort: [...]}')
         return JointCommand(tuple(value.get('name', ())), tuple(value.get('position', ())),
                             tuple(value.get('velocity', ())), tuple(value.get('effort', ())))
-    if topic == 'cmd_direction':
+    if topic == Input.CMD_DIRECTION:
         if isinstance(value, bool) or not isinstance(value, int):
             raise reader.error(node, f'cmd_direction takes +1 or -1, not {value!r}')
         return value

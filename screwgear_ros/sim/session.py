@@ -436,8 +436,8 @@ class Session:
         value = setpoint.value
         if isinstance(value, bool) or not isinstance(value, (int, float)) \
                 or not math.isfinite(value):
-            self.rejected['setpoint'] += 1
-            return InputRejected('setpoint', value, 'a setpoint must be a finite angle, rad')
+            self.rejected[Input.SETPOINT] += 1
+            return InputRejected(Input.SETPOINT, value, 'a setpoint must be a finite angle, rad')
         return None
 
     def _time_out(self, start: int) -> str | None:

@@ -20,6 +20,7 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
+from ..errors import ScrewgearError
 from .spec import Bundle, RunSpec
 
 
@@ -49,7 +50,7 @@ class Outcome:
                 'reason': self.reason, 'metrics': list(self.metrics)}
 
 
-class RunTimeout(Exception):
+class RunTimeout(ScrewgearError):
     """The run went past its deadline (raised between ticks)."""
 
 

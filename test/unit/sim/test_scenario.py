@@ -186,7 +186,7 @@ def test_step_metrics_against_a_known_response():
     run.settings = Simulation().settings
     run.params = Simulation().params
     run.time = t
-    run.position = np.column_stack([0 * t, y, 0 * t])
+    run.true_position = np.column_stack([0 * t, y, 0 * t])
     run.mesh_force = np.zeros((len(t), 2))
     run.transmission_error = np.zeros(len(t))
     run.direction = np.ones(len(t), dtype=np.int8)
