@@ -78,7 +78,7 @@ from ..ros.replaying import (
 )
 from ..ros.shutdown import STOP_SIGNALS, stop_on_signals
 from ..runs.compare import compare_runs, exact_comparison, format_comparison, format_exact
-from ..runs.replay import load_scenario, schedule_from_run
+from ..runs.replay import schedule_from_run, schedule_from_scenario
 from ..runs.replay_plan import LockstepPlan, plan_from_run, plan_from_schedule
 from ..sim.schedule import Schedule, differences
 from . import EXIT_ERROR, EXIT_OK
@@ -151,7 +151,7 @@ def _load(args: argparse.Namespace) -> tuple[Schedule, RecordedRun | None]:
         if args.bag is not None:
             original = read_run(args.bag)
             return schedule_from_run(original), original
-        return load_scenario(args.script), None
+        return schedule_from_scenario(args.script), None
     except (ValueError, OSError, KeyError) as exc:   # BagError is caught by main()
         raise ReplayError(str(exc)) from None
 

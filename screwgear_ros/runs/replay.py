@@ -11,18 +11,21 @@ bit; with ``refine = 2`` the same run at dt/2 (the Richardson estimate of RK4's
 error that ``check_run`` judges by).
 
 A :class:`~screwgear_ros.sim.schedule.Schedule` comes from a recording
-(:func:`schedule_from_run`) or a scripted scenario (:func:`load_scenario`).
+(:func:`schedule_from_run`) or a scripted scenario (:func:`schedule_from_scenario`).
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..bag.reader import BagError, RecordedRun
 from ..sim.events import Event, ParameterChange, describe
+from ..sim.scenario import ScenarioError, load_scenario
 from ..sim.schedule import Schedule, ros_values
 from ..sim.session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
 
@@ -41,7 +44,7 @@ class ReplayedOutputs:
     and the ticks that went through :meth:`Session.tick` (every tick that applied an
     event, or in which command_timeout came due; ``ticks[j]`` made sample
     ``tick_samples[j]``). The ticks in between took no event: each ran under the input
-    and parameters of the tick before it (:meth:`Session.tick_quietly`)."""
+    and parameters of the tick before it (:meth:`Session.advance` with ``rows``)."""
 
     joint_states: np.ndarray        # (n, 9) like RecordedRun.joint_states.values
     transmission_error: np.ndarray  # (m,) m
@@ -56,7 +59,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
 
     Every event recorded (in file order) before the ``joint_states`` sample i is
     submitted before the tick that makes it; the ticks between events go through
-    :meth:`Session.tick_quietly`. Raises :class:`BagError` where the recording disagrees
+    :meth:`Session.advance` with ``rows``. Raises :class:`BagError` where the recording disagrees
     with the session (an event or a sample off the node's tick grid, a recorded command
     the node must have refused).
     """
@@ -144,24 +147,48 @@ def schedule_from_run(run: RecordedRun) -> Schedule:
                     end_step=run.end_step)
 
 
-def load_scenario(path: str | Path) -> Schedule:
+def schedule_from_scenario(path: str | Path) -> Schedule:
     """The timed actions of a scenario file (docs/scenarios.md; the test bags are recorded
-    from these) as a schedule. Raises ValueError (:class:`~screwgear_ros.sim.scenario.ScenarioError`)
-    naming the line of what is wrong, and for a scenario with a controller: that runs
-    in-process (``run_scenario``), a replay plays actions only."""
-    from ..sim.scenario import load_scenario as load  # the format's one reader
-    scenario = load(path)
+    from these) as a schedule.
+
+    Parameters
+    ----------
+    path : str or Path
+        The scenario file.
+
+    Returns
+    -------
+    Schedule
+        Its start values and actions at their steps.
+
+    Raises
+    ------
+    ScenarioError
+        Naming the line of what is wrong; and for a scenario with a controller: that
+        runs in-process (``run_scenario``), a replay plays actions only.
+    """
+    scenario = load_scenario(path)            # the format's one reader
     if scenario.controller is not None:
-        raise ValueError(f'{path}: line {scenario.controller.line}: this scenario closes '
+        raise ScenarioError(f'{path}: line {scenario.controller.line}: this scenario closes '
                          'its loop with a controller, which run_scenario runs in-process; '
                          'replay_run --script plays a scenario\'s timed actions only')
     return scenario.schedule()
 
 
+def __getattr__(name: str) -> Any:
+    """``load_scenario``, the old name of :func:`schedule_from_scenario`, for one release
+    (:func:`screwgear_ros.sim.scenario.load_scenario` reads a Scenario)."""
+    if name == 'load_scenario':
+        warnings.warn('screwgear_ros.runs.replay.load_scenario is now '
+                      'schedule_from_scenario', DeprecationWarning, stacklevel=2)
+        return schedule_from_scenario
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+
+
 __all__ = [
     'ReplayedOutputs',
-    'load_scenario',
     'replay_in_process',
     'replayed_events',
     'schedule_from_run',
+    'schedule_from_scenario',
 ]

@@ -185,6 +185,7 @@ def format_metrics(m: Metrics, details: int = 5) -> str:
                      f'{s.overshoot * 1e3:.5f} mrad ({100 * s.overshoot / abs(s.size):.2f} %), '
                      f'{settle} (band {SETTLING_BAND:.0%})')
     if len(m.steps) > details:
+        assert m.max_overshoot is not None and m.max_settling_time is not None
         lines.append(f'... {len(m.steps) - details} more steps; worst overshoot '
                      f'{m.max_overshoot * 1e3:.5f} mrad, longest settling '
                      f'{m.max_settling_time:.4f} s')
@@ -193,6 +194,7 @@ def format_metrics(m: Metrics, details: int = 5) -> str:
         lines.append(f'reversal at {r.time:8.4f} s to {r.direction:+d}: lost motion '
                      f'{r.lost_motion * 1e6:10.3f} µrad at the table')
     if len(m.reversals) > details:
+        assert m.max_lost_motion is not None
         lines.append(f'... {len(m.reversals) - details} more reversals; largest lost motion '
                      f'{m.max_lost_motion * 1e6:.3f} µrad')
     lines.append(f'peak mesh force         {m.peak_mesh_force[0]:12.1f} N (mesh 1), '

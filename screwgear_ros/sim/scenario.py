@@ -19,6 +19,7 @@ import itertools
 import math
 import os
 import sys
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -61,7 +62,7 @@ class ScenarioError(ScrewgearError, ValueError):
 # ---------------------------------------------------------------- setpoints
 
 @dataclass(frozen=True)
-class Setpoint:
+class SetpointProfile:
     """A target profile, t (s of simulation time from the start) → target (rad) of
     ``joint``; see docs/scenarios.md for the profiles."""
 
@@ -107,7 +108,7 @@ class Setpoint:
         return []
 
 
-def _setpoint(reader: YamlReader, node: yaml.Node) -> Setpoint:
+def _setpoint(reader: YamlReader, node: yaml.Node) -> SetpointProfile:
     entries = reader.mapping(node, 'setpoint')
     if 'profile' not in entries:
         raise reader.error(node, f'setpoint needs a profile: one of {", ".join(PROFILES)}')
@@ -137,7 +138,7 @@ def _setpoint(reader: YamlReader, node: yaml.Node) -> Setpoint:
             positive = name in ('period', 'frequency')
             values[name] = reader.number(value, f'setpoint {name}', low=0.0 if positive else None,
                                          strict=positive)
-    return Setpoint(profile, **values)
+    return SetpointProfile(profile, **values)
 
 
 def _points(reader: YamlReader, node: yaml.Node) -> tuple[tuple[float, float], ...]:
@@ -167,7 +168,7 @@ class ControllerSpec:
     line: int = 0
     directory: str = ''      # the scenario file's: searched first for the module
 
-    def make(self, simulation: Simulation, setpoint: Setpoint | None) -> Controller:
+    def make(self, simulation: Simulation, setpoint: SetpointProfile | None) -> Controller:
         """A fresh controller for one run of ``simulation``."""
         values = dict(self.parameters)
         if self.use == 'demo':
@@ -250,7 +251,7 @@ class Scenario:
     duration: float                              # s of simulation time
     actions: tuple[Action, ...] = ()
     controller: ControllerSpec | None = None
-    setpoint: Setpoint | None = None
+    setpoint: SetpointProfile | None = None
 
     def simulation(self, **overrides: Any) -> Simulation:
         """The scenario's simulation, some parameters changed (validated)."""
@@ -442,6 +443,16 @@ def _command(reader: YamlReader, topic: str, node: yaml.Node) -> Any:
     return float(value)
 
 
+def __getattr__(name: str) -> Any:
+    """``Setpoint``, the old name of :class:`SetpointProfile`, for one release
+    (:class:`screwgear_ros.sim.events.Setpoint` is the event that records one)."""
+    if name == 'Setpoint':
+        warnings.warn('screwgear_ros.sim.scenario.Setpoint is now SetpointProfile',
+                      DeprecationWarning, stacklevel=2)
+        return SetpointProfile
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+
+
 __all__ = [
     'ACTIONS',
     'KEYS',
@@ -450,7 +461,7 @@ __all__ = [
     'ControllerSpec',
     'Scenario',
     'ScenarioError',
-    'Setpoint',
+    'SetpointProfile',
     'load_scenario',
     'resolve_callable',
 ]

@@ -18,7 +18,7 @@ A tick is what the node does between two publications:
    its settings.
 
 A closed loop's tick, whose one event is its controller's answer, is
-:meth:`Session.tick_effort`: the same tick, without the objects a tick makes for
+:meth:`Session.advance` with a controller and no need of the Tick: the same tick, without the objects a tick makes for
 callers that log or record it.
 
 Commands are validated when they take effect, against the parameters in force at
@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 import threading
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -56,10 +57,10 @@ from .commands import INPUT_TOPICS, InputRejected, apply_command, effort_drive, 
 from .events import Command, Event, ParameterChange, Reset, Setpoint, Timeline
 from .plant import OBSERVED_DELTA, OBSERVED_JOINTS, DriveInput, Outputs, Plant
 
-#: Ticks per compiled call of :meth:`Session.tick_quietly` (its scratch rows: 0.5 MB).
+#: Ticks per compiled call of :meth:`Session.advance` with ``rows`` (its scratch rows: 0.5 MB).
 QUIET_TICKS_PER_CALL = 4096
 
-#: Columns of an output row (:meth:`Session.tick_quietly`, replays; :func:`row_of`): the
+#: Columns of an output row (:meth:`Session.advance` with ``rows``, replays; :func:`row_of`): the
 #: joint_states row (θ, ω, effort of the three joints), the transmission error, the step.
 ROW_JOINTS, ROW_TE, ROW_STEP = slice(0, 9), 9, 10
 ROW = ROW_STEP + 1
@@ -124,7 +125,7 @@ class Session:
         self._last_command = self.start_step   # step of the last accepted command
         self._lock = threading.Lock()          # guards _pending only
         self._pending: list[Event] = []
-        self._observed: np.ndarray | None = None   # tick_quietly's rows, made on first use
+        self._observed: np.ndarray | None = None   # the compiled ticks' rows, made on first use
         self._outputs: Outputs | None = self.plant.compute_outputs()
         self.sensors = SensorChain(settings.sensors, settings.dt)
         self._measure()
@@ -146,14 +147,14 @@ class Session:
     def last_outputs(self) -> Outputs:
         """The outputs of the last tick (before the first: of the start)."""
         outputs = self._outputs
-        if outputs is None:      # a tick_effort left them in the plant: made when read
+        if outputs is None:      # a fast closed-loop tick left them in the plant: made when read
             self._outputs = outputs = self.plant.last_outputs()
         return outputs
 
     @property
     def measured(self) -> Outputs:
         """What joint_states publishes of :attr:`last_outputs` (the same object when every
-        sensor is ideal). :meth:`tick_quietly` leaves the sensors' chain alone (sensors
+        sensor is ideal). :meth:`advance` with ``rows`` leaves the sensors' chain alone (sensors
         that are not ideal: this stays what they measured last)."""
         measured = self._measured
         return self.last_outputs if measured is None else measured
@@ -217,7 +218,7 @@ class Session:
         rows : ndarray, optional
             Row i (``ROW`` columns, :func:`row_of`) gets tick i's exact outputs. With no
             controller and not ``every_tick``, the ticks that take no event then run as
-            :meth:`tick_quietly` does, many in one compiled call, and the monitor sees
+            :meth:`advance` with ``rows`` does, many in one compiled call, and the monitor sees
             only the full ticks (those that applied an event or timed a command out).
 
         Returns
@@ -263,7 +264,7 @@ class Session:
                     n = min(n, -(-(until - plant.step) // self._steps))
                 if due is not None:           # ticks that start before the next event
                     n = min(n, -(-(due - plant.step) // self._steps))
-                k = self.tick_quietly(int(n), rows[done:])   # type: ignore[index]
+                k = self._tick_quietly(int(n), rows[done:])   # type: ignore[index]
                 if k:
                     done += k
                     continue
@@ -273,7 +274,7 @@ class Session:
             elif every_tick:
                 tick = self.tick(Command.of(Input.CMD_EFFORT, [effort]))
             else:
-                tick = self.tick_effort(effort)
+                tick = self._tick_effort(effort)
             if rows is not None:
                 rows[done] = row_of(self.last_outputs)
             done += 1
@@ -346,7 +347,7 @@ class Session:
                     previous, previous_direction, plant.fault,
                     fault is None and plant.fault is not None, self._measured)
 
-    def tick_effort(self, effort: Any) -> Tick | None:
+    def _tick_effort(self, effort: Any) -> Tick | None:
         """``tick(Command.of(Input.CMD_EFFORT, [effort]))``: a closed loop's tick, answered
         by its controller's signed drive torque ``effort``.
 
@@ -455,7 +456,7 @@ class Session:
                 f'(command_timeout): drive torque ({drive.torque:g} N·m) and load '
                 f'({drive.load:g} N·m) set to zero until the next command')
 
-    def tick_quietly(self, n: int, values: np.ndarray) -> int:
+    def _tick_quietly(self, n: int, values: np.ndarray) -> int:
         """Up to ``n`` ticks that take no event, for replays that sample every tick: the
         plant does exactly what ``n`` calls of :meth:`tick` would make it do (the same
         calls, bit for bit), without a :class:`Tick` each, up to ``QUIET_TICKS_PER_CALL``
@@ -503,6 +504,20 @@ class Session:
         self._outputs = plant.last_outputs()
         return done
 
+
+def _deprecated_tick(name: str, private: str) -> Any:
+    """``Session.<name>``, the old public name of a path :meth:`Session.advance` takes,
+    for one release."""
+    def tick(self: Session, *args: Any) -> Any:
+        warnings.warn(f'Session.{name} is deprecated: Session.advance runs it',
+                      DeprecationWarning, stacklevel=2)
+        return getattr(self, private)(*args)
+    tick.__name__ = name
+    return tick
+
+
+Session.tick_effort = _deprecated_tick('tick_effort', '_tick_effort')    # type: ignore[attr-defined]
+Session.tick_quietly = _deprecated_tick('tick_quietly', '_tick_quietly')  # type: ignore[attr-defined]
 
 __all__ = [
     'QUIET_TICKS_PER_CALL',

@@ -38,7 +38,7 @@ from screwgear_ros.runs.compare import (
     format_exact,
     shift_event,
 )
-from screwgear_ros.runs.replay import load_scenario, replay_in_process, schedule_from_run
+from screwgear_ros.runs.replay import replay_in_process, schedule_from_run, schedule_from_scenario
 from screwgear_ros.runs.replay_plan import plan_from_run
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
 
@@ -134,7 +134,7 @@ def test_lockstep_keeps_the_order_of_events_in_one_tick(tmp_path: Path) -> None:
     result = tool('replay_run', '--script', scenario, '--record', recorded)
     assert_no_traceback(result)
     assert result.returncode == 0, result.stdout + result.stderr
-    schedule = load_scenario(scenario)
+    schedule = schedule_from_scenario(scenario)
     run = read_run(recorded)
     expected = [('parameters', e.params, e.step) if isinstance(e, ParameterChange)
                 else ('reset', None, e.step) if isinstance(e, Reset)

@@ -24,7 +24,7 @@ from screwgear_ros.interface import topic_names
 from screwgear_ros.params.table import MeshPhase, Mode, SimSettings, TableParams
 from screwgear_ros.physics.quantities import natural_frequency
 from screwgear_ros.ros.run_io import RunIO
-from screwgear_ros.runs.replay import load_scenario, replay_in_process
+from screwgear_ros.runs.replay import replay_in_process, schedule_from_scenario
 from screwgear_ros.sim import session as session_module
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
 from screwgear_ros.sim.schedule import Schedule
@@ -66,7 +66,7 @@ def _both(schedule: Schedule, ticks: int) -> tuple[np.ndarray, np.ndarray, int, 
         if k < len(events):        # the ticks that start before the next event's step
             span = min(span, -(-(events[k].step - quiet.step)
                                // quiet.settings.steps_per_publish))
-        done = quiet.tick_quietly(span, rows[1][i:])
+        done = quiet._tick_quietly(span, rows[1][i:])
         if done == 0:
             rows[1][i] = row_of(quiet.tick().outputs)
             done = 1
@@ -81,7 +81,7 @@ def _both(schedule: Schedule, ticks: int) -> tuple[np.ndarray, np.ndarray, int, 
 def test_the_test_scenarios_tick_quietly_as_by_tick(name: str, block: int, monkeypatch) -> None:
     """Also with 7 ticks per compiled call: every quiet stretch spans many calls."""
     monkeypatch.setattr(session_module, 'QUIET_TICKS_PER_CALL', block)
-    schedule = load_scenario(DATA / 'scenarios' / f'{name}.yaml')
+    schedule = schedule_from_scenario(DATA / 'scenarios' / f'{name}.yaml')
     ticks = schedule.end_step // schedule.settings.steps_per_publish
     a, b, quietly, _ = _both(schedule, ticks)
     assert np.array_equal(a, b)
@@ -122,7 +122,7 @@ def test_a_fault_and_a_reset(block: int, monkeypatch) -> None:
     params, settings = _diverging()
     probe = Session(params, settings)
     rows = np.empty((4000, ROW))
-    done = probe.tick_quietly(4000, rows)
+    done = probe._tick_quietly(4000, rows)
     assert probe.plant.fault is not None and done < 4000     # stopped after the fault
     assert np.all(np.isfinite(rows[:done]))
     revive = probe.step + 50 * settings.steps_per_publish

@@ -113,3 +113,14 @@ def test_advance_needs_a_limit_and_events_need_their_step():
         Session(P, S).advance()
     with pytest.raises(ValueError):
         Session(P, S).advance(1, events=[Reset()])
+
+
+def test_the_old_tick_paths_answer_for_one_release():
+    a, b = Session(P, S), Session(P, S)
+    with pytest.warns(DeprecationWarning, match='Session.advance'):
+        assert a.tick_effort(10.0) is None
+    with pytest.warns(DeprecationWarning, match='Session.advance'):
+        assert a.tick_quietly(3, np.empty((3, ROW))) == 3
+    b.advance(1, controller=lambda: 10.0)
+    b.advance(3, rows=np.empty((3, ROW)))
+    assert np.array_equal(a.plant.full_state, b.plant.full_state)
