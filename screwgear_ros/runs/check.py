@@ -67,7 +67,7 @@ from ..physics.sensors import SensorChain
 from ..sim.events import ParameterChange, Reset
 from ..sim.plant import DriveInput, Plant
 from ..sim.session import ROW, ROW_JOINTS, ROW_TE, row_of
-from .replay import ReplayedOutputs, replay_in_process
+from .replay_in_process import ReplayedOutputs, replay_in_process
 
 #: Tolerance = SAFETY × Richardson estimate of RK4's error (contact changes located).
 SAFETY = 1.5

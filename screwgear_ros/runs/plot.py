@@ -35,7 +35,7 @@ from ..sim.events import ParameterChange, Reset
 from ..sim.plant import DriveInput
 from ..sim.session import Tick
 from .check import MESH_SIGNALS, CheckReport, signal_names
-from .replay import replay_in_process
+from .replay_in_process import replay_in_process
 
 #: Resolution the figures are written at (and readable at), dots per inch.
 DPI = 100

@@ -38,8 +38,12 @@ from screwgear_ros.runs.compare import (
     format_exact,
     shift_event,
 )
-from screwgear_ros.runs.replay import replay_in_process, schedule_from_run, schedule_from_scenario
-from screwgear_ros.runs.replay_plan import plan_from_run
+from screwgear_ros.runs.lockstep_plan import plan_from_run
+from screwgear_ros.runs.replay_in_process import (
+    replay_in_process,
+    schedule_from_run,
+    schedule_from_scenario,
+)
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
 
 #: Generous bounds for a process to finish: a hang fails the test, a slow machine does not.

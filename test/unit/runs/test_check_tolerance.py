@@ -25,7 +25,7 @@ from paths import DATA
 
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.check import SAFETY, SAFETY_FIXED_STEP, check_run
-from screwgear_ros.runs.replay import schedule_from_scenario
+from screwgear_ros.runs.replay_in_process import schedule_from_scenario
 
 
 @pytest.fixture(scope='module')

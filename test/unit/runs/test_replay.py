@@ -24,7 +24,7 @@ from screwgear_ros.interface import topic_names
 from screwgear_ros.params.table import MeshPhase, Mode, SimSettings, TableParams
 from screwgear_ros.physics.quantities import natural_frequency
 from screwgear_ros.ros.run_io import RunIO
-from screwgear_ros.runs.replay import replay_in_process, schedule_from_scenario
+from screwgear_ros.runs.replay_in_process import replay_in_process, schedule_from_scenario
 from screwgear_ros.sim import session as session_module
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
 from screwgear_ros.sim.schedule import Schedule

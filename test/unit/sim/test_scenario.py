@@ -133,7 +133,7 @@ def test_a_failing_controller_exits_2_with_the_reason(tmp_path):
 
 
 def test_a_replay_refuses_a_scenario_with_a_controller():
-    from screwgear_ros.runs.replay import schedule_from_scenario as replay_scenario
+    from screwgear_ros.runs.replay_in_process import schedule_from_scenario as replay_scenario
     with pytest.raises(ValueError, match='line 6: .*run_scenario'):
         replay_scenario(ROOT / 'docs' / 'examples' / 'demo_position_steps.yaml')
 
@@ -214,7 +214,7 @@ def test_an_in_process_run_refuses_a_publish_rate_change(tmp_path):
 
 
 def test_the_old_names_answer_for_one_release() -> None:
-    import screwgear_ros.runs.replay as replay
+    import screwgear_ros.runs.replay_in_process as replay
     import screwgear_ros.sim.scenario as scenario
     with pytest.warns(DeprecationWarning, match='SetpointProfile'):
         assert scenario.Setpoint is SetpointProfile

@@ -22,7 +22,7 @@ from screwgear_ros.bag.reader import read_run
 from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.physics.model import equilibrium_state
 from screwgear_ros.physics.quantities import natural_frequency
-from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.runs.replay_in_process import replay_in_process
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
 from screwgear_ros.sim.plant import DriveInput, Plant
 from screwgear_ros.sim.schedule import Schedule

@@ -24,7 +24,7 @@ import numpy as np
 from ..bag.reader import RecordedRun
 from ..sim.events import Command, Event, ParameterChange, Timeline
 from ..sim.schedule import Schedule
-from .replay import replayed_events
+from .replay_in_process import replayed_events
 
 
 @dataclass
@@ -51,7 +51,7 @@ class LockstepPlan:
 
 
 def plan_from_run(run: RecordedRun) -> LockstepPlan:
-    """The replayed events of ``run`` (:func:`~screwgear_ros.runs.replay.replayed_events`)
+    """The replayed events of ``run`` (:func:`~screwgear_ros.runs.replay_in_process.replayed_events`)
     with the tick that applied each. Raises ValueError where a lockstep replay cannot
     reproduce the run: a recording that lost ticks (a real-time recorder whose queue was
     full drops whole ticks), which leaves no way to count them."""

@@ -179,7 +179,7 @@ def __getattr__(name: str) -> Any:
     """``load_scenario``, the old name of :func:`schedule_from_scenario`, for one release
     (:func:`screwgear_ros.sim.scenario.load_scenario` reads a Scenario)."""
     if name == 'load_scenario':
-        warnings.warn('screwgear_ros.runs.replay.load_scenario is now '
+        warnings.warn('screwgear_ros.runs.replay_in_process.load_scenario is now '
                       'schedule_from_scenario', DeprecationWarning, stacklevel=2)
         return schedule_from_scenario
     raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
