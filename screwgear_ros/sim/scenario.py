@@ -7,16 +7,11 @@ setpoint profile it tracks. :func:`load_scenario` reads and validates one: every
 a :class:`ScenarioError` naming the file and the line. :meth:`Scenario.run` runs it
 in-process (:class:`~screwgear_ros.sim.simulation.Simulation`); :meth:`Scenario.schedule`
 is what ``replay_run --script`` plays into a live node over DDS (actions only).
-
-Why one module of this length: it is the one reader of the scenario format, and each of
-its checks must name the file's line, so the format's rules stay together.
 """
 
 from __future__ import annotations
 
 import importlib
-import itertools
-import math
 import os
 import sys
 import warnings
@@ -37,6 +32,7 @@ from .control import TABLE_JOINT, DemoController, DemoGains
 from .events import Command, Event, ParameterChange, Reset
 from .plant import DriveInput
 from .schedule import Schedule
+from .setpoint_profile import PROFILES, SetpointProfile, read_setpoint
 from .simulation import Controller, Run, Simulation
 
 #: The top-level keys of a scenario.
@@ -44,117 +40,12 @@ KEYS = ('parameters', 'duration', 'actions', 'controller', 'setpoint')
 #: What an action can do besides its ``time``: a command on an input topic, a parameter
 #: change, a reset.
 ACTIONS = (*INPUT_TOPICS, 'parameters', 'reset')
-#: The setpoint profiles and their keys (required ones first, then optional with defaults).
-PROFILES: dict[str, dict[str, Any]] = {
-    'steps': {'points': None},
-    'ramps': {'points': None},
-    'square': {'amplitude': None, 'period': None, 'offset': 0.0},
-    'sine': {'amplitude': None, 'frequency': None, 'offset': 0.0, 'phase': 0.0},
-}
 #: A scenario's controller: its keys.
 CONTROLLER_KEYS = ('use', 'parameters')
 
 
 class ScenarioError(ScrewgearError, ValueError):
     """A scenario that cannot be run; the message names the file and the line."""
-
-
-# ---------------------------------------------------------------- setpoints
-
-@dataclass(frozen=True)
-class SetpointProfile:
-    """A target profile, t (s of simulation time from the start) → target (rad) of
-    ``joint``; see docs/scenarios.md for the profiles."""
-
-    profile: str
-    points: tuple[tuple[float, float], ...] = ()    # steps, ramps: (time, value)
-    amplitude: float = 0.0
-    period: float = 0.0
-    frequency: float = 0.0
-    offset: float = 0.0
-    phase: float = 0.0
-    joint: str = 'table'
-
-    def __call__(self, t: float) -> float:
-        p = self.profile
-        if p == 'sine':
-            return self.offset + self.amplitude * math.sin(
-                2.0 * math.pi * self.frequency * t + self.phase)
-        if p == 'square':
-            return self.offset + (self.amplitude if (t // (0.5 * self.period)) % 2 == 0
-                                  else -self.amplitude)
-        points = self.points
-        if t < points[0][0]:
-            return points[0][1]
-        for (t0, v0), (t1, v1) in itertools.pairwise(points):
-            if t < t1:
-                return v0 if p == 'steps' else v0 + (v1 - v0) * (t - t0) / (t1 - t0)
-        return points[-1][1]
-
-    def steps(self, duration: float) -> list[tuple[float, float, float]]:
-        """The setpoint's jumps within ``duration``: (time, value before, value after);
-        empty for a profile without jumps (ramps, sine)."""
-        if self.profile == 'steps':
-            jumps, before = [], self.points[0][1]
-            for t, v in self.points:
-                if t <= duration and v != before:
-                    jumps.append((t, before, v))
-                before = v
-            return jumps
-        if self.profile == 'square':
-            half = 0.5 * self.period
-            return [(k * half, self((k - 0.5) * half), self(k * half))
-                    for k in range(1, int(duration / half) + 1) if k * half <= duration]
-        return []
-
-
-def _setpoint(reader: YamlReader, node: yaml.Node) -> SetpointProfile:
-    entries = reader.mapping(node, 'setpoint')
-    if 'profile' not in entries:
-        raise reader.error(node, f'setpoint needs a profile: one of {", ".join(PROFILES)}')
-    _profile_key, profile_node = entries['profile']
-    profile = reader.value(profile_node)
-    if profile not in PROFILES:
-        raise reader.error(profile_node, f'unknown setpoint profile {profile!r} (known: '
-                           f'{", ".join(PROFILES)})')
-    keys = PROFILES[profile]
-    reader.known(entries, ('profile', 'joint', *keys), f'key of a {profile} setpoint')
-    for name, default in keys.items():
-        if default is None and name not in entries:
-            raise reader.error(node, f'a {profile} setpoint needs {name!r}')
-    values: dict[str, Any] = {}
-    if 'joint' in entries:
-        joint = reader.value(entries['joint'][1])
-        if not isinstance(joint, str) or not joint:
-            raise reader.error(entries['joint'][1], 'setpoint joint must be a joint name')
-        values['joint'] = joint
-    for name in keys:
-        if name not in entries:
-            continue
-        _key, value = entries[name]
-        if name == 'points':
-            values['points'] = _points(reader, value)
-        else:
-            positive = name in ('period', 'frequency')
-            values[name] = reader.number(value, f'setpoint {name}', low=0.0 if positive else None,
-                                         strict=positive)
-    return SetpointProfile(profile, **values)
-
-
-def _points(reader: YamlReader, node: yaml.Node) -> tuple[tuple[float, float], ...]:
-    if not isinstance(node, yaml.SequenceNode) or not node.value:
-        raise reader.error(node, 'setpoint points must be a list of [time, value] pairs')
-    points: list[tuple[float, float]] = []
-    for item in node.value:
-        if not isinstance(item, yaml.SequenceNode) or len(item.value) != 2:
-            raise reader.error(item, 'a setpoint point is [time, value] (s, rad)')
-        t = reader.number(item.value[0], 'a setpoint time', low=0.0)
-        v = reader.number(item.value[1], 'a setpoint value')
-        if points and t <= points[-1][0]:
-            raise reader.error(item, f'setpoint times must increase ({t:g} s after '
-                               f'{points[-1][0]:g} s)')
-        points.append((t, v))
-    return tuple(points)
 
 
 # ---------------------------------------------------------------- controllers
@@ -397,7 +288,7 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
                                        f'{exc}') from None
                 actions.append(Action(t, kind, command, line))
     controller = _controller(reader, top['controller'][1]) if 'controller' in top else None
-    setpoint = _setpoint(reader, top['setpoint'][1]) if 'setpoint' in top else None
+    setpoint = read_setpoint(reader, top['setpoint'][1]) if 'setpoint' in top else None
     if setpoint is not None and setpoint.joint not in values['joint_names']:
         raise reader.error(top['setpoint'][1], f'setpoint joint {setpoint.joint!r} is not one '
                            f'of the joint_states names {values["joint_names"]}')

@@ -1,8 +1,13 @@
-"""One simulation run: the plant, an ordered queue of typed events, ``tick()``, the outputs.
+"""One simulation run: the plant, an ordered queue of typed events, ticks, the outputs.
 
-:class:`Session` is the only simulation loop in the project. The node's pacing thread
-ticks it (free-running against the wall clock, or in lockstep with a controller),
-in-process replays, ``check_run``, the benchmarks and the tests tick it too.
+:class:`Session` is the only simulation loop in the project, and
+:meth:`Session.advance` its one door: N ticks or up to a step (:meth:`Session.advance_to`:
+a time), submitting the events of a schedule as their step comes, asking an optional
+controller before each tick and telling an optional monitor after it (Drake's
+``Simulator.AdvanceTo`` with a monitor is the model). In-process runs, replays, the
+energy audit and the paper's studies go through it; the node's pacing thread, which
+makes one tick at a time against the wall clock or a lockstep answer, calls
+:meth:`Session.tick`, the single tick that ``advance`` is made of.
 
 A tick is what the node does between two publications:
 
@@ -17,9 +22,11 @@ A tick is what the node does between two publications:
    sensor is ideal). A reset restarts the sensors' chain; a parameter change hands them
    its settings.
 
-A closed loop's tick, whose one event is its controller's answer, is
-:meth:`Session.advance` with a controller and no need of the Tick: the same tick, without the objects a tick makes for
-callers that log or record it.
+A closed loop's tick, whose one event is its controller's answer, runs a fast path
+when nobody needs its :class:`Tick` (:meth:`Session.advance` with a controller and not
+``every_tick``): the same tick, without the objects a tick makes for callers that log
+or record it. Ticks that take no event, when only their outputs are wanted (``rows``),
+run many to a compiled call. Both leave every bit as :meth:`Session.tick` would.
 
 Commands are validated when they take effect, against the parameters in force at
 that step (:func:`screwgear_ros.sim.commands.apply_command`); a refused command changes
@@ -44,70 +51,19 @@ import math
 import threading
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from ..interface import INFO_TOPICS, Input
-from ..numerics.integrator import OBSERVED
 from ..params.table import SimSettings, TableParams
 from ..physics.sensors import SensorChain
-from .commands import INPUT_TOPICS, InputRejected, apply_command, effort_drive, limit_input
+from . import fast_ticks
+from .commands import INPUT_TOPICS, InputRejected, apply_command, limit_input
 from .events import Command, Event, ParameterChange, Reset, Setpoint, Timeline
-from .plant import OBSERVED_DELTA, OBSERVED_JOINTS, DriveInput, Outputs, Plant
-
-#: Ticks per compiled call of :meth:`Session.advance` with ``rows`` (its scratch rows: 0.5 MB).
-QUIET_TICKS_PER_CALL = 4096
-
-#: Columns of an output row (:meth:`Session.advance` with ``rows``, replays; :func:`row_of`): the
-#: joint_states row (θ, ω, effort of the three joints), the transmission error, the step.
-ROW_JOINTS, ROW_TE, ROW_STEP = slice(0, 9), 9, 10
-ROW = ROW_STEP + 1
-
-
-def row_of(o: Outputs) -> tuple[float, ...]:
-    """The ``ROW`` columns of ``o``."""
-    return (*o.position, *o.velocity, *o.effort, o.transmission_error, o.step)
-
-
-@dataclass(slots=True)
-class Tick:
-    """What one tick did. Read-only by convention, like :class:`~screwgear_ros.sim.plant.Outputs`
-    and for the same reason not ``frozen``: one is made a tick."""
-
-    start: int                          # step its events took effect at
-    applied: tuple[Event, ...]          # those events, in order, ``step`` set
-    rejected: tuple[InputRejected, ...]  # commands refused when they were to take effect
-    notices: tuple[str, ...]            # inputs cut by a parameter change, for the log
-    drive: DriveInput                   # input in force during the tick
-    params: TableParams                 # parameters in force during the tick
-    outputs: Outputs                    # at the tick's last step
-    previous: Outputs                   # at its first step, before its events
-    previous_direction: int             # commanded direction before the tick's events
-    fault: str | None                   # why the plant stands still, if it does
-    new_fault: bool                     # the model diverged during this tick
-    measured: Outputs | None = None     # what the sensors measure of ``outputs`` (None:
-    #                                     ``outputs`` itself, every sensor ideal)
-
-    @property
-    def start_ns(self) -> int:
-        """Simulation time of ``start``, ns: the stamp of what took effect then."""
-        return self.previous.time_ns
-
-    @property
-    def previous_path(self) -> int:
-        """Active path before the tick's events."""
-        return self.previous.active_path
-
-    @property
-    def reversal(self) -> bool:
-        """The commanded direction changed at the tick's start."""
-        return self.drive.direction != self.previous_direction
-
-    @property
-    def path_changed(self) -> bool:
-        return self.outputs.active_path != self.previous_path
+from .plant import Outputs, Plant
+from .tick import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Tick, row_of
 
 
 class Session:
@@ -264,7 +220,7 @@ class Session:
                     n = min(n, -(-(until - plant.step) // self._steps))
                 if due is not None:           # ticks that start before the next event
                     n = min(n, -(-(due - plant.step) // self._steps))
-                k = self._tick_quietly(int(n), rows[done:])   # type: ignore[index]
+                k = fast_ticks.tick_quietly(self, int(n), rows[done:])   # type: ignore[index]
                 if k:
                     done += k
                     continue
@@ -274,7 +230,7 @@ class Session:
             elif every_tick:
                 tick = self.tick(Command.of(Input.CMD_EFFORT, [effort]))
             else:
-                tick = self._tick_effort(effort)
+                tick = fast_ticks.tick_effort(self, effort)
             if rows is not None:
                 rows[done] = row_of(self.last_outputs)
             done += 1
@@ -346,33 +302,6 @@ class Session:
         return Tick(start, applied, rejected, notices, plant.input, plant.params, outputs,
                     previous, previous_direction, plant.fault,
                     fault is None and plant.fault is not None, self._measured)
-
-    def _tick_effort(self, effort: Any) -> Tick | None:
-        """``tick(Command.of(Input.CMD_EFFORT, [effort]))``: a closed loop's tick, answered
-        by its controller's signed drive torque ``effort``.
-
-        When that tick only takes the answer (nothing else is queued, the answer is
-        valid, the plant is running) it does to the session, its plant and sensors
-        exactly what :meth:`tick` does, without making the objects tick makes for it
-        (its Tick, the stamped command; :attr:`last_outputs` is made when read), and returns
-        None: :attr:`last_outputs`, :attr:`measured`, :attr:`Plant.observed` and
-        :attr:`Plant.fault` (the plant may have faulted in it) say what it made.
-        Otherwise it is :meth:`tick` itself, and returns its Tick."""
-        plant = self.plant
-        if self._pending or plant.fault is not None:
-            return self.tick(Command.of(Input.CMD_EFFORT, [effort]))
-        params = plant.params
-        try:
-            torque, direction = effort_drive(effort, params.max_torque, params.effort_deadband)
-        except InputRejected:                # tick refuses it, counts it and says why
-            return self.tick(Command.of(Input.CMD_EFFORT, [effort]))
-        plant.set_drive(torque, direction)
-        self._last_command, self.timed_out = plant.step, False
-        plant.advance(self._steps)
-        self._outputs = None
-        if not self.sensors.ideal:
-            self._measure()
-        return None
 
     def _apply(self, events: list[Event], start: int) -> tuple[
             tuple[Event, ...], tuple[InputRejected, ...], tuple[str, ...], bool]:
@@ -456,71 +385,21 @@ class Session:
                 f'(command_timeout): drive torque ({drive.torque:g} N·m) and load '
                 f'({drive.load:g} N·m) set to zero until the next command')
 
-    def _tick_quietly(self, n: int, values: np.ndarray) -> int:
-        """Up to ``n`` ticks that take no event, for replays that sample every tick: the
-        plant does exactly what ``n`` calls of :meth:`tick` would make it do (the same
-        calls, bit for bit), without a :class:`Tick` each, up to ``QUIET_TICKS_PER_CALL``
-        ticks per compiled call (:meth:`Plant.advance_ticks`). Row i of ``values``
-        (float64, at least n × ROW) gets tick i's outputs: θ(3) rad, ω(3) rad/s,
-        effort(3) N·m, transmission error m, and the step they are at (exact in float64;
-        a faulted plant's time stands still); :attr:`last_outputs` is the last one's.
-
-        The exact outputs only: the sensors (:attr:`measured`) do not follow these
-        ticks (replays compare the exact state; ``check_run`` measures it afresh).
-
-        Stops before a tick that would do more than integrate: events are queued, or
-        ``command_timeout`` comes due at its first step (:meth:`tick` does that one); and
-        after a tick in which the plant faulted (:attr:`Plant.fault` says why). Returns
-        the number of ticks done.
-        """
-        with self._lock:
-            if self._pending:
-                return 0
-        plant = self.plant
-        if self._timeout_steps is not None and not self.timed_out:
-            left = self._last_command + self._timeout_steps - plant.step
-            n = min(n, max(0, -(-left // self._steps)))   # ticks starting before it is due
-        if n <= 0:
-            return 0
-        if plant.fault is not None:          # standing still: every tick the same row
-            self._outputs = plant.advance_outputs(self._steps)
-            values[:n, :ROW] = row_of(self._outputs)
-            return n
-        if self._observed is None:
-            self._observed = np.empty((QUIET_TICKS_PER_CALL, OBSERVED))
-        delta = OBSERVED_DELTA[self.last_outputs.active_path]     # no event: the path stays
-        done = 0
-        while done < n and plant.fault is None:
-            step0 = plant.step
-            k = plant.advance_ticks(min(n - done, QUIET_TICKS_PER_CALL), self._steps,
-                                    self._observed)                  # one compiled call
-            rows, observed = values[done:done + k], self._observed[:k]
-            rows[:, ROW_JOINTS] = observed[:, OBSERVED_JOINTS]
-            rows[:, ROW_TE] = observed[:, delta]
-            rows[:, ROW_STEP] = step0 + self._steps * np.arange(1, k + 1)
-            if plant.fault is not None:      # the last tick faulted: its time stood still
-                rows[k - 1, ROW_STEP] = plant.step
-            done += k
-        self._outputs = plant.last_outputs()
-        return done
-
-
-def _deprecated_tick(name: str, private: str) -> Any:
+def _deprecated_tick(path: Any) -> Any:
     """``Session.<name>``, the old public name of a path :meth:`Session.advance` takes,
     for one release."""
     def tick(self: Session, *args: Any) -> Any:
-        warnings.warn(f'Session.{name} is deprecated: Session.advance runs it',
+        warnings.warn(f'Session.{path.__name__} is deprecated: Session.advance runs it',
                       DeprecationWarning, stacklevel=2)
-        return getattr(self, private)(*args)
-    tick.__name__ = name
+        return path(self, *args)
+    tick.__name__ = path.__name__
     return tick
 
 
-Session.tick_effort = _deprecated_tick('tick_effort', '_tick_effort')    # type: ignore[attr-defined]
-Session.tick_quietly = _deprecated_tick('tick_quietly', '_tick_quietly')  # type: ignore[attr-defined]
+Session.tick_effort = _deprecated_tick(fast_ticks.tick_effort)    # type: ignore[attr-defined]
+Session.tick_quietly = _deprecated_tick(fast_ticks.tick_quietly)  # type: ignore[attr-defined]
 
 __all__ = [
-    'QUIET_TICKS_PER_CALL',
     'ROW',
     'ROW_JOINTS',
     'ROW_STEP',

@@ -292,12 +292,12 @@ def drop_joint_states_at(step: int, dt_ns: int):
 def record_a_fault(bag: Path) -> None:
     """A run of the diverging model recorded as the node does: the time stands still for
     a few ticks, then a detuning change, a reset and a command revive it in one tick."""
-    from test_replay_quietly import _diverging
+    from diverging import diverging
 
     from screwgear_ros.interface import topic_names
     from screwgear_ros.ros.run_io import RunIO
     from screwgear_ros.sim.session import Session
-    params, settings = _diverging()
+    params, settings = diverging()
     session = Session(params, settings)
     io = RunIO(topic_names('', clock=settings.publish_clock), settings.joint_names)
     recorder = io.open_recorder(bag)
