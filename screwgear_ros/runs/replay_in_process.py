@@ -25,7 +25,8 @@ import numpy as np
 
 from ..bag.reader import BagError, RecordedRun
 from ..sim.events import Event, ParameterChange, describe
-from ..sim.scenario import ScenarioError, load_scenario
+from ..sim.scenario import ScenarioError
+from ..sim.scenario import load_scenario as read_scenario
 from ..sim.schedule import Schedule, ros_values
 from ..sim.session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
 
@@ -167,7 +168,7 @@ def schedule_from_scenario(path: str | Path) -> Schedule:
         Naming the line of what is wrong; and for a scenario with a controller: that
         runs in-process (``run_scenario``), a replay plays actions only.
     """
-    scenario = load_scenario(path)            # the format's one reader
+    scenario = read_scenario(path)            # the format's one reader
     if scenario.controller is not None:
         raise ScenarioError(f'{path}: line {scenario.controller.line}: this scenario closes '
                          'its loop with a controller, which run_scenario runs in-process; '
