@@ -84,7 +84,7 @@ STAGES = r"""
 import sys, time
 t0 = time.perf_counter()
 from screwgear_ros.bag.reader import read_run
-from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.runs.replay_in_process import replay_in_process
 from screwgear_ros.runs import check
 t = {'import': time.perf_counter() - t0}
 s = time.perf_counter(); run = read_run(sys.argv[1]); t['read bag'] = time.perf_counter() - s

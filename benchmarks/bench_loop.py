@@ -5,7 +5,7 @@
 Prints, measured in this run, interleaved ``--repeat`` times (median, and the range):
 
 * **physics alone**: the ticks of the in-process loop below integrated with no
-  controller, in one compiled call per chunk (``Session.tick_quietly``): the anchor;
+  controller, in one compiled call per chunk (``Session.advance`` with ``rows``): the anchor;
 * **in-process**: ``Simulation.run`` closed with a Python PD law on the table angle
   (each tick's answer applied at the next tick's first step), ticks/s and its ratio to
   the physics alone;
@@ -70,7 +70,7 @@ def physics_alone(ticks: int) -> tuple[float, float]:
     sim.step(150.0)                      # a moving table, as in the closed loop
     rows = np.empty((ticks, ROW))
     started, cpu = time.perf_counter(), time.thread_time()
-    done = sim.session.tick_quietly(ticks, rows)
+    done = sim.session.advance(ticks, rows=rows)
     return done / (time.perf_counter() - started), done / (time.thread_time() - cpu)
 
 

@@ -241,10 +241,10 @@ def make_controller(use: str, simulation_settings: SimSettings, target: float = 
     """``demo`` (the demo PID holding the table at ``target`` rad) or ``module:callable``
     (a factory called as scenarios call it, ``factory(setpoint)``, with a constant
     setpoint ``target`` on the table)."""
-    from ..sim.scenario import ControllerSpec, Setpoint
+    from ..sim.scenario import ControllerSpec, SetpointProfile
     if use != 'demo' and (use.count(':') != 1 or not all(use.split(':'))):
         raise UsageError(f'--controller must be demo or module:callable, not {use!r}')
-    setpoint = Setpoint('steps', points=((0.0, float(target)),))
+    setpoint = SetpointProfile('steps', points=((0.0, float(target)),))
     holder = Simulation(settings=simulation_settings)
     return ControllerSpec(use).make(holder, setpoint)
 

@@ -16,7 +16,7 @@ the action takes effect at the tick's first step, as a lockstep controller's ans
   e the tracking error after the step and u the action (clipped): a quadratic tracking
   cost with a little effort penalty.
 * **Target**: ``target(t)``, t in s from the episode's start → table angle in rad; any
-  callable, e.g. a :class:`~screwgear_ros.sim.scenario.Setpoint`. Default: a square wave
+  callable, e.g. a :class:`~screwgear_ros.sim.scenario.SetpointProfile`. Default: a square wave
   ±0.05 rad with a 3 s period (the demo controller's profile).
 * **Episode**: ends (``truncated``) after ``duration`` s of simulation time;
   ``terminated`` when the model diverges (the plant then stands still, ``info['fault']``
@@ -31,26 +31,26 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from ..sim.scenario import Setpoint
+from ..sim.scenario import SetpointProfile
 from ..sim.simulation import Observation, Simulation
 
 ENV_ID = 'ScrewgearTable-v0'
 #: The observation's entries, in order.
 OBSERVATION = ('theta_1', 'theta_2', 'theta_3', 'omega_1', 'omega_2', 'omega_3',
                'transmission_error', 'target', 'tracking_error')
-DEFAULT_TARGET = Setpoint('square', amplitude=0.05, period=3.0)
+DEFAULT_TARGET = SetpointProfile('square', amplitude=0.05, period=3.0)
 
 
 class ScrewgearTableEnv(gymnasium.Env):
     """The table as a Gymnasium environment; see the module docstring."""
 
-    metadata: dict[str, Any] = {'render_modes': []}
+    metadata: ClassVar[dict[str, Any]] = {'render_modes': []}
 
     def __init__(self, simulation: Simulation | None = None, *, duration: float = 3.0,
                  target: Callable[[float], float] | None = None, error_scale: float = 1e-3,
@@ -85,7 +85,7 @@ class ScrewgearTableEnv(gymnasium.Env):
         self.simulation = base
         self._t0 = 0.0
         self._steps = 0
-        self._max_steps = max(1, int(round(self.duration / base.tick_period)))
+        self._max_steps = max(1, round(self.duration / base.tick_period))
 
     def _observe(self, o: Observation) -> np.ndarray:
         target = self.target(o.time - self._t0)

@@ -96,7 +96,7 @@ def warm() -> int:
                                           else 350.0), SimSettings())
             session.submit(Command('cmd_effort', [10.0]))
             session.tick()
-            session.tick_quietly(2, np.empty((2, ROW)))     # replays, check_run
+            session.advance(2, rows=np.empty((2, ROW)))     # replays, check_run
             contact_states(session.plant.params, session.last_outputs)     # diagnostics, markers
             mesh_frequency_ratio(session.plant.params, session.last_outputs)
     from ..paper import floquet, normalized

@@ -8,277 +8,46 @@ flanks (δ1 > b, δ3 < −b) through a reversal. The table speed before the reve
 with a viscous table load c_t = T·(r2/r1)/ω2, so that torque T holds speed ω2; the drive is
 the paper's ideal torque source (``drive_no_load_speed`` 0), so every speed of the chart
 is reachable.
-
-Why one module of this length: as every module of ``report/``, it is one section of the
-paper report, its computation, figures and text together.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+import warnings
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from tqdm import tqdm
 
-from ..params.table import (
-    PAPER_DRIVE_TORQUE,
-    PAPER_PINION_SPEED,
-    Mode,
-    SimSettings,
-    TableParams,
-    effective_stiffness,
-)
+from ..params.table import PAPER_DRIVE_TORQUE, Mode, TableParams, effective_stiffness
 from ..physics.quantities import stiffness_fluctuation
-from ..sim.events import Command, ParameterChange
-from ..sim.session import Session
+from . import reversals
 from .common import COLORS, HOLDS, VAGUE, Section, Verdict, plt, save_figure, table
-
-DT = 50e-6                 # s, the node's default step
-REALISTIC_STE = 20e-6      # m, an STE amplitude typical of a module-6 gear, for comparison
-ARCSEC = math.pi / (180 * 3600)
-PREVIEW = 0.01             # s of forward motion shown before the reversal
-
-
-def paper_table_speed(p: TableParams) -> float:
-    """Table speed, rad/s, of the paper's pinion speed (24 r/min) through the radii."""
-    return PAPER_PINION_SPEED * p.radius_pinion_1 / p.radius_table
-
-
-def table_damping_for(p: TableParams, torque: float, table_speed: float) -> float:
-    """c_t, N·m·s/rad, at which drive torque T (N·m) holds the table at ω2 (rad/s)."""
-    return torque * p.radius_table / p.radius_pinion_1 / table_speed
-
-
-def _mechanical_time(p: TableParams) -> float:
-    """I_eff/c_t, s: time constant of the table speed under the viscous load."""
-    ratio = p.radius_table / p.radius_pinion_1
-    inertia = (p.inertia_table + (p.inertia_pinion_1 + p.inertia_pinion_3) * ratio ** 2)
-    return inertia / p.table_damping
-
-
-@dataclass(frozen=True)
-class Reversal:
-    """Signals around a reversal; t = 0 at the reversal command, SI units."""
-
-    params: TableParams
-    torque: float
-    t: np.ndarray
-    theta2: np.ndarray     # rad
-    omega2: np.ndarray     # rad/s
-    delta: np.ndarray      # (n, 2): δ1, δ3, m
-    force: np.ndarray      # (n, 2): F1, F3, N
-
-
-def reversal(params: TableParams, torque: float, table_speed: float,
-             delay: float = 0.0, stride: int = 2) -> Reversal:
-    """Drive forward at ``torque`` until steady at ``table_speed``, then reverse abruptly.
-
-    ``delay`` (s) shifts the reversal instant (to sample the mesh phase at reversal).
-    Recorded every ``stride`` steps from PREVIEW s before the reversal until the table
-    runs steadily backwards.
-    """
-    p = params.replace(table_damping=table_damping_for(params, torque, table_speed),
-                       max_torque=max(params.max_torque, torque))
-    tm = _mechanical_time(p)
-    n_forward = int(round((0.1 + 6 * tm + delay) / DT))
-    n_before = int(round(PREVIEW / DT / stride))
-    n_after = int(round((0.05 + 3 * tm) / DT / stride))
-    lead = n_forward - n_before * stride
-    sampled = SimSettings(dt=DT, publish_rate=1.0 / (stride * DT))
-    session = Session(p, replace(sampled, publish_rate=1.0 / (lead * DT)))   # one long tick
-    session.submit(Command('cmd_torque', torque))
-    session.tick()
-    session.submit(ParameterChange(p, sampled))                              # then stride
-    rows = []
-    for k in range(n_before + n_after):
-        if k == n_before:
-            session.submit(Command('cmd_direction', -1))
-        o = session.tick().outputs
-        rows.append((o.time, o.position[1], o.velocity[1], *o.delta, *o.mesh_force))
-    a = np.array(rows)
-    t = a[:, 0] - n_forward * DT
-    return Reversal(p, torque, t, a[:, 1], a[:, 2], a[:, 3:5], a[:, 5:7])
-
-
-@dataclass(frozen=True)
-class ReversalMetrics:
-    contact_loss_time: float    # s, total time mesh 1 (or either mesh) is off its flank
-    contact_losses: int         # number of separate losses of contact
-    dead_travel: float          # rad at the table: mesh travel without contact / r2
-    peak_force_ratio: float     # peak |F| of the driving mesh after reversal / (T/r1)
-    overshoot_ratio: float      # (peak − new steady |F|) / (T/r1): the impact part
-    overtravel: float           # rad: table travel after the command before it turns
-    min_margin: float           # m: min(δ1 − b, −b − δ3) (anti), min |δ1| − b (conventional)
-
-
-def metrics(r: Reversal) -> ReversalMetrics:
-    p = r.params
-    b = p.backlash
-    after = r.t >= 0.0
-    d1, d3 = r.delta[after, 0], r.delta[after, 1]
-    if p.mode is Mode.CONVENTIONAL:
-        on_flank = np.abs(d1) > b
-        driving_force = np.abs(r.force[after, 0])
-        margin = float(np.min(np.abs(d1) - b))
-    else:
-        on_flank = (d1 > b) & (d3 < -b)
-        driving_force = np.abs(r.force[after, 1])
-        margin = float(min(np.min(d1 - b), np.min(-b - d3)))
-    off = ~on_flank
-    dt = float(r.t[1] - r.t[0])
-    starts = int(np.sum(off[1:] & ~off[:-1]) + (1 if off[0] else 0))
-    # Travel of mesh 1 inside the gap |δ1| ≤ b: 2b per crossing, plus any rattling.
-    dead = float(np.sum(np.abs(np.diff(np.clip(d1, -b, b))))) / p.radius_table
-    theta = r.theta2[after]
-    unit = r.torque / p.radius_pinion_1
-    steady = float(np.mean(driving_force[-len(driving_force) // 5:]))
-    peak = float(np.max(driving_force))
-    return ReversalMetrics(
-        contact_loss_time=float(np.sum(off) * dt), contact_losses=starts, dead_travel=dead,
-        peak_force_ratio=peak / unit, overshoot_ratio=(peak - steady) / unit,
-        overtravel=float(np.max(theta) - theta[0]), min_margin=margin)
-
-
-def flank_margin(params: TableParams, torque: float, table_speed: float, preload: float,
-                 delay: float = 0.0) -> float:
-    """min(δ1 − b, −b − δ3), m, from steady forward motion through a reversal."""
-    r = reversal(params.replace(preload_torque=preload), torque, table_speed, delay,
-                 stride=4)
-    b = params.backlash
-    return float(min(np.min(r.delta[:, 0] - b), np.min(-b - r.delta[:, 1])))
-
-
-def mesh_modes(p: TableParams) -> tuple[float, ...]:
-    """Undamped mesh modes, rad/s, of the 3-DOF table with its meshes in contact at the
-    mean stiffness k_eff (rigid-body mode left out), lowest first: both meshes in
-    `anti_backlash`, mesh 1 alone in `conventional` (then the one mode is √(k/m_e))."""
-    k = effective_stiffness(p)
-    g = np.array([[p.radius_pinion_1, -p.radius_table, 0.0],
-                  [0.0, -p.radius_table, p.radius_pinion_3]])
-    inertia = np.array([p.inertia_pinion_1, p.inertia_table, p.inertia_pinion_3])
-    if p.mode is Mode.CONVENTIONAL:
-        g, inertia = g[:1, :2], inertia[:2]
-    # M^(-1/2)·K·M^(-1/2) is symmetric; its eigenvalues are the squared mode frequencies.
-    scale = 1.0 / np.sqrt(inertia)
-    squared = np.linalg.eigvalsh(scale[:, None] * (k * g.T @ g) * scale[None, :])
-    return tuple(float(w) for w in np.sqrt(np.sort(squared[squared > 1e-9 * squared.max()])))
-
-
-def mesh_period(params: TableParams, table_speed: float) -> float:
-    """s, one tooth of pinion 1 at table speed ω2 (rad/s)."""
-    pinion_speed = table_speed * params.radius_table / params.radius_pinion_1
-    return 2 * math.pi / (params.teeth_pinion_1 * pinion_speed)
-
-
-def reversal_instants(params: TableParams, table_speed: float, least: int = 8,
-                      most: int = 48) -> int:
-    """How many reversal instants to try over one mesh period.
-
-    With a large STE the steady forward motion carries harmonics of the mesh frequency
-    up to the mesh modes (its kinematics are far from linear), and a reversal adds its own
-    ringing at those modes: the worst instant is set to within a fraction of a mode's
-    period. Six instants per period of the highest mesh mode, between ``least`` and
-    ``most`` (slow speeds, where those harmonics are negligible, get ``most``).
-    """
-    needed = 6.0 * max(mesh_modes(params)) * mesh_period(params, table_speed) / (2 * math.pi)
-    return int(min(most, max(least, math.ceil(needed))))
-
-
-@dataclass(frozen=True)
-class PhaseScan:
-    """The flank margin over the reversal instant, and the preload at the worst ones."""
-
-    delays: np.ndarray        # s after the start of a mesh period
-    scan_preload: float       # N·m at which the margins were taken
-    margins: np.ndarray       # m, flank margin at each delay with scan_preload
-    worst: np.ndarray         # indices of the delays bisected, worst first
-    preloads: np.ndarray      # N·m, minimum preload at each of them (inf above the cap)
-
-    @property
-    def minimum_preload(self) -> float:
-        return float(np.max(self.preloads))
-
-
-def scan_preload(params: TableParams, torque: float, table_speed: float,
-                 phases: int | None = None, tolerance: float = 2.0, cap: float = 3000.0,
-                 bisected: int = 3) -> PhaseScan:
-    """Smallest preload torque T_p (N·m) keeping both flanks loaded through a reversal,
-    worst case over the reversal instant.
-
-    The instant is shifted over ``phases`` points of one mesh period (default
-    :func:`reversal_instants`) and the flank margin taken at T_p = ``torque``: it is
-    nearly affine in T_p (the preload's torques cancel on the table, so the motion
-    hardly depends on it), so the instants with the smallest margins are the ones that
-    need the most preload. T_p is bisected to ``tolerance`` N·m at the ``bisected`` worst
-    of them (inf if even ``cap`` N·m does not hold).
-    """
-    if phases is None:
-        phases = reversal_instants(params, table_speed)
-    delays = np.arange(phases) * mesh_period(params, table_speed) / phases
-    margins = np.array([flank_margin(params, torque, table_speed, torque, d) for d in delays])
-    worst = np.argsort(margins)[:bisected]
-    preloads = np.empty(len(worst))
-    for n, k in enumerate(worst):
-
-        def holds(tp: float) -> bool:
-            return flank_margin(params, torque, table_speed, tp, delays[k]) > 0.0
-
-        lo, hi = 0.0, torque
-        if margins[k] <= 0.0:
-            lo, hi = hi, 2 * hi
-            while not holds(hi) and hi <= cap:
-                lo, hi = hi, 2 * hi
-        if hi > cap:
-            preloads[n] = math.inf
-            continue
-        while hi - lo > tolerance:
-            mid = 0.5 * (lo + hi)
-            lo, hi = (lo, mid) if holds(mid) else (mid, hi)
-        preloads[n] = hi
-    return PhaseScan(delays, torque, margins, worst, preloads)
-
-
-def minimum_preload(params: TableParams, torque: float, table_speed: float,
-                    phases: int | None = None, tolerance: float = 2.0,
-                    cap: float = 3000.0) -> float:
-    """The worst case over the reversal instant of :func:`scan_preload`, N·m."""
-    return scan_preload(params, torque, table_speed, phases, tolerance, cap).minimum_preload
-
-
-def forward_harmonics(params: TableParams, torque: float, table_speed: float,
-                      harmonics: int | None = None, periods: int = 4) -> np.ndarray:
-    """Amplitudes, m, of the mesh-frequency harmonics 1…``harmonics`` of δ1 in steady
-    forward motion at ``table_speed`` under ``torque`` (c_t as in :func:`reversal`),
-    from a DFT over ``periods`` whole mesh periods. By default up to 1.5 times the
-    highest mesh mode."""
-    if harmonics is None:
-        harmonics = math.ceil(1.5 * max(mesh_modes(params)) * mesh_period(params, table_speed)
-                              / (2 * math.pi))
-    p = params.replace(table_damping=table_damping_for(params, torque, table_speed),
-                       max_torque=max(params.max_torque, torque))
-    period = mesh_period(p, table_speed)
-    settle = 0.1 + 6 * _mechanical_time(p)
-    n_settle = int(round(settle / DT))
-    n = int(round(periods * period / DT))
-    session = Session(p, SimSettings(dt=DT, publish_rate=1.0 / (n_settle * DT)))
-    session.submit(Command('cmd_torque', torque))
-    session.tick()
-    session.submit(ParameterChange(p, SimSettings(dt=DT, publish_rate=1.0 / DT)))
-    delta = np.array([session.tick().outputs.delta[0] for _ in range(n)])
-    spectrum = np.fft.rfft(delta - delta.mean()) * 2 / n
-    # Whole periods: harmonic h of the mesh frequency is DFT bin h·periods (up to the
-    # rounding of the period to whole steps).
-    return np.abs(spectrum[periods * np.arange(1, harmonics + 1)])
+from .reversals import (
+    ARCSEC,
+    REALISTIC_STE,
+    ReversalMetrics,
+    ReversalTrace,
+    forward_harmonics,
+    mesh_modes,
+    mesh_period,
+    metrics,
+    minimum_preload,
+    paper_table_speed,
+    reversal,
+    scan_preload,
+    table_damping_for,
+)
 
 
 @dataclass(frozen=True)
 class AntiBacklashStudy:
     table_speed: float                  # rad/s, the paper's
     table_damping: float                # c_t at 400 N·m and the paper's speed
-    conventional: Reversal
-    anti_backlash: Reversal
+    conventional: ReversalTrace
+    anti_backlash: ReversalTrace
     conventional_metrics: ReversalMetrics
     anti_metrics: ReversalMetrics
     torques: np.ndarray                 # N·m
@@ -311,7 +80,7 @@ def compute(quick: bool = False) -> AntiBacklashStudy:
         torques = np.array([50.0, 100.0, 150.0, 200.0, 250.0, 300.0, 350.0, 400.0])
         speeds, fast, tol = np.array([0.1, speed, 1.0]), np.array([2.0, 4.0]), 2.0
     # Quick: a few instants, one bisected; the full run resolves the mesh modes.
-    options = dict(phases=4, bisected=1) if quick else {}
+    options = {'phases': 4, 'bisected': 1} if quick else {}
     scans = [[None] * len(torques) for _ in speeds]
     jobs = [(i, j) for i in range(len(speeds)) for j in range(len(torques))]
     for i, j in tqdm(jobs, desc='minimum preload chart', leave=False):
@@ -357,7 +126,7 @@ def _history_figure(s: AntiBacklashStudy, outdir: Path) -> tuple[str, str]:
     axes[0].axhspan(-b_um, b_um, color='grey', alpha=0.25, label=f'gap |δ| ≤ b = {b_um:.0f} µm')
     levels = ((static_levels(s.conventional.params, s.conventional.torque)['δ1'], COLORS[1]),
               *zip(static_levels(s.anti_backlash.params, s.anti_backlash.torque).values(),
-                   (COLORS[0], COLORS[2])))
+                   (COLORS[0], COLORS[2]), strict=False))
     for (before, after), color in levels:
         axes[0].hlines(before * 1e6, -5, 0, colors=color, linestyles=':', lw=1.5)
         axes[0].hlines(after * 1e6, 0, 40, colors=color, linestyles=':', lw=1.5)
@@ -462,8 +231,8 @@ def render(s: AntiBacklashStudy, outdir: Path) -> Section:
     steady_anti = (s.anti_backlash.params.preload_torque + s.anti_backlash.torque) / \
         s.anti_backlash.torque
     rows = [
-        ('contact lost (driving mesh off its flank)', f'{c.contact_loss_time * 1e3:.2f} ms, '
-         f'{c.contact_losses}×', f'{a.contact_loss_time * 1e3:.2f} ms, {a.contact_losses}×'),
+        ('contact lost (driving mesh off its flank)', (f'{c.contact_loss_time * 1e3:.2f} ms, '
+         f'{c.contact_losses}×'), f'{a.contact_loss_time * 1e3:.2f} ms, {a.contact_losses}×'),
         ('closest approach to the gap edge, min |δ| − b (µm; negative: inside the gap)',
          f'{c.min_margin * 1e6:.1f}', f'{a.min_margin * 1e6:.1f}'),
         ('dead travel at the table (mesh motion without contact / r2)',
@@ -503,7 +272,7 @@ def render(s: AntiBacklashStudy, outdir: Path) -> Section:
     phase_note = (f' (the instant alone moves the flank margin by the equivalent of '
                   f'{min(min(r) for r in spread):.0f}–{max(max(r) for r in spread):.0f} N·m '
                   'of preload)')
-    instants = ', '.join(f'{n} at {w:.3g} rad/s' for n, w in zip(s.instants, s.speeds))
+    instants = ', '.join(f'{n} at {w:.3g} rad/s' for n, w in zip(s.instants, s.speeds, strict=False))
     instants = f'evenly spread instants ({instants})'
     resonance_text = _resonance_text(s, unit)
     conv_levels = static_levels(s.conventional.params, s.conventional.torque)['δ1']
@@ -526,7 +295,7 @@ def render(s: AntiBacklashStudy, outdir: Path) -> Section:
                                'none ≤ 3000' if math.isinf(v) else f'{v:.0f}',
                                'none ≤ 3000' if math.isinf(r) else f'{r:.0f}')
                               for w, v, r in zip(s.fast_speeds, s.fast_chart,
-                                                 s.fast_chart_realistic)]) + '\n')
+                                                 s.fast_chart_realistic, strict=False)]) + '\n')
     body = f"""
 The paper's model has one mesh and no backlash, so it cannot show what the mechanism is
 for. The 3-DOF plant (`plant.py`, model.md §§1–4, `angle` mesh phase, RK4 at dt = 50 µs)
@@ -600,25 +369,16 @@ column) the preload stays close to the slow chart's value at these speeds.
                    [hist_name, chart_name], verdicts)
 
 
-__all__ = [
-    'DT',
-    'AntiBacklashStudy',
-    'PhaseScan',
-    'Reversal',
-    'ReversalMetrics',
-    'compute',
-    'flank_margin',
-    'forward_harmonics',
-    'mesh_modes',
-    'mesh_period',
-    'metrics',
-    'minimum_preload',
-    'near_mode',
-    'paper_table_speed',
-    'render',
-    'reversal',
-    'reversal_instants',
-    'scan_preload',
-    'static_levels',
-    'table_damping_for',
-]
+def __getattr__(name: str) -> Any:
+    """The reversal runs' names, moved to :mod:`screwgear_ros.paper.reversals`, for one
+    release (``Reversal`` is now ``ReversalTrace`` there)."""
+    moved = 'ReversalTrace' if name == 'Reversal' else name
+    if moved in reversals.__all__:
+        warnings.warn(f'screwgear_ros.paper.antibacklash.{name} is now '
+                      f'screwgear_ros.paper.reversals.{moved}', DeprecationWarning,
+                      stacklevel=2)
+        return getattr(reversals, moved)
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+
+
+__all__ = ['AntiBacklashStudy', 'compute', 'near_mode', 'render', 'static_levels']

@@ -21,8 +21,8 @@ from tqdm import tqdm
 from ..params.table import PAPER_PINION_SPEED, TableParams
 from ..physics.equilibrium import equilibrium_state
 from ..sim import energy
-from .antibacklash import paper_table_speed
 from .common import COLORS, FAILS, HOLDS, Section, Verdict, fmt, plt, save_figure, table
+from .reversals import paper_table_speed
 
 FORMULATIONS = ('paper', 'energy_consistent')
 

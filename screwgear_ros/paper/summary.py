@@ -19,9 +19,10 @@ from ..physics.quantities import (
     natural_frequency,
     stiffness_fluctuation,
 )
-from .antibacklash import ARCSEC, AntiBacklashStudy, mesh_modes
+from .antibacklash import AntiBacklashStudy
 from .common import FAILS, HOLDS, UNCHECKABLE, VAGUE, Section, fmt, table
 from .derived import MODULE, Derived
+from .reversals import ARCSEC, mesh_modes
 
 RPM = 2.0 * math.pi / 60.0
 TWO_PI = 2.0 * math.pi

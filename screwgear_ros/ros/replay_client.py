@@ -22,7 +22,7 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, Self, TypeVar
 
 import rclpy
 import rclpy.executors
@@ -36,6 +36,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
+from ..errors import ScrewgearError
 from ..interface import TICK_TOPIC
 from ..sim.events import Command, Event, ParameterChange, Reset, describe
 from ..sim.schedule import Schedule
@@ -58,7 +59,7 @@ RELIABLE = QoSProfile(depth=10, history=HistoryPolicy.KEEP_LAST,
 T = TypeVar('T')
 
 
-class ReplayError(RuntimeError):
+class ReplayError(ScrewgearError, RuntimeError):
     """Something that stops a replay; the message says what."""
 
 
@@ -127,7 +128,7 @@ class ReplayClient:
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 
-    def __enter__(self) -> ReplayClient:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -334,7 +335,7 @@ class ReplayClient:
                    f'{CONNECT_TIMEOUT:g} s (its parameter services are not there)')
         response = self._result(self.params.get_parameters(names),
                                 f'reading the parameters of {self.full_name}')
-        return {n: parameter_value_to_python(v) for n, v in zip(names, response.values)}
+        return {n: parameter_value_to_python(v) for n, v in zip(names, response.values, strict=False)}
 
     def confirm(self, what: str) -> None:
         """A parameter-service round trip: the node has then taken every message this

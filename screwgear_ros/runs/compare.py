@@ -27,7 +27,7 @@ from ..bag.reader import RecordedRun, Signal
 from ..sim.events import Command, Event, ParameterChange, describe
 from ..sim.schedule import ros_values
 from .check import sensor_mismatch, signal_names
-from .replay import replay_in_process
+from .replay_in_process import replay_in_process
 
 
 @dataclass(frozen=True)

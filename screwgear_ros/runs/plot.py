@@ -42,7 +42,7 @@ from .plot_series import (
     setpoint_series,
     tracking_error,
 )
-from .replay import replay_in_process
+from .replay_in_process import replay_in_process
 
 #: Resolution the figures are written at (and readable at), dots per inch.
 DPI = 100

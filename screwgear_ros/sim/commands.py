@@ -25,7 +25,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
-from ..interface import COMMAND_TOPICS
+from ..errors import ScrewgearError
+from ..interface import COMMAND_TOPICS, Input
 from ..params.table import SimSettings, TableParams
 from .plant import DriveInput
 
@@ -63,7 +64,7 @@ class JointCommand:
         return f'JointState(name={list(self.name)}{arrays})'
 
 
-class InputRejected(ValueError):
+class InputRejected(ScrewgearError, ValueError):
     """A command refused; the message names the topic, the value and the rule."""
 
     def __init__(self, topic: str, value: Any, rule: str) -> None:
@@ -89,14 +90,14 @@ def _torque(topic: str, value: Any, max_torque: float) -> float:
 
 def apply_torque(current: DriveInput, value: float, max_torque: float) -> DriveInput:
     """cmd_torque: drive torque magnitude T, N·m, finite and 0 ≤ T ≤ max_torque."""
-    return DriveInput.of(_torque('cmd_torque', value, max_torque), current.direction,
+    return DriveInput.of(_torque(Input.CMD_TORQUE, value, max_torque), current.direction,
                          current.load)
 
 
 def apply_direction(current: DriveInput, value: int) -> DriveInput:
     """cmd_direction: +1 forward (path 1), −1 reverse (path 3)."""
     if isinstance(value, bool) or value not in (1, -1):
-        raise InputRejected('cmd_direction', value, 'direction must be +1 or -1')
+        raise InputRejected(Input.CMD_DIRECTION, value, 'direction must be +1 or -1')
     return replace(current, direction=int(value))
 
 
@@ -135,7 +136,7 @@ def effort_drive(value: Any, max_torque: float, deadband: float = 0.0) -> tuple[
     """cmd_effort's one value as (drive torque, direction; 0: the direction in force
     stays), validated as :func:`apply_effort` validates it (the same InputRejected): what
     a closed loop's answer folds into the input, without making the input itself."""
-    return _signed('cmd_effort', value, max_torque, [value], deadband)
+    return _signed(Input.CMD_EFFORT, value, max_torque, [value], deadband)
 
 
 def apply_effort(current: DriveInput, values: Sequence[float], max_torque: float,
@@ -146,9 +147,9 @@ def apply_effort(current: DriveInput, values: Sequence[float], max_torque: float
     reversal without a sign that means something).
     """
     if len(values) != 1:
-        raise InputRejected('cmd_effort', list(values),
+        raise InputRejected(Input.CMD_EFFORT, list(values),
                             f'expects exactly one value (the signed drive torque), got {len(values)}')
-    return _signed_drive('cmd_effort', current, values[0], max_torque, list(values), deadband)
+    return _signed_drive(Input.CMD_EFFORT, current, values[0], max_torque, list(values), deadband)
 
 
 def apply_joint_command(current: DriveInput, command: Any, max_torque: float,
@@ -159,7 +160,7 @@ def apply_joint_command(current: DriveInput, command: Any, max_torque: float,
     The message must name that joint, name no joint joint_states does not have, carry
     no position or velocity command and exactly one effort value.
     """
-    topic = 'joint_commands'
+    topic = Input.JOINT_COMMANDS
     if not isinstance(command, JointCommand):
         raise InputRejected(topic, command, 'expects a sensor_msgs/JointState of joint commands')
     joint = joint_names[COMMANDED_JOINT]
@@ -182,9 +183,9 @@ def apply_joint_command(current: DriveInput, command: Any, max_torque: float,
 
 def apply_load(current: DriveInput, value: float, max_load: float) -> DriveInput:
     """load_torque: external table load, N·m, signed, |load| ≤ max_load."""
-    load = _finite('load_torque', value)
+    load = _finite(Input.LOAD_TORQUE, value)
     if abs(load) > max_load:
-        raise InputRejected('load_torque', value,
+        raise InputRejected(Input.LOAD_TORQUE, value,
                             f'|load| must be <= {max_load:g} N·m')
     return DriveInput.of(current.torque, current.direction, load)
 
@@ -212,8 +213,8 @@ def limit_input(current: DriveInput, params: TableParams) -> tuple[DriveInput, s
     if load != current.load:
         cut.append(f'load {current.load:g} -> {load:g} N·m')
     return (replace(current, torque=torque, load=load),
-            f'max_torque is now {params.max_torque:g} N·m: the input in force is cut to the '
-            f'new limits ({", ".join(cut)})')
+            (f'max_torque is now {params.max_torque:g} N·m: the input in force is cut to the '
+            f'new limits ({", ".join(cut)})'))
 
 
 def apply_command(current: DriveInput, topic: str, value: Any, params: TableParams,
@@ -223,16 +224,16 @@ def apply_command(current: DriveInput, topic: str, value: Any, params: TablePara
     ``value`` is :func:`command_value` of the message; ``joint_names`` are the
     joint_states names in force (default: the default names).
     """
-    if topic == 'cmd_effort':            # first: a closed loop sends one a tick
+    if topic == Input.CMD_EFFORT:            # first: a closed loop sends one a tick
         return apply_effort(current, value, params.max_torque, params.effort_deadband)
-    if topic == 'cmd_torque':
+    if topic == Input.CMD_TORQUE:
         return apply_torque(current, value, params.max_torque)
-    if topic == 'cmd_direction':
+    if topic == Input.CMD_DIRECTION:
         return apply_direction(current, value)
-    if topic == 'load_torque':
+    if topic == Input.LOAD_TORQUE:
         return apply_load(current, value, load_limit(params.max_torque, params.radius_pinion_1,
                                                      params.radius_table))
-    if topic == 'joint_commands':
+    if topic == Input.JOINT_COMMANDS:
         names = SimSettings().joint_names if joint_names is None else joint_names
         return apply_joint_command(current, value, params.max_torque, names,
                                    params.effort_deadband)
@@ -246,9 +247,9 @@ def command_value(topic: str, msg: Any) -> Any:
     :class:`JointCommand`. Attribute access only, so rclpy messages and the bag
     reader's decoded ones give equal values.
     """
-    if topic == 'cmd_effort':
+    if topic == Input.CMD_EFFORT:
         return [float(v) for v in msg.data]
-    if topic == 'joint_commands':
+    if topic == Input.JOINT_COMMANDS:
         return JointCommand(tuple(str(n) for n in msg.name),
                             tuple(float(v) for v in msg.position),
                             tuple(float(v) for v in msg.velocity),
@@ -260,7 +261,7 @@ def carries_no_command(topic: str, value: Any) -> bool:
     """True for a joint_commands message that commands nothing yet: ros2_control's
     command interfaces hold NaN until a controller writes them, and the plugin sends
     them as they are. Such a message is neither a command nor a bad one."""
-    if topic != 'joint_commands' or not isinstance(value, JointCommand):
+    if topic != Input.JOINT_COMMANDS or not isinstance(value, JointCommand):
         return False
     values = value.values()
     return bool(values) and all(math.isnan(v) for v in values)

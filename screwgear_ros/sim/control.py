@@ -166,7 +166,7 @@ class DemoLaw:
     def answer(self, stamp: int, angle: float, speed: float) -> tuple[float, float]:
         """The effort for a new joint state stamped ``stamp`` (ns, later than the last
         one answered), and the time t (s since the first) it was computed at."""
-        if self.t0 is None:
+        if self.t0 is None or self.last_stamp is None:
             self.t0 = self.last_stamp = stamp
         t, gap = (stamp - self.t0) * 1e-9, (stamp - self.last_stamp) * 1e-9
         self.last_stamp = stamp

@@ -82,7 +82,7 @@ from ..physics.packed import (
 )
 from .events import Command, Event
 from .plant import DriveInput
-from .session import Session
+from .session import Session, Tick
 
 #: Points of the quadrature stencil (degree 5).
 STENCIL = 6
@@ -177,26 +177,31 @@ def record(session: Session, ticks: int,
     (:func:`settings_for`); a coarser stride is accepted and audited on its samples.
     Stops early if the plant faults.
     """
-    events = events or {}
     plant = session.plant
     stride = session.settings.steps_per_publish
     step0 = plant.step
     states = [plant.full_state.copy()]
     spans: list[Stretch] = []
-    for k in range(ticks):
-        for event in events.get(k, ()):
-            session.submit(event)
-        tick = session.tick()
+    # Tick k starts at step0 + k·stride (the stride is checked after every tick).
+    timeline = [event for k in sorted(events or {}) for event in
+                (e.at(step0 + k * stride) for e in (events or {})[k])]
+
+    def keep(tick: Tick | None) -> bool:
+        assert tick is not None               # no controller: every tick is a full one
         if tick.fault is not None:
-            break
+            return True
         if session.settings.steps_per_publish != stride:
             raise ValueError('the session changed its steps per tick during an audited run')
         states.append(plant.full_state.copy())
+        k = len(states) - 2
         last = spans[-1] if spans else None
         if last is not None and last.drive == tick.drive and last.params == tick.params:
             spans[-1] = Stretch(last.start, k + 1, last.drive, last.params)
         else:
             spans.append(Stretch(k, k + 1, tick.drive, tick.params))
+        return False
+
+    session.advance(ticks, events=timeline, monitor=keep)
     return Trace(session.settings.dt, step0, stride, np.array(states), tuple(spans))
 
 
@@ -209,8 +214,8 @@ def run(params: TableParams, dt: float, duration: float,
     session = Session(params, settings_for(dt), initial_state)
     events: dict[int, list[Event]] = {}
     for time, command in commands:
-        events.setdefault(int(round(time / dt)), []).append(command)
-    return audit(record(session, int(round(duration / dt)), events))
+        events.setdefault(round(time / dt), []).append(command)
+    return audit(record(session, round(duration / dt), events))
 
 
 # ---------------------------------------------------------------- the audit

@@ -9,6 +9,7 @@ serves the node, the recorder, the bag reader, replay and check.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -86,6 +87,51 @@ def _stamped(event: Any, step: int) -> Any:
     return stamped
 
 
+class Timeline:
+    """Events at integer steps, handed out once each as their step comes.
+
+    An event at step s is due once the outputs of a step >= s are out: it takes effect
+    at the next tick's first step. The one place that rule is written; sessions
+    (:meth:`~screwgear_ros.sim.session.Session.advance`), schedules and replay plans
+    read their events through it.
+
+    Parameters
+    ----------
+    events : sequence of Event
+        Each with its ``step`` set, in increasing step order (ties keep their order).
+
+    Examples
+    --------
+    >>> t = Timeline([Reset(step=0), Reset(step=10)])
+    >>> len(t.due(5)), len(t.due(5)), t.next_step, len(t.due(10))
+    (1, 0, 10, 1)
+    """
+
+    __slots__ = ('_events', '_next')
+
+    def __init__(self, events: Sequence[Event]) -> None:
+        if any(event.step is None for event in events):
+            raise ValueError('every event of a timeline needs the step it takes effect at')
+        self._events = events
+        self._next = 0
+
+    @property
+    def next_step(self) -> int | None:
+        """The step of the first event not yet handed out (None: none left)."""
+        k = self._next
+        return self._events[k].step if k < len(self._events) else None
+
+    def due(self, step: int) -> Sequence[Event]:
+        """The events not yet handed out whose step is <= ``step``, in order; call
+        with steps that do not decrease."""
+        first = k = self._next
+        events = self._events
+        while k < len(events) and events[k].step <= step:   # type: ignore[operator]
+            k += 1
+        self._next = k
+        return events[first:k]
+
+
 def describe(event: Event) -> str:
     """A short human description: 'cmd_torque 150.0', 'parameter change', 'reset'."""
     if isinstance(event, Command):
@@ -97,4 +143,4 @@ def describe(event: Event) -> str:
     return 'reset'
 
 
-__all__ = ['Command', 'Event', 'ParameterChange', 'Reset', 'Setpoint', 'describe']
+__all__ = ['Command', 'Event', 'ParameterChange', 'Reset', 'Setpoint', 'Timeline', 'describe']

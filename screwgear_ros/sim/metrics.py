@@ -20,6 +20,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -112,7 +113,7 @@ def run_metrics(run: Any, setpoint: Callable[[float], float] | None = None,
             raise ValueError(f'joint {joint!r} is not one of {names}')
         joint = names.index(joint)
     t = run.time - run.time[0]
-    angle = run.position[:, joint]
+    angle = run.true_position[:, joint]
     force = np.abs(run.mesh_force)
     peak = (float(force[:, 0].max()), float(force[:, 1].max())) if len(run) else (0.0, 0.0)
     rms = None
@@ -162,7 +163,7 @@ def _reversals(run: Any, t: np.ndarray) -> list[Reversal]:
     # lost motion at the table, rad: pinion 1's mesh deflection over the table radius
     lag = run.delta[:, 0] / run.params.radius_table
     bounds = [0, *at.tolist(), len(direction)]
-    settled = [_settled(lag[a:b]) for a, b in zip(bounds, bounds[1:])]
+    settled = [_settled(lag[a:b]) for a, b in itertools.pairwise(bounds)]
     return [Reversal(float(t[i - 1]), int(direction[i]), abs(settled[k + 1] - settled[k]))
             for k, i in enumerate(at)]
 
@@ -184,6 +185,7 @@ def format_metrics(m: Metrics, details: int = 5) -> str:
                      f'{s.overshoot * 1e3:.5f} mrad ({100 * s.overshoot / abs(s.size):.2f} %), '
                      f'{settle} (band {SETTLING_BAND:.0%})')
     if len(m.steps) > details:
+        assert m.max_overshoot is not None and m.max_settling_time is not None
         lines.append(f'... {len(m.steps) - details} more steps; worst overshoot '
                      f'{m.max_overshoot * 1e3:.5f} mrad, longest settling '
                      f'{m.max_settling_time:.4f} s')
@@ -192,6 +194,7 @@ def format_metrics(m: Metrics, details: int = 5) -> str:
         lines.append(f'reversal at {r.time:8.4f} s to {r.direction:+d}: lost motion '
                      f'{r.lost_motion * 1e6:10.3f} µrad at the table')
     if len(m.reversals) > details:
+        assert m.max_lost_motion is not None
         lines.append(f'... {len(m.reversals) - details} more reversals; largest lost motion '
                      f'{m.max_lost_motion * 1e6:.3f} µrad')
     lines.append(f'peak mesh force         {m.peak_mesh_force[0]:12.1f} N (mesh 1), '

@@ -127,6 +127,7 @@ class Pacer:
     def _sleep_until(self, deadline: float, stop: threading.Event | None,
                      wake: threading.Event | None) -> bool:
         event = wake if wake is not None else stop
+        assert event is not None             # the caller sleeps plainly without either
         while True:
             if stop is not None and stop.is_set():
                 return False

@@ -7,17 +7,14 @@ setpoint profile it tracks. :func:`load_scenario` reads and validates one: every
 a :class:`ScenarioError` naming the file and the line. :meth:`Scenario.run` runs it
 in-process (:class:`~screwgear_ros.sim.simulation.Simulation`); :meth:`Scenario.schedule`
 is what ``replay_run --script`` plays into a live node over DDS (actions only).
-
-Why one module of this length: it is the one reader of the scenario format, and each of
-its checks must name the file's line, so the format's rules stay together.
 """
 
 from __future__ import annotations
 
 import importlib
-import math
 import os
 import sys
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +22,8 @@ from typing import Any
 
 import yaml
 
+from ..errors import ScrewgearError
+from ..interface import Input
 from ..params.sets import default_values, split_parameters
 from ..params.table import ParameterError
 from ..params.yaml_reader import YamlReader
@@ -33,6 +32,7 @@ from .control import TABLE_JOINT, DemoController, DemoGains
 from .events import Command, Event, ParameterChange, Reset
 from .plant import DriveInput
 from .schedule import Schedule
+from .setpoint_profile import PROFILES, SetpointProfile, read_setpoint
 from .simulation import Controller, Run, Simulation
 
 #: The top-level keys of a scenario.
@@ -40,117 +40,12 @@ KEYS = ('parameters', 'duration', 'actions', 'controller', 'setpoint')
 #: What an action can do besides its ``time``: a command on an input topic, a parameter
 #: change, a reset.
 ACTIONS = (*INPUT_TOPICS, 'parameters', 'reset')
-#: The setpoint profiles and their keys (required ones first, then optional with defaults).
-PROFILES: dict[str, dict[str, Any]] = {
-    'steps': {'points': None},
-    'ramps': {'points': None},
-    'square': {'amplitude': None, 'period': None, 'offset': 0.0},
-    'sine': {'amplitude': None, 'frequency': None, 'offset': 0.0, 'phase': 0.0},
-}
 #: A scenario's controller: its keys.
 CONTROLLER_KEYS = ('use', 'parameters')
 
 
-class ScenarioError(ValueError):
+class ScenarioError(ScrewgearError, ValueError):
     """A scenario that cannot be run; the message names the file and the line."""
-
-
-# ---------------------------------------------------------------- setpoints
-
-@dataclass(frozen=True)
-class Setpoint:
-    """A target profile, t (s of simulation time from the start) → target (rad) of
-    ``joint``; see docs/scenarios.md for the profiles."""
-
-    profile: str
-    points: tuple[tuple[float, float], ...] = ()    # steps, ramps: (time, value)
-    amplitude: float = 0.0
-    period: float = 0.0
-    frequency: float = 0.0
-    offset: float = 0.0
-    phase: float = 0.0
-    joint: str = 'table'
-
-    def __call__(self, t: float) -> float:
-        p = self.profile
-        if p == 'sine':
-            return self.offset + self.amplitude * math.sin(
-                2.0 * math.pi * self.frequency * t + self.phase)
-        if p == 'square':
-            return self.offset + (self.amplitude if (t // (0.5 * self.period)) % 2 == 0
-                                  else -self.amplitude)
-        points = self.points
-        if t < points[0][0]:
-            return points[0][1]
-        for (t0, v0), (t1, v1) in zip(points, points[1:]):
-            if t < t1:
-                return v0 if p == 'steps' else v0 + (v1 - v0) * (t - t0) / (t1 - t0)
-        return points[-1][1]
-
-    def steps(self, duration: float) -> list[tuple[float, float, float]]:
-        """The setpoint's jumps within ``duration``: (time, value before, value after);
-        empty for a profile without jumps (ramps, sine)."""
-        if self.profile == 'steps':
-            jumps, before = [], self.points[0][1]
-            for t, v in self.points:
-                if t <= duration and v != before:
-                    jumps.append((t, before, v))
-                before = v
-            return jumps
-        if self.profile == 'square':
-            half = 0.5 * self.period
-            return [(k * half, self((k - 0.5) * half), self(k * half))
-                    for k in range(1, int(duration / half) + 1) if k * half <= duration]
-        return []
-
-
-def _setpoint(reader: YamlReader, node: yaml.Node) -> Setpoint:
-    entries = reader.mapping(node, 'setpoint')
-    if 'profile' not in entries:
-        raise reader.error(node, f'setpoint needs a profile: one of {", ".join(PROFILES)}')
-    profile_key, profile_node = entries['profile']
-    profile = reader.value(profile_node)
-    if profile not in PROFILES:
-        raise reader.error(profile_node, f'unknown setpoint profile {profile!r} (known: '
-                           f'{", ".join(PROFILES)})')
-    keys = PROFILES[profile]
-    reader.known(entries, ('profile', 'joint', *keys), f'key of a {profile} setpoint')
-    for name, default in keys.items():
-        if default is None and name not in entries:
-            raise reader.error(node, f'a {profile} setpoint needs {name!r}')
-    values: dict[str, Any] = {}
-    if 'joint' in entries:
-        joint = reader.value(entries['joint'][1])
-        if not isinstance(joint, str) or not joint:
-            raise reader.error(entries['joint'][1], 'setpoint joint must be a joint name')
-        values['joint'] = joint
-    for name in keys:
-        if name not in entries:
-            continue
-        key, value = entries[name]
-        if name == 'points':
-            values['points'] = _points(reader, value)
-        else:
-            positive = name in ('period', 'frequency')
-            values[name] = reader.number(value, f'setpoint {name}', low=0.0 if positive else None,
-                                         strict=positive)
-    return Setpoint(profile, **values)
-
-
-def _points(reader: YamlReader, node: yaml.Node) -> tuple[tuple[float, float], ...]:
-    if not isinstance(node, yaml.SequenceNode) or not node.value:
-        raise reader.error(node, 'setpoint points must be a list of [time, value] pairs')
-    points: list[tuple[float, float]] = []
-    for item in node.value:
-        if not isinstance(item, yaml.SequenceNode) or len(item.value) != 2:
-            raise reader.error(item, 'a setpoint point is [time, value] (s, rad)')
-        t = reader.number(item.value[0], 'a setpoint time', low=0.0)
-        v = reader.number(item.value[1], 'a setpoint value')
-        if points and t <= points[-1][0]:
-            raise reader.error(item, f'setpoint times must increase ({t:g} s after '
-                               f'{points[-1][0]:g} s)')
-        points.append((t, v))
-    return tuple(points)
 
 
 # ---------------------------------------------------------------- controllers
@@ -164,7 +59,7 @@ class ControllerSpec:
     line: int = 0
     directory: str = ''      # the scenario file's: searched first for the module
 
-    def make(self, simulation: Simulation, setpoint: Setpoint | None) -> Controller:
+    def make(self, simulation: Simulation, setpoint: SetpointProfile | None) -> Controller:
         """A fresh controller for one run of ``simulation``."""
         values = dict(self.parameters)
         if self.use == 'demo':
@@ -247,7 +142,7 @@ class Scenario:
     duration: float                              # s of simulation time
     actions: tuple[Action, ...] = ()
     controller: ControllerSpec | None = None
-    setpoint: Setpoint | None = None
+    setpoint: SetpointProfile | None = None
 
     def simulation(self, **overrides: Any) -> Simulation:
         """The scenario's simulation, some parameters changed (validated)."""
@@ -260,7 +155,7 @@ class Scenario:
         values = {**simulation.params.as_dict(), **simulation.settings.as_dict()}
         out: list[Event] = []
         for action in self.actions:
-            step = int(round(action.time / dt))
+            step = round(action.time / dt)
             if action.kind == 'reset':
                 out.append(Reset(step))
             elif action.kind == 'parameters':
@@ -272,9 +167,32 @@ class Scenario:
         return out
 
     def run(self, record: str | os.PathLike[str] | None = None,
-            simulation: Simulation | None = None) -> Run:
-        """Run the scenario in-process (optionally on ``simulation``, e.g. the scenario's
-        with some parameters changed), recording to ``record`` if given."""
+            simulation: Simulation | None = None,
+            guard: Callable[[Controller | None], Controller] | None = None) -> Run:
+        """Run the scenario in-process: the one code path that runs a scenario.
+
+        Parameters
+        ----------
+        record : path, optional
+            Record the run there, as table_sim records.
+        simulation : Simulation, optional
+            Run on it (e.g. the scenario's with some parameters changed); default: the
+            scenario's own.
+        guard : callable, optional
+            ``guard(controller) -> controller``: what answers each tick in the place of
+            the scenario's controller (None when it has none), e.g. one that stops a run
+            over its wall-time limit.
+
+        Returns
+        -------
+        Run
+            The run's samples.
+
+        Raises
+        ------
+        ScenarioError
+            The scenario changes publish_rate after its start.
+        """
         for action in self.actions:
             if action.kind == 'parameters' and 'publish_rate' in action.value:
                 raise ScenarioError(f'{self.path}: line {action.line}: an in-process run counts '
@@ -284,9 +202,10 @@ class Scenario:
         simulation = simulation or self.simulation()
         controller = (None if self.controller is None
                       else self.controller.make(simulation, self.setpoint))
-        return simulation.run(controller, self.duration, record,
-                              events=self.events(simulation),
-                              setpoint=self._table_target(simulation, controller))
+        target = self._table_target(simulation, controller)
+        return simulation.run(controller if guard is None else guard(controller),
+                              self.duration, record, events=self.events(simulation),
+                              setpoint=target)
 
     def _table_target(self, simulation: Simulation,
                       controller: Controller | None) -> Callable[[float], float] | None:
@@ -305,7 +224,7 @@ class Scenario:
         actions at their steps (:class:`~screwgear_ros.sim.schedule.Schedule`)."""
         simulation = self.simulation()
         return Schedule(simulation.params, simulation.settings, self.events(simulation),
-                        end_step=int(round(self.duration / simulation.settings.dt)))
+                        end_step=round(self.duration / simulation.settings.dt))
 
 
 def load_scenario(path: str | os.PathLike[str]) -> Scenario:
@@ -369,7 +288,7 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
                                        f'{exc}') from None
                 actions.append(Action(t, kind, command, line))
     controller = _controller(reader, top['controller'][1]) if 'controller' in top else None
-    setpoint = _setpoint(reader, top['setpoint'][1]) if 'setpoint' in top else None
+    setpoint = read_setpoint(reader, top['setpoint'][1]) if 'setpoint' in top else None
     if setpoint is not None and setpoint.joint not in values['joint_names']:
         raise reader.error(top['setpoint'][1], f'setpoint joint {setpoint.joint!r} is not one '
                            f'of the joint_states names {values["joint_names"]}')
@@ -394,25 +313,35 @@ def _parameters(reader: YamlReader, node: yaml.Node, values: dict[str, Any],
 def _command(reader: YamlReader, topic: str, node: yaml.Node) -> Any:
     """The value of a command action, as its message would carry it."""
     value = reader.value(node)
-    if topic == 'cmd_effort':
+    if topic == Input.CMD_EFFORT:
         if not isinstance(value, list):
             raise reader.error(node, 'cmd_effort takes a list of one signed torque, e.g. '
                                '[-350.0]')
         return value
-    if topic == 'joint_commands':
+    if topic == Input.JOINT_COMMANDS:
         from .commands import JointCommand
         if not isinstance(value, dict) or not set(value) <= {'name', 'position', 'velocity',
                                                              'effort'}:
             raise reader.error(node, 'joint_commands takes {name: [...], effort: [...]}')
         return JointCommand(tuple(value.get('name', ())), tuple(value.get('position', ())),
                             tuple(value.get('velocity', ())), tuple(value.get('effort', ())))
-    if topic == 'cmd_direction':
+    if topic == Input.CMD_DIRECTION:
         if isinstance(value, bool) or not isinstance(value, int):
             raise reader.error(node, f'cmd_direction takes +1 or -1, not {value!r}')
         return value
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise reader.error(node, f'{topic} takes a number, not {value!r}')
     return float(value)
+
+
+def __getattr__(name: str) -> Any:
+    """``Setpoint``, the old name of :class:`SetpointProfile`, for one release
+    (:class:`screwgear_ros.sim.events.Setpoint` is the event that records one)."""
+    if name == 'Setpoint':
+        warnings.warn('screwgear_ros.sim.scenario.Setpoint is now SetpointProfile',
+                      DeprecationWarning, stacklevel=2)
+        return SetpointProfile
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 __all__ = [
@@ -423,7 +352,7 @@ __all__ = [
     'ControllerSpec',
     'Scenario',
     'ScenarioError',
-    'Setpoint',
+    'SetpointProfile',
     'load_scenario',
     'resolve_callable',
 ]

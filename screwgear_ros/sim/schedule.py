@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..params.table import SimSettings, TableParams
-from .events import Event, ParameterChange
+from .events import Event, ParameterChange, Timeline
 
 #: Settings a replay does not copy from the recording: where to record, and how the
 #: node is paced (replay_run sets both itself).
@@ -44,7 +44,7 @@ class Schedule:
     settings: SimSettings
     events: list[Event] = field(default_factory=list)
     end_step: int = 0
-    _next: int = 0
+    _timeline: Timeline | None = field(default=None, repr=False, compare=False)
 
     @property
     def start(self) -> dict[str, Any]:
@@ -58,10 +58,9 @@ class Schedule:
     def due(self, step: int) -> list[Event]:
         """The events not yet taken whose step is <= ``step`` (the node has published
         the outputs of ``step``; they take effect at its next tick), in order."""
-        first = self._next
-        while self._next < len(self.events) and self.events[self._next].step <= step:
-            self._next += 1
-        return self.events[first:self._next]
+        if self._timeline is None:
+            self._timeline = Timeline(self.events)
+        return list(self._timeline.due(step))
 
     def changed_values(self, change: ParameterChange) -> dict[str, Any]:
         """The ROS parameters ``change`` sets, against the parameters in force before it."""

@@ -1,8 +1,13 @@
-"""One simulation run: the plant, an ordered queue of typed events, ``tick()``, the outputs.
+"""One simulation run: the plant, an ordered queue of typed events, ticks, the outputs.
 
-:class:`Session` is the only simulation loop in the project. The node's pacing thread
-ticks it (free-running against the wall clock, or in lockstep with a controller),
-in-process replays, ``check_run``, the benchmarks and the tests tick it too.
+:class:`Session` is the only simulation loop in the project, and
+:meth:`Session.advance` its one door: N ticks or up to a step (:meth:`Session.advance_to`:
+a time), submitting the events of a schedule as their step comes, asking an optional
+controller before each tick and telling an optional monitor after it (Drake's
+``Simulator.AdvanceTo`` with a monitor is the model). In-process runs, replays, the
+energy audit and the paper's studies go through it; the node's pacing thread, which
+makes one tick at a time against the wall clock or a lockstep answer, calls
+:meth:`Session.tick`, the single tick that ``advance`` is made of.
 
 A tick is what the node does between two publications:
 
@@ -17,9 +22,11 @@ A tick is what the node does between two publications:
    sensor is ideal). A reset restarts the sensors' chain; a parameter change hands them
    its settings.
 
-A closed loop's tick, whose one event is its controller's answer, is
-:meth:`Session.tick_effort`: the same tick, without the objects a tick makes for
-callers that log or record it.
+A closed loop's tick, whose one event is its controller's answer, runs a fast path
+when nobody needs its :class:`Tick` (:meth:`Session.advance` with a controller and not
+``every_tick``): the same tick, without the objects a tick makes for callers that log
+or record it. Ticks that take no event, when only their outputs are wanted (``rows``),
+run many to a compiled call. Both leave every bit as :meth:`Session.tick` would.
 
 Commands are validated when they take effect, against the parameters in force at
 that step (:func:`screwgear_ros.sim.commands.apply_command`); a refused command changes
@@ -42,70 +49,21 @@ from __future__ import annotations
 
 import math
 import threading
-from dataclasses import dataclass, replace
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
-from ..interface import INFO_TOPICS
-from ..numerics.integrator import OBSERVED
+from ..interface import INFO_TOPICS, Input
 from ..params.table import SimSettings, TableParams
 from ..physics.sensors import SensorChain
-from .commands import INPUT_TOPICS, InputRejected, apply_command, effort_drive, limit_input
-from .events import Command, Event, ParameterChange, Reset, Setpoint
-from .plant import OBSERVED_DELTA, OBSERVED_JOINTS, DriveInput, Outputs, Plant
-
-#: Ticks per compiled call of :meth:`Session.tick_quietly` (its scratch rows: 0.5 MB).
-QUIET_TICKS_PER_CALL = 4096
-
-#: Columns of an output row (:meth:`Session.tick_quietly`, replays; :func:`row_of`): the
-#: joint_states row (θ, ω, effort of the three joints), the transmission error, the step.
-ROW_JOINTS, ROW_TE, ROW_STEP = slice(0, 9), 9, 10
-ROW = ROW_STEP + 1
-
-
-def row_of(o: Outputs) -> tuple[float, ...]:
-    """The ``ROW`` columns of ``o``."""
-    return (*o.position, *o.velocity, *o.effort, o.transmission_error, o.step)
-
-
-@dataclass(slots=True)
-class Tick:
-    """What one tick did. Read-only by convention, like :class:`~screwgear_ros.sim.plant.Outputs`
-    and for the same reason not ``frozen``: one is made a tick."""
-
-    start: int                          # step its events took effect at
-    applied: tuple[Event, ...]          # those events, in order, ``step`` set
-    rejected: tuple[InputRejected, ...]  # commands refused when they were to take effect
-    notices: tuple[str, ...]            # inputs cut by a parameter change, for the log
-    drive: DriveInput                   # input in force during the tick
-    params: TableParams                 # parameters in force during the tick
-    outputs: Outputs                    # at the tick's last step
-    previous: Outputs                   # at its first step, before its events
-    previous_direction: int             # commanded direction before the tick's events
-    fault: str | None                   # why the plant stands still, if it does
-    new_fault: bool                     # the model diverged during this tick
-    measured: Outputs | None = None     # what the sensors measure of ``outputs`` (None:
-    #                                     ``outputs`` itself, every sensor ideal)
-
-    @property
-    def start_ns(self) -> int:
-        """Simulation time of ``start``, ns: the stamp of what took effect then."""
-        return self.previous.time_ns
-
-    @property
-    def previous_path(self) -> int:
-        """Active path before the tick's events."""
-        return self.previous.active_path
-
-    @property
-    def reversal(self) -> bool:
-        """The commanded direction changed at the tick's start."""
-        return self.drive.direction != self.previous_direction
-
-    @property
-    def path_changed(self) -> bool:
-        return self.outputs.active_path != self.previous_path
+from . import fast_ticks
+from .commands import INPUT_TOPICS, InputRejected, apply_command, limit_input
+from .events import Command, Event, ParameterChange, Reset, Setpoint, Timeline
+from .plant import Outputs, Plant
+from .tick import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Tick, row_of
 
 
 class Session:
@@ -123,7 +81,7 @@ class Session:
         self._last_command = self.start_step   # step of the last accepted command
         self._lock = threading.Lock()          # guards _pending only
         self._pending: list[Event] = []
-        self._observed: np.ndarray | None = None   # tick_quietly's rows, made on first use
+        self._observed: np.ndarray | None = None   # the compiled ticks' rows, made on first use
         self._outputs: Outputs | None = self.plant.compute_outputs()
         self.sensors = SensorChain(settings.sensors, settings.dt)
         self._measure()
@@ -145,14 +103,14 @@ class Session:
     def last_outputs(self) -> Outputs:
         """The outputs of the last tick (before the first: of the start)."""
         outputs = self._outputs
-        if outputs is None:      # a tick_effort left them in the plant: made when read
+        if outputs is None:      # a fast closed-loop tick left them in the plant: made when read
             self._outputs = outputs = self.plant.last_outputs()
         return outputs
 
     @property
     def measured(self) -> Outputs:
         """What joint_states publishes of :attr:`last_outputs` (the same object when every
-        sensor is ideal). :meth:`tick_quietly` leaves the sensors' chain alone (sensors
+        sensor is ideal). :meth:`advance` with ``rows`` leaves the sensors' chain alone (sensors
         that are not ideal: this stays what they measured last)."""
         measured = self._measured
         return self.last_outputs if measured is None else measured
@@ -172,6 +130,138 @@ class Session:
         """Queue ``event``; it takes effect at the first step of the next tick. Any thread."""
         with self._lock:
             self._pending.append(event)
+
+    def advance(self, ticks: int | None = None, *, until: int | None = None,
+                events: Sequence[Event] | Timeline = (),
+                controller: Callable[[], Any] | None = None,
+                monitor: Callable[[Tick | None], bool | None] | None = None,
+                every_tick: bool = False,
+                changes: Callable[[ParameterChange], None] | None = None,
+                rows: np.ndarray | None = None) -> int:
+        """Advance ``ticks`` ticks, or until the step ``until``, submitting the events due
+        on the way: the session's one loop.
+
+        Before each tick: the events of ``events`` whose step the session has reached are
+        submitted (:class:`~screwgear_ros.sim.events.Timeline`: they take effect at the
+        tick's first step), then ``controller()`` is asked for its answer. After each
+        tick: ``monitor(tick)``.
+
+        Parameters
+        ----------
+        ticks : int, optional
+            How many ticks to do.
+        until : int, optional
+            Tick while the session's step is below this one; stops early once the plant
+            has faulted (its time then stands still). At least one of ``ticks`` and
+            ``until`` is given; with both, whichever comes first.
+        events : sequence of Event or Timeline
+            Events with their step set, in step order (a Timeline continues where an
+            earlier advance left it).
+        controller : callable, optional
+            ``controller() -> effort``: cmd_effort's signed drive torque (N·m) for the
+            coming tick, or None for no command.
+        monitor : callable, optional
+            ``monitor(tick)`` after every tick; it gets None when the tick took nothing
+            but the controller's answer and ran the fast path (no :class:`Tick` made:
+            :attr:`last_outputs`, :attr:`measured` and the plant say what it did). A true
+            return stops the advance after that tick.
+        every_tick : bool
+            Make every tick a full :meth:`tick`, so the monitor always gets its Tick (a
+            recording writes it).
+        changes : callable, optional
+            Who submits a parameter change of ``events`` (a recording renders its texts
+            first); default: :meth:`submit`.
+        rows : ndarray, optional
+            Row i (``ROW`` columns, :func:`row_of`) gets tick i's exact outputs. With no
+            controller and not ``every_tick``, the ticks that take no event then run as
+            :meth:`advance` with ``rows`` does, many in one compiled call, and the monitor sees
+            only the full ticks (those that applied an event or timed a command out).
+
+        Returns
+        -------
+        int
+            The ticks done.
+
+        Raises
+        ------
+        ValueError
+            Neither ``ticks`` nor ``until`` given, or an event without its step.
+
+        Examples
+        --------
+        >>> from screwgear_ros.params.table import SimSettings, TableParams
+        >>> session = Session(TableParams(), SimSettings())
+        >>> per_tick = session.settings.steps_per_publish
+        >>> session.advance(until=10 * per_tick)
+        10
+        >>> session.step == 10 * per_tick
+        True
+        """
+        if ticks is None and until is None:
+            raise ValueError('advance needs ticks, until or both')
+        timeline = events if isinstance(events, Timeline) else Timeline(events)
+        limit = math.inf if ticks is None else ticks
+        submit = self.submit
+        plant = self.plant
+        quiet = rows is not None and controller is None and not every_tick
+        done = 0
+        while done < limit and (until is None or (plant.step < until
+                                                   and (done == 0 or plant.fault is None))):
+            due = timeline.next_step
+            if due is not None and due <= plant.step:
+                for event in timeline.due(plant.step):
+                    if changes is not None and isinstance(event, ParameterChange):
+                        changes(event)
+                    else:
+                        submit(event)
+            elif quiet:
+                n = limit - done
+                if until is not None:         # ticks that start below ``until``
+                    n = min(n, -(-(until - plant.step) // self._steps))
+                if due is not None:           # ticks that start before the next event
+                    n = min(n, -(-(due - plant.step) // self._steps))
+                k = fast_ticks.tick_quietly(self, int(n), rows[done:])   # type: ignore[index]
+                if k:
+                    done += k
+                    continue
+            effort = None if controller is None else controller()
+            if effort is None:
+                tick: Tick | None = self.tick()
+            elif every_tick:
+                tick = self.tick(Command.of(Input.CMD_EFFORT, [effort]))
+            else:
+                tick = fast_ticks.tick_effort(self, effort)
+            if rows is not None:
+                rows[done] = row_of(self.last_outputs)
+            done += 1
+            if monitor is not None and monitor(tick):
+                break
+        return done
+
+    def advance_to(self, time: float, **kwargs: Any) -> int:
+        """:meth:`advance` until simulation time ``time`` (s): ticks while the step's
+        time is below it, so a time on the tick grid is where it stops exactly.
+
+        Parameters
+        ----------
+        time : float
+            Simulation time to reach, s.
+        **kwargs
+            As :meth:`advance` takes them (``events``, ``controller``, ``monitor`` ...).
+
+        Returns
+        -------
+        int
+            The ticks done.
+
+        Examples
+        --------
+        >>> from screwgear_ros.params.table import SimSettings, TableParams
+        >>> session = Session(TableParams(), SimSettings(dt=1e-4, publish_rate=100.0))
+        >>> session.advance_to(0.05)
+        5
+        """
+        return self.advance(until=math.ceil(round(time / self.settings.dt, 6)), **kwargs)
 
     def tick(self, command: Command | None = None) -> Tick:
         """Apply the queued events, integrate one tick, compute its outputs.
@@ -212,33 +302,6 @@ class Session:
         return Tick(start, applied, rejected, notices, plant.input, plant.params, outputs,
                     previous, previous_direction, plant.fault,
                     fault is None and plant.fault is not None, self._measured)
-
-    def tick_effort(self, effort: Any) -> Tick | None:
-        """``tick(Command.of('cmd_effort', [effort]))``: a closed loop's tick, answered
-        by its controller's signed drive torque ``effort``.
-
-        When that tick only takes the answer (nothing else is queued, the answer is
-        valid, the plant is running) it does to the session, its plant and sensors
-        exactly what :meth:`tick` does, without making the objects tick makes for it
-        (its Tick, the stamped command; :attr:`last_outputs` is made when read), and returns
-        None: :attr:`last_outputs`, :attr:`measured`, :attr:`Plant.observed` and
-        :attr:`Plant.fault` (the plant may have faulted in it) say what it made.
-        Otherwise it is :meth:`tick` itself, and returns its Tick."""
-        plant = self.plant
-        if self._pending or plant.fault is not None:
-            return self.tick(Command.of('cmd_effort', [effort]))
-        params = plant.params
-        try:
-            torque, direction = effort_drive(effort, params.max_torque, params.effort_deadband)
-        except InputRejected:                # tick refuses it, counts it and says why
-            return self.tick(Command.of('cmd_effort', [effort]))
-        plant.set_drive(torque, direction)
-        self._last_command, self.timed_out = plant.step, False
-        plant.advance(self._steps)
-        self._outputs = None
-        if not self.sensors.ideal:
-            self._measure()
-        return None
 
     def _apply(self, events: list[Event], start: int) -> tuple[
             tuple[Event, ...], tuple[InputRejected, ...], tuple[str, ...], bool]:
@@ -303,8 +366,8 @@ class Session:
         value = setpoint.value
         if isinstance(value, bool) or not isinstance(value, (int, float)) \
                 or not math.isfinite(value):
-            self.rejected['setpoint'] += 1
-            return InputRejected('setpoint', value, 'a setpoint must be a finite angle, rad')
+            self.rejected[Input.SETPOINT] += 1
+            return InputRejected(Input.SETPOINT, value, 'a setpoint must be a finite angle, rad')
         return None
 
     def _time_out(self, start: int) -> str | None:
@@ -322,57 +385,21 @@ class Session:
                 f'(command_timeout): drive torque ({drive.torque:g} N·m) and load '
                 f'({drive.load:g} N·m) set to zero until the next command')
 
-    def tick_quietly(self, n: int, values: np.ndarray) -> int:
-        """Up to ``n`` ticks that take no event, for replays that sample every tick: the
-        plant does exactly what ``n`` calls of :meth:`tick` would make it do (the same
-        calls, bit for bit), without a :class:`Tick` each, up to ``QUIET_TICKS_PER_CALL``
-        ticks per compiled call (:meth:`Plant.advance_ticks`). Row i of ``values``
-        (float64, at least n × ROW) gets tick i's outputs: θ(3) rad, ω(3) rad/s,
-        effort(3) N·m, transmission error m, and the step they are at (exact in float64;
-        a faulted plant's time stands still); :attr:`last_outputs` is the last one's.
+def _deprecated_tick(path: Any) -> Any:
+    """``Session.<name>``, the old public name of a path :meth:`Session.advance` takes,
+    for one release."""
+    def tick(self: Session, *args: Any) -> Any:
+        warnings.warn(f'Session.{path.__name__} is deprecated: Session.advance runs it',
+                      DeprecationWarning, stacklevel=2)
+        return path(self, *args)
+    tick.__name__ = path.__name__
+    return tick
 
-        The exact outputs only: the sensors (:attr:`measured`) do not follow these
-        ticks (replays compare the exact state; ``check_run`` measures it afresh).
 
-        Stops before a tick that would do more than integrate: events are queued, or
-        ``command_timeout`` comes due at its first step (:meth:`tick` does that one); and
-        after a tick in which the plant faulted (:attr:`Plant.fault` says why). Returns
-        the number of ticks done.
-        """
-        with self._lock:
-            if self._pending:
-                return 0
-        plant = self.plant
-        if self._timeout_steps is not None and not self.timed_out:
-            left = self._last_command + self._timeout_steps - plant.step
-            n = min(n, max(0, -(-left // self._steps)))   # ticks starting before it is due
-        if n <= 0:
-            return 0
-        if plant.fault is not None:          # standing still: every tick the same row
-            self._outputs = plant.advance_outputs(self._steps)
-            values[:n, :ROW] = row_of(self._outputs)
-            return n
-        if self._observed is None:
-            self._observed = np.empty((QUIET_TICKS_PER_CALL, OBSERVED))
-        delta = OBSERVED_DELTA[self.last_outputs.active_path]     # no event: the path stays
-        done = 0
-        while done < n and plant.fault is None:
-            step0 = plant.step
-            k = plant.advance_ticks(min(n - done, QUIET_TICKS_PER_CALL), self._steps,
-                                    self._observed)                  # one compiled call
-            rows, observed = values[done:done + k], self._observed[:k]
-            rows[:, ROW_JOINTS] = observed[:, OBSERVED_JOINTS]
-            rows[:, ROW_TE] = observed[:, delta]
-            rows[:, ROW_STEP] = step0 + self._steps * np.arange(1, k + 1)
-            if plant.fault is not None:      # the last tick faulted: its time stood still
-                rows[k - 1, ROW_STEP] = plant.step
-            done += k
-        self._outputs = plant.last_outputs()
-        return done
-
+Session.tick_effort = _deprecated_tick(fast_ticks.tick_effort)    # type: ignore[attr-defined]
+Session.tick_quietly = _deprecated_tick(fast_ticks.tick_quietly)  # type: ignore[attr-defined]
 
 __all__ = [
-    'QUIET_TICKS_PER_CALL',
     'ROW',
     'ROW_JOINTS',
     'ROW_STEP',

@@ -20,6 +20,7 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
+from ..errors import ScrewgearError
 from .model import Bundle, RunSpec
 
 
@@ -49,7 +50,7 @@ class Outcome:
                 'reason': self.reason, 'metrics': list(self.metrics)}
 
 
-class RunTimeout(Exception):
+class RunTimeout(ScrewgearError):
     """The run went past its deadline (raised between ticks)."""
 
 
@@ -61,6 +62,11 @@ class _Deadline:
     def __init__(self, controller: Any, deadline: float) -> None:
         self.controller, self.deadline = controller, deadline
         self.time = 0.0
+
+    def around(self, controller: Any) -> _Deadline:
+        """This guard, in front of ``controller`` (Scenario.run's ``guard``)."""
+        self.controller = controller
+        return self
 
     def __call__(self, observation: Any) -> Any:
         if time.perf_counter() > self.deadline:
@@ -132,14 +138,11 @@ def _execute(bundle: Bundle, spec: RunSpec) -> Outcome:
 
     started, cpu = time.perf_counter(), time.thread_time()
     nothing = tuple(math.nan for _ in bundle.metrics)
-    guard = None
+    guard = _Deadline(None, started + bundle.time_limit)
     try:
         scenario = _scenario(bundle)
         simulation = Simulation.from_values(dict(bundle.base), **dict(spec.overrides))
-        controller = (None if scenario.controller is None
-                      else scenario.controller.make(simulation, scenario.setpoint))
-        guard = _Deadline(controller, started + bundle.time_limit)
-        run = simulation.run(guard, scenario.duration, events=scenario.events(simulation))
+        run = scenario.run(simulation=simulation, guard=guard.around)
         setpoint = scenario.setpoint
         metrics = run_metrics(run, setpoint, setpoint.joint if setpoint else 'table').as_dict()
         values = tuple(float(metrics[name]) for name in bundle.metrics)

@@ -37,7 +37,7 @@ def _finite(msg: JointState) -> bool:
 @pytest.mark.ros
 def test_a_diverging_model_halts_integration_not_publishing(tmp_path):
     from screwgear_ros.bag.reader import Reset, read_run
-    from screwgear_ros.runs.replay import replay_in_process
+    from screwgear_ros.runs.replay_in_process import replay_in_process
 
     bag = tmp_path / 'run'
     proc = start_process('table_sim', params={

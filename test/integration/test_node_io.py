@@ -332,7 +332,7 @@ def test_describe_shows_each_parameters_declared_range(table):
 def test_the_recording_reproduces_every_output_of_this_module_bit_for_bit(table):
     """Runs last: stops the node, reads its bag, replays the inputs as applied."""
     from screwgear_ros.bag.reader import Command, ParameterChange, Reset, read_run
-    from screwgear_ros.runs.replay import replay_in_process
+    from screwgear_ros.runs.replay_in_process import replay_in_process
 
     table.fresh()
     table.send('cmd_effort', [-5.0])

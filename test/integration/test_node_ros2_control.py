@@ -45,7 +45,7 @@ from screwgear_ros.physics.layout import BASE_LINK, PALETTE, wheels
 from screwgear_ros.physics.packed import pack
 from screwgear_ros.ros.markers import DISCS, MARKS, MESHES
 from screwgear_ros.ros.urdf import PLANT_NAMESPACE, shipped_description
-from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.runs.replay_in_process import replay_in_process
 from screwgear_ros.sim.commands import JointCommand
 from screwgear_ros.sim.events import Command
 from screwgear_ros.sim.schedule import Schedule

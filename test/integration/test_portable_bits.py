@@ -27,7 +27,7 @@ import numpy as np
 from numba import config
 from screwgear_ros import integrator
 from screwgear_ros.bag.reader import read_run
-from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.runs.replay_in_process import replay_in_process
 
 report = {}
 for path in sys.argv[1:]:

@@ -38,8 +38,12 @@ from screwgear_ros.runs.compare import (
     format_exact,
     shift_event,
 )
-from screwgear_ros.runs.replay import load_scenario, replay_in_process, schedule_from_run
-from screwgear_ros.runs.replay_plan import plan_from_run
+from screwgear_ros.runs.lockstep_plan import plan_from_run
+from screwgear_ros.runs.replay_in_process import (
+    replay_in_process,
+    schedule_from_run,
+    schedule_from_scenario,
+)
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
 
 #: Generous bounds for a process to finish: a hang fails the test, a slow machine does not.
@@ -134,7 +138,7 @@ def test_lockstep_keeps_the_order_of_events_in_one_tick(tmp_path: Path) -> None:
     result = tool('replay_run', '--script', scenario, '--record', recorded)
     assert_no_traceback(result)
     assert result.returncode == 0, result.stdout + result.stderr
-    schedule = load_scenario(scenario)
+    schedule = schedule_from_scenario(scenario)
     run = read_run(recorded)
     expected = [('parameters', e.params, e.step) if isinstance(e, ParameterChange)
                 else ('reset', None, e.step) if isinstance(e, Reset)
@@ -288,12 +292,12 @@ def drop_joint_states_at(step: int, dt_ns: int):
 def record_a_fault(bag: Path) -> None:
     """A run of the diverging model recorded as the node does: the time stands still for
     a few ticks, then a detuning change, a reset and a command revive it in one tick."""
-    from test_replay_quietly import _diverging
+    from diverging import diverging
 
     from screwgear_ros.interface import topic_names
     from screwgear_ros.ros.run_io import RunIO
     from screwgear_ros.sim.session import Session
-    params, settings = _diverging()
+    params, settings = diverging()
     session = Session(params, settings)
     io = RunIO(topic_names('', clock=settings.publish_clock), settings.joint_names)
     recorder = io.open_recorder(bag)

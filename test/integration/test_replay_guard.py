@@ -20,7 +20,7 @@ from ros_procs import STARTUP_TIMEOUT, Peer, start_process, wait_until
 from std_msgs.msg import Float64
 
 from screwgear_ros.bag.reader import read_run
-from screwgear_ros.runs.replay import schedule_from_run
+from screwgear_ros.runs.replay_in_process import schedule_from_run
 
 #: What a one-second stop may take on a loaded CI machine; the figure is printed.
 STOP_BOUND = 5.0

@@ -28,7 +28,7 @@ from rosbags.typesys import Stores, get_typestore
 from std_msgs.msg import Float64MultiArray
 
 from screwgear_ros.bag.reader import read_run
-from screwgear_ros.runs.replay_plan import plan_from_run
+from screwgear_ros.runs.lockstep_plan import plan_from_run
 from screwgear_ros.sim.events import Command
 
 CONFIG = ROOT / 'config' / 'paper.yaml'

@@ -179,11 +179,11 @@ def test_the_measured_loop_of_a_pd_law_has_the_margins_of_its_closed_form():
 
     from screwgear_ros.params.table import SimSettings
     from screwgear_ros.sim.control import DemoController, DemoGains
-    from screwgear_ros.sim.scenario import Setpoint
+    from screwgear_ros.sim.scenario import SetpointProfile
     settings = SimSettings()
     gains = DemoGains(ki=0.0)
     controller = DemoController(gains, dt=settings.dt,
-                                setpoint=Setpoint('steps', points=((0.0, 0.0),)))
+                                setpoint=SetpointProfile('steps', points=((0.0, 0.0),)))
     f = np.geomspace(1.0, 40.0, 10)
     lm = measure_loop(LINEAR_TABLE, settings, controller, frequencies=f, amplitude=5.0)
     assert np.all(lm.response.coherence >= 0.99)

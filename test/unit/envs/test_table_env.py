@@ -13,7 +13,7 @@ from gymnasium.utils.env_checker import check_env
 
 from screwgear_ros import Simulation
 from screwgear_ros.envs.table_env import ENV_ID, OBSERVATION, ScrewgearTableEnv
-from screwgear_ros.sim.scenario import Setpoint
+from screwgear_ros.sim.scenario import SetpointProfile
 
 
 def test_gymnasium_check_env_passes():
@@ -24,7 +24,7 @@ def test_gymnasium_check_env_passes():
 
 
 def test_the_env_steps_the_simulation_tick_by_tick():
-    target = Setpoint('steps', points=((0.0, 0.02),))
+    target = SetpointProfile('steps', points=((0.0, 0.02),))
     env = ScrewgearTableEnv(duration=0.02, target=target,
                             parameters={'command_timeout': 0.0, 'table_damping': 8867.0})
     sim = Simulation.from_values(command_timeout=0.0, table_damping=8867.0)

@@ -18,6 +18,7 @@ from screwgear_ros.paper import (
     index,
     measures,
     response,
+    reversals,
     stability,
     stiffness,
     summary,
@@ -160,8 +161,8 @@ def test_reversal_conventional_loses_contact_anti_backlash_does_not(
     assert 0.5 * 400 < t400 < 400
     assert s.chart[0, 0] < t400
     base = TableParams()
-    assert antibacklash.flank_margin(base, 400.0, s.table_speed, t400) > 0
-    assert antibacklash.flank_margin(base, 400.0, s.table_speed, t400 - 20.0) < 0
+    assert reversals.flank_margin(base, 400.0, s.table_speed, t400) > 0
+    assert reversals.flank_margin(base, 400.0, s.table_speed, t400 - 20.0) < 0
 
 
 def test_energy_section_paper_mesh_misses_at_every_step_energy_consistent_closes():
@@ -199,7 +200,7 @@ def test_summary_in_physical_units_from_closed_forms(
                                           math.sqrt(k * (r1 ** 2 / i1 + 2 * r2 ** 2 / i2))),
                                          rel=1e-9)
     # One pinion alone (conventional): the paper's 1-DOF ω0 exactly.
-    conventional = antibacklash.mesh_modes(p.replace(mode='conventional', preload_torque=0.0))
+    conventional = reversals.mesh_modes(p.replace(mode='conventional', preload_torque=0.0))
     assert conventional == pytest.approx((math.sqrt(k / m_e),), rel=1e-9)
     assert s.reflected_inertia == pytest.approx(i2 + 2 * i1 * (r2 / r1) ** 2)
     assert s.ratio == pytest.approx(0.582 / 0.078)
@@ -222,7 +223,7 @@ def test_readme_table_load_is_the_reports_number() -> None:
     quoted = [float(v) for v in re.findall(r'c_t = (\d{4,5})\)', readme.read_text('utf-8'))]
     assert quoted, 'README no longer quotes the operating point\'s c_t'
     base = TableParams(drive_no_load_speed=0.0)
-    c_t = antibacklash.table_damping_for(base, 400.0, antibacklash.paper_table_speed(base))
+    c_t = reversals.table_damping_for(base, 400.0, reversals.paper_table_speed(base))
     assert quoted == [round(c_t)] * len(quoted)
 
 
@@ -247,11 +248,20 @@ def test_minimum_preload_at_1_rad_s_covers_every_reversal_instant_and_grows_with
     """At 1 rad/s the 8th mesh harmonic sits on a mesh mode: the worst reversal instant
     must be resolved, or a larger torque appears to need less preload."""
     base = TableParams(drive_no_load_speed=0.0)
-    needed = {t: antibacklash.minimum_preload(base, t, 1.0) for t in (350.0, 400.0)}
+    needed = {t: reversals.minimum_preload(base, t, 1.0) for t in (350.0, 400.0)}
     assert needed[400.0] >= needed[350.0]
     # The criterion itself, at instants the search did not try (offset, another count):
     # the preload found holds the flanks at every one of them, with a small allowance for
     # a worst instant between the search's samples.
-    period = antibacklash.mesh_period(base, 1.0)
+    period = reversals.mesh_period(base, 1.0)
     for delay in (np.arange(15) + 0.5) * period / 15:
-        assert antibacklash.flank_margin(base, 400.0, 1.0, needed[400.0] + 10.0, delay) > 0.0
+        assert reversals.flank_margin(base, 400.0, 1.0, needed[400.0] + 10.0, delay) > 0.0
+
+
+def test_the_reversal_names_answer_from_antibacklash_for_one_release() -> None:
+    with pytest.warns(DeprecationWarning, match='paper.reversals.ReversalTrace'):
+        assert antibacklash.Reversal is reversals.ReversalTrace
+    with pytest.warns(DeprecationWarning, match='paper.reversals.flank_margin'):
+        assert antibacklash.__getattr__('flank_margin') is reversals.flank_margin
+    with pytest.raises(AttributeError):
+        antibacklash.__getattr__('no_such_name')

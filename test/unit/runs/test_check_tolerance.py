@@ -25,13 +25,13 @@ from paths import DATA
 
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.check import SAFETY, SAFETY_FIXED_STEP, check_run
-from screwgear_ros.runs.replay import load_scenario
+from screwgear_ros.runs.replay_in_process import schedule_from_scenario
 
 
 @pytest.fixture(scope='module')
 def conventional(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The conventional reversal scenario, recorded in-process with contact location on."""
-    schedule = load_scenario(DATA / 'scenarios' / 'reversals_conventional.yaml')
+    schedule = schedule_from_scenario(DATA / 'scenarios' / 'reversals_conventional.yaml')
     assert schedule.settings.contact_location
     bag = tmp_path_factory.mktemp('located') / 'conventional'
     record_session(bag, schedule)
@@ -64,7 +64,7 @@ def test_a_table_angle_off_by_1e8_rad_fails(conventional: Path, tmp_path: Path) 
 
 
 def test_a_fixed_step_recording_keeps_the_wide_factor(tmp_path: Path) -> None:
-    schedule = load_scenario(DATA / 'scenarios' / 'reversals_conventional.yaml')
+    schedule = schedule_from_scenario(DATA / 'scenarios' / 'reversals_conventional.yaml')
     schedule.settings = replace(schedule.settings, contact_location=False)
     record_session(tmp_path / 'fixed', schedule)
     run = read_run(tmp_path / 'fixed')

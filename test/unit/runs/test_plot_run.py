@@ -24,7 +24,7 @@ from paths import DATA
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.check import check_run
 from screwgear_ros.runs.plot import DPI, Mark, Panel, check_figure, params_at, plt, run_figure
-from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.runs.replay_in_process import replay_in_process
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
 
 PREFIX = Path(sys.prefix)

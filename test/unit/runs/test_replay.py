@@ -17,18 +17,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 from bag_runs import BAGS
+from diverging import diverging
 from paths import DATA
 
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.interface import topic_names
-from screwgear_ros.params.table import MeshPhase, Mode, SimSettings, TableParams
-from screwgear_ros.physics.quantities import natural_frequency
+from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.ros.run_io import RunIO
-from screwgear_ros.runs.replay import load_scenario, replay_in_process
-from screwgear_ros.sim import session as session_module
+from screwgear_ros.runs.replay_in_process import replay_in_process, schedule_from_scenario
+from screwgear_ros.sim import fast_ticks
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
+from screwgear_ros.sim.fast_ticks import QUIET_TICKS_PER_CALL
 from screwgear_ros.sim.schedule import Schedule
-from screwgear_ros.sim.session import QUIET_TICKS_PER_CALL, ROW, Session, row_of
+from screwgear_ros.sim.session import ROW, Session, row_of
 
 
 def _state(session: Session) -> tuple:
@@ -66,7 +67,7 @@ def _both(schedule: Schedule, ticks: int) -> tuple[np.ndarray, np.ndarray, int, 
         if k < len(events):        # the ticks that start before the next event's step
             span = min(span, -(-(events[k].step - quiet.step)
                                // quiet.settings.steps_per_publish))
-        done = quiet.tick_quietly(span, rows[1][i:])
+        done = fast_ticks.tick_quietly(quiet, span, rows[1][i:])
         if done == 0:
             rows[1][i] = row_of(quiet.tick().outputs)
             done = 1
@@ -80,8 +81,8 @@ def _both(schedule: Schedule, ticks: int) -> tuple[np.ndarray, np.ndarray, int, 
 @pytest.mark.parametrize('name', BAGS)
 def test_the_test_scenarios_tick_quietly_as_by_tick(name: str, block: int, monkeypatch) -> None:
     """Also with 7 ticks per compiled call: every quiet stretch spans many calls."""
-    monkeypatch.setattr(session_module, 'QUIET_TICKS_PER_CALL', block)
-    schedule = load_scenario(DATA / 'scenarios' / f'{name}.yaml')
+    monkeypatch.setattr(fast_ticks, 'QUIET_TICKS_PER_CALL', block)
+    schedule = schedule_from_scenario(DATA / 'scenarios' / f'{name}.yaml')
     ticks = schedule.end_step // schedule.settings.steps_per_publish
     a, b, quietly, _ = _both(schedule, ticks)
     assert np.array_equal(a, b)
@@ -103,26 +104,17 @@ def test_command_timeout_comes_due_between_commands(divisor: int) -> None:
     assert timeouts == 3          # after 0.3013 s, 1.3013 s and 2.3013 s
 
 
-def _diverging() -> tuple[TableParams, SimSettings]:
-    """A model that diverges: a parametric pump of the mesh stiffness at twice the
-    natural frequency, no mesh damping (test_node_fault's)."""
-    unstable = TableParams(mode=Mode.CONVENTIONAL, backlash=0.0, mesh_phase=MeshPhase.TIME,
-                           mesh_stiffness_amplitude=5.0e6, mesh_damping=0.0)
-    return (replace(unstable, mesh_frequency=2.0 * natural_frequency(unstable)),
-            SimSettings(dt=50e-6, publish_rate=200.0, command_timeout=0.0))
-
-
 @pytest.mark.parametrize('block', [QUIET_TICKS_PER_CALL, 7])
 def test_a_fault_and_a_reset(block: int, monkeypatch) -> None:
     """A model that diverges (a parametric pump of the mesh stiffness, no mesh damping:
     test_node_fault's); tick_quietly stops after the tick that faulted, the plant stands
     still, then a detuning change and a reset revive it, all as tick() does; also with 7
     ticks per compiled call (the fault then comes in a later call than the first)."""
-    monkeypatch.setattr(session_module, 'QUIET_TICKS_PER_CALL', block)
-    params, settings = _diverging()
+    monkeypatch.setattr(fast_ticks, 'QUIET_TICKS_PER_CALL', block)
+    params, settings = diverging()
     probe = Session(params, settings)
     rows = np.empty((4000, ROW))
-    done = probe.tick_quietly(4000, rows)
+    done = fast_ticks.tick_quietly(probe, 4000, rows)
     assert probe.plant.fault is not None and done < 4000     # stopped after the fault
     assert np.all(np.isfinite(rows[:done]))
     revive = probe.step + 50 * settings.steps_per_publish
@@ -172,7 +164,7 @@ def test_a_recorded_fault_replays_bit_for_bit(tmp_path: Path) -> None:
     """A recording of the diverging model: the tick that faults leaves the time where it
     was, and so do the next two, then a detuning change and a reset revive it. It
     replays in-process to the same bits, the fault inside a quiet stretch."""
-    params, settings = _diverging()
+    params, settings = diverging()
     # Recorded as the node does (record_session's RunIO), the reviving events submitted
     # three ticks after the fault (time stands still meanwhile), as a service call would.
     session = Session(params, settings)

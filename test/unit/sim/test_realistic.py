@@ -42,7 +42,7 @@ def test_the_demo_holds_a_small_target_on_the_realistic_table_and_the_run_checks
     run = Simulation(params, settings).run(DemoController(gains, dt=settings.dt), 3.0,
                                            record=bag)
     late = run.time >= 2.0
-    error = TARGET - run.position[late, 1]
+    error = TARGET - run.true_position[late, 1]
     # the law's own hold band (DemoGains.hold_error): inside it the law never switches
     # the drive path, so a table held there cannot hunt between the paths
     assert np.all(np.abs(error) <= gains.hold_error), (error.min(), error.max())
@@ -64,7 +64,7 @@ def test_past_the_target_the_law_lets_the_table_stop_without_creeping() -> None:
     params, settings = load_yaml(PRESET)
     gains = DemoGains(targets=(TARGET,), dwell=1e9)
     run = Simulation(params, settings).run(DemoController(gains, dt=settings.dt), 6.0)
-    angle = run.position[:, 1]
+    angle = run.true_position[:, 1]
     count = 2.0 * np.pi / settings.sensors.joints[1].counts
     late = run.time >= 2.0
     overshoot = np.max(angle) - TARGET
@@ -72,5 +72,5 @@ def test_past_the_target_the_law_lets_the_table_stop_without_creeping() -> None:
           f'µrad past the target, moved {np.ptp(angle[late]) / count:.3g} counts in 2-6 s')
     assert overshoot > 0.0, 'no overshoot: the case this law is for does not arise'
     assert np.ptp(angle[late]) < count
-    assert np.all(run.velocity[late, 1] == 0.0), 'the table does not stay stuck'
+    assert np.all(run.true_velocity[late, 1] == 0.0), 'the table does not stay stuck'
     assert abs(angle[-1] - TARGET) <= gains.hold_error

@@ -17,7 +17,7 @@ from screwgear_ros.bag.reader import read_run
 from screwgear_ros.params.sets import default_values, split_parameters
 from screwgear_ros.params.table import ParameterError
 from screwgear_ros.sim.metrics import SETTLING_BAND, run_metrics
-from screwgear_ros.sim.scenario import ScenarioError, Setpoint, load_scenario
+from screwgear_ros.sim.scenario import ScenarioError, SetpointProfile, load_scenario
 
 SCENARIOS = sorted((ROOT / 'test' / 'data' / 'scenarios').glob('*.yaml'))
 EXAMPLES = sorted(p for p in (ROOT / 'docs' / 'examples').glob('*.yaml')
@@ -133,21 +133,21 @@ def test_a_failing_controller_exits_2_with_the_reason(tmp_path):
 
 
 def test_a_replay_refuses_a_scenario_with_a_controller():
-    from screwgear_ros.runs.replay import load_scenario as replay_scenario
+    from screwgear_ros.runs.replay_in_process import schedule_from_scenario as replay_scenario
     with pytest.raises(ValueError, match='line 6: .*run_scenario'):
         replay_scenario(ROOT / 'docs' / 'examples' / 'demo_position_steps.yaml')
 
 
 def test_setpoint_profiles():
-    steps = Setpoint('steps', points=((0.5, 1.0), (1.0, -2.0)))
+    steps = SetpointProfile('steps', points=((0.5, 1.0), (1.0, -2.0)))
     assert [steps(t) for t in (0.0, 0.5, 0.99, 1.0, 5.0)] == [1.0, 1.0, 1.0, -2.0, -2.0]
     assert steps.steps(3.0) == [(1.0, 1.0, -2.0)]
-    ramps = Setpoint('ramps', points=((0.0, 0.0), (2.0, 1.0)))
+    ramps = SetpointProfile('ramps', points=((0.0, 0.0), (2.0, 1.0)))
     assert ramps(1.0) == 0.5 and ramps(3.0) == 1.0 and ramps.steps(3.0) == []
-    square = Setpoint('square', amplitude=0.1, period=2.0, offset=0.5)
+    square = SetpointProfile('square', amplitude=0.1, period=2.0, offset=0.5)
     assert [square(t) for t in (0.0, 0.99, 1.0, 2.5)] == [0.6, 0.6, 0.4, 0.6]
     assert square.steps(2.5) == [(1.0, 0.6, 0.4), (2.0, 0.4, 0.6)]
-    sine = Setpoint('sine', amplitude=2.0, frequency=0.25)
+    sine = SetpointProfile('sine', amplitude=2.0, frequency=0.25)
     assert sine(1.0) == pytest.approx(2.0)
 
 
@@ -186,7 +186,7 @@ def test_step_metrics_against_a_known_response():
     run.settings = Simulation().settings
     run.params = Simulation().params
     run.time = t
-    run.position = np.column_stack([0 * t, y, 0 * t])
+    run.true_position = np.column_stack([0 * t, y, 0 * t])
     run.mesh_force = np.zeros((len(t), 2))
     run.transmission_error = np.zeros(len(t))
     run.direction = np.ones(len(t), dtype=np.int8)
@@ -194,7 +194,7 @@ def test_step_metrics_against_a_known_response():
     run.fault = None
     run.__len__ = None
     Fake.__len__ = lambda self: len(t)
-    m = run_metrics(run, Setpoint('steps', points=((0.0, 1.0),)))
+    m = run_metrics(run, SetpointProfile('steps', points=((0.0, 1.0),)))
     step, = m.steps
     assert step.size == 1.0
     assert step.overshoot == pytest.approx(math.exp(-zeta * math.pi / math.sqrt(1 - zeta ** 2)),
@@ -211,3 +211,12 @@ def test_an_in_process_run_refuses_a_publish_rate_change(tmp_path):
     proc = installed('run_scenario', path)
     assert proc.returncode == 2 and f'{path}: line 3: ' in proc.stderr and 'publish_rate' in proc.stderr
     assert load_scenario(path).schedule().events        # a replay still plays it
+
+
+def test_the_old_names_answer_for_one_release() -> None:
+    import screwgear_ros.runs.replay_in_process as replay
+    import screwgear_ros.sim.scenario as scenario
+    with pytest.warns(DeprecationWarning, match='SetpointProfile'):
+        assert scenario.Setpoint is SetpointProfile
+    with pytest.warns(DeprecationWarning, match='schedule_from_scenario'):
+        assert replay.load_scenario is replay.schedule_from_scenario

@@ -193,7 +193,7 @@ def test_a_recorded_run_passes_check_run(tmp_path):
         run.transmission_error.tobytes()
     assert 3 in recorded.active_path.values[:, 0]
     # the replay of its recorded commands (what replay_run plays) makes the same bits
-    from screwgear_ros.runs.replay import replay_in_process
+    from screwgear_ros.runs.replay_in_process import replay_in_process
     assert replay_in_process(recorded).joint_states.tobytes() == run.joint_states.tobytes()
     proc = installed_check_run(tmp_path / 'bag')
     assert proc.returncode == 0, proc.stdout + proc.stderr

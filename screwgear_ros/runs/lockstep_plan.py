@@ -22,9 +22,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..bag.reader import RecordedRun
-from ..sim.events import Command, Event, ParameterChange
+from ..sim.events import Command, Event, ParameterChange, Timeline
 from ..sim.schedule import Schedule
-from .replay import replayed_events
+from .replay_in_process import replayed_events
 
 
 @dataclass
@@ -51,7 +51,7 @@ class LockstepPlan:
 
 
 def plan_from_run(run: RecordedRun) -> LockstepPlan:
-    """The replayed events of ``run`` (:func:`~screwgear_ros.runs.replay.replayed_events`)
+    """The replayed events of ``run`` (:func:`~screwgear_ros.runs.replay_in_process.replayed_events`)
     with the tick that applied each. Raises ValueError where a lockstep replay cannot
     reproduce the run: a recording that lost ticks (a real-time recorder whose queue was
     full drops whole ticks), which leaves no way to count them."""
@@ -60,7 +60,7 @@ def plan_from_run(run: RecordedRun) -> LockstepPlan:
     if len(samples) == 0:
         return LockstepPlan([], 0)
     ticks = np.searchsorted(samples.order, [order for order, _ in kept], side='right')
-    plan = LockstepPlan([(int(t), e) for t, (_, e) in zip(ticks, kept)], len(samples) - 1)
+    plan = LockstepPlan([(int(t), e) for t, (_, e) in zip(ticks, kept, strict=False)], len(samples) - 1)
     problem = lost_tick(run, plan)
     if problem is not None:
         raise ValueError(f'a lockstep replay cannot reproduce this run: {problem}')
@@ -94,15 +94,14 @@ def plan_from_schedule(schedule: Schedule) -> LockstepPlan:
     tick grid from step 0 (a parameter change of ``publish_rate`` changes the length of
     the ticks from the one that applies it), until a sample at ``end_step`` or later."""
     per_tick = schedule.settings.steps_per_publish
-    events, k, step, tick = [], 0, 0, 0
+    events: list[tuple[int, Event]] = []
+    timeline, step, tick = Timeline(schedule.events), 0, 0
     while step < schedule.end_step:
         tick += 1
-        while k < len(schedule.events) and schedule.events[k].step <= step:
-            event = schedule.events[k]
+        for event in timeline.due(step):
             events.append((tick, event))
             if isinstance(event, ParameterChange):
                 per_tick = event.settings.steps_per_publish
-            k += 1
         step += per_tick
     return LockstepPlan(events, tick)
 

@@ -1,7 +1,7 @@
 """The two ways ``replay_run`` plays a run into a node, and the node it may start.
 
 **Lockstep** (:func:`replay_lockstep`): the replay answers the node's ticks itself. For
-each tick it sends the events that tick applies (:mod:`screwgear_ros.runs.replay_plan`),
+each tick it sends the events that tick applies (:mod:`screwgear_ros.runs.lockstep_plan`),
 each confirmed inside the node before the next, then answers with one ``<node>/tick``;
 the node applies them all, in order, at the tick's first step. Ticks are counted by
 their ``mesh_state`` (one per tick, never re-sent), so a run whose time stood still
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import yaml
 
-from ..runs.replay_plan import LockstepPlan, sending_order
+from ..runs.lockstep_plan import LockstepPlan, sending_order
 from ..sim.events import Reset
 from ..sim.schedule import Schedule
 from .replay_client import ReplayClient, ReplayError
@@ -146,7 +146,8 @@ def spawn_node(schedule: Schedule, record: Path, ros_args: list[str], workdir: P
     with open(log_path, 'w') as log:
         child = subprocess.Popen([exe, '--ros-args', *remaps, '--params-file', str(params_file)],
                                  stdout=log, stderr=subprocess.STDOUT,
-                                 preexec_fn=_die_with_parent)
+                                 # only sets the parent-death signal: no lock taken
+                                 preexec_fn=_die_with_parent)  # noqa: PLW1509
     return child, log_path
 
 

@@ -11,19 +11,23 @@ bit; with ``refine = 2`` the same run at dt/2 (the Richardson estimate of RK4's
 error that ``check_run`` judges by).
 
 A :class:`~screwgear_ros.sim.schedule.Schedule` comes from a recording
-(:func:`schedule_from_run`) or a scripted scenario (:func:`load_scenario`).
+(:func:`schedule_from_run`) or a scripted scenario (:func:`schedule_from_scenario`).
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..bag.errors import InvalidBag
 from ..bag.reader import RecordedRun
 from ..sim.events import Event, ParameterChange, describe
+from ..sim.scenario import ScenarioError
+from ..sim.scenario import load_scenario as read_scenario
 from ..sim.schedule import Schedule, ros_values
 from ..sim.session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
 
@@ -42,7 +46,7 @@ class ReplayedOutputs:
     and the ticks that went through :meth:`Session.tick` (every tick that applied an
     event, or in which command_timeout came due; ``ticks[j]`` made sample
     ``tick_samples[j]``). The ticks in between took no event: each ran under the input
-    and parameters of the tick before it (:meth:`Session.tick_quietly`)."""
+    and parameters of the tick before it (:meth:`Session.advance` with ``rows``)."""
 
     joint_states: np.ndarray        # (n, 9) like RecordedRun.joint_states.values
     transmission_error: np.ndarray  # (m,) m
@@ -57,7 +61,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
 
     Every event recorded (in file order) before the ``joint_states`` sample i is
     submitted before the tick that makes it; the ticks between events go through
-    :meth:`Session.tick_quietly`. Raises :class:`BagError` where the recording disagrees
+    :meth:`Session.advance` with ``rows``. Raises :class:`BagError` where the recording disagrees
     with the session (an event or a sample off the node's tick grid, a recorded command
     the node must have refused).
     """
@@ -82,28 +86,35 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
     events, k = run.events, 0
     # The sample whose tick takes each event: the first sample recorded after it.
     takes = np.searchsorted(samples.order, [order for order, _ in events], side='right')
+    full: list[Tick | None] = []
+
+    def stop(tick: Tick | None) -> bool:
+        full.append(tick)
+        return True
+
     i = 1
     while i < n:
-        due = k < len(events) and takes[k] <= i
-        done = 0 if due else session.tick_quietly(
-            (int(takes[k]) if k < len(events) else n) - i, rows[i:])
-        if not done:     # events due, or command_timeout at the next step: one tick()
-            while k < len(events) and takes[k] <= i:
-                event = _refined(events[k][1], refine)
-                if event.step != session.step:
-                    raise InvalidBag(f'{describe(events[k][1])} is recorded at '
-                                   f'step {events[k][1].step}, but the node applied what '
-                                   f'arrived then at step {session.step // refine}')
-                session.submit(event)
-                k += 1
-            tick = session.tick()
+        while k < len(events) and takes[k] <= i:
+            event = _refined(events[k][1], refine)
+            if event.step != session.step:
+                raise InvalidBag(f'{describe(events[k][1])} is recorded at '
+                                 f'step {events[k][1].step}, but the node applied what '
+                                 f'arrived then at step {session.step // refine}')
+            session.submit(event)
+            k += 1
+        # Up to the next sample that takes an event, the ticks between in compiled
+        # calls; stops after a full tick (one that applied events, or in which
+        # command_timeout came due), which check_run reads.
+        full.clear()
+        done = session.advance((int(takes[k]) if k < len(events) else n) - i,
+                               rows=rows[i:], monitor=stop)
+        tick = full[0] if full else None
+        if tick is not None:
             if tick.rejected:
                 raise InvalidBag(f'step {tick.start // refine}: a recorded command '
                                f'the node must have refused: {tick.rejected[0]}')
-            rows[i] = row_of(tick.outputs)
             replayed.ticks.append(tick)
-            replayed.tick_samples.append(i)
-            done = 1
+            replayed.tick_samples.append(i + done - 1)
         made = rows[i:i + done, ROW_STEP].astype(np.int64)
         off = np.flatnonzero(samples.steps[i:i + done] * refine != made)
         if len(off):
@@ -138,24 +149,48 @@ def schedule_from_run(run: RecordedRun) -> Schedule:
                     end_step=run.end_step)
 
 
-def load_scenario(path: str | Path) -> Schedule:
+def schedule_from_scenario(path: str | Path) -> Schedule:
     """The timed actions of a scenario file (docs/scenarios.md; the test bags are recorded
-    from these) as a schedule. Raises ValueError (:class:`~screwgear_ros.sim.scenario.ScenarioError`)
-    naming the line of what is wrong, and for a scenario with a controller: that runs
-    in-process (``run_scenario``), a replay plays actions only."""
-    from ..sim.scenario import load_scenario as load  # the format's one reader
-    scenario = load(path)
+    from these) as a schedule.
+
+    Parameters
+    ----------
+    path : str or Path
+        The scenario file.
+
+    Returns
+    -------
+    Schedule
+        Its start values and actions at their steps.
+
+    Raises
+    ------
+    ScenarioError
+        Naming the line of what is wrong; and for a scenario with a controller: that
+        runs in-process (``run_scenario``), a replay plays actions only.
+    """
+    scenario = read_scenario(path)            # the format's one reader
     if scenario.controller is not None:
-        raise ValueError(f'{path}: line {scenario.controller.line}: this scenario closes '
+        raise ScenarioError(f'{path}: line {scenario.controller.line}: this scenario closes '
                          'its loop with a controller, which run_scenario runs in-process; '
                          'replay_run --script plays a scenario\'s timed actions only')
     return scenario.schedule()
 
 
+def __getattr__(name: str) -> Any:
+    """``load_scenario``, the old name of :func:`schedule_from_scenario`, for one release
+    (:func:`screwgear_ros.sim.scenario.load_scenario` reads a Scenario)."""
+    if name == 'load_scenario':
+        warnings.warn('screwgear_ros.runs.replay_in_process.load_scenario is now '
+                      'schedule_from_scenario', DeprecationWarning, stacklevel=2)
+        return schedule_from_scenario
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+
+
 __all__ = [
     'ReplayedOutputs',
-    'load_scenario',
     'replay_in_process',
     'replayed_events',
     'schedule_from_run',
+    'schedule_from_scenario',
 ]

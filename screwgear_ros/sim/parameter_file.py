@@ -1,0 +1,65 @@
+"""table_sim's parameters from a ROS 2 parameter file or by name, validated as the node
+validates them: what an in-process :class:`~screwgear_ros.sim.simulation.Simulation`
+is built from."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from typing import Any
+
+import yaml
+
+from ..errors import ScrewgearError
+from ..params.sets import default_values, split_parameters
+from ..params.table import SimSettings, TableParams
+
+#: Keys of a ROS 2 parameter file whose ``ros__parameters`` table_sim takes: any node
+#: (``/**``) and the node's own name, with or without its leading slash.
+NODE_KEYS = ('/**', 'table_sim', '/table_sim', '/**/table_sim')
+
+
+class ParameterFileError(ScrewgearError, ValueError):
+    """A parameter file that cannot be read as table_sim's parameters; says why."""
+
+
+def file_values(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The table_sim parameters of a ROS 2 parameter file (``/**:`` or node-name keys
+    with ``ros__parameters``, in file order; or a bare mapping of parameter names)."""
+    try:
+        with open(path, encoding='utf-8') as stream:
+            document = yaml.safe_load(stream)
+    except OSError as exc:
+        raise ParameterFileError(f'{path}: cannot read: {exc.strerror or exc}') from None
+    except yaml.YAMLError as exc:
+        raise ParameterFileError(f'{path}: not valid YAML: {exc}') from None
+    if document is None:
+        return {}
+    if not isinstance(document, dict):
+        raise ParameterFileError(f'{path}: a parameter file is a mapping, not '
+                                 f'{type(document).__name__}')
+    sections = {k: v for k, v in document.items()
+                if isinstance(v, dict) and 'ros__parameters' in v}
+    if not sections:
+        return dict(document)
+    values: dict[str, Any] = {}
+    for key, section in sections.items():
+        if key in NODE_KEYS:
+            entries = section['ros__parameters'] or {}
+            if not isinstance(entries, dict):
+                raise ParameterFileError(f'{path}: {key}: ros__parameters must be a mapping')
+            values.update(entries)
+    if not any(key in NODE_KEYS for key in sections):
+        raise ParameterFileError(f'{path}: no parameters for table_sim (keys '
+                                 f'{", ".join(NODE_KEYS)}); found {", ".join(map(str, sections))}')
+    return values
+
+
+def resolve(values: Mapping[str, Any] | None = None, **overrides: Any) -> tuple[
+        TableParams, SimSettings]:
+    """The node's defaults, then ``values``, then ``overrides``, by parameter name,
+    validated as the node validates them (ParameterError naming the parameter)."""
+    return split_parameters({**default_values(), **dict(values or {}), **overrides})
+
+
+__all__ = ['NODE_KEYS', 'ParameterFileError', 'file_values', 'resolve']
