@@ -104,10 +104,10 @@ print(repr(t))
 KNOWN_KEYS = r"""
 import json
 try:
-    from screwgear_ros.params.sets import default_values
+    from screwgear_ros.sim.parameter_set import default_values
 except ImportError:                     # an older package: the set lived in params
-    from screwgear_ros.params.sets import default_values
-from screwgear_ros.params.run_file import EXTRA_KEYS
+    from screwgear_ros.sim.parameter_set import default_values
+from screwgear_ros.sim.run_file import EXTRA_KEYS
 print(json.dumps([*default_values(), *EXTRA_KEYS]))
 """
 

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import yaml
 
-from screwgear_ros.params.sets import ros_parameters
+from screwgear_ros.sim.parameter_file import document_values
 from screwgear_ros.sim.simulation import Simulation
 
 PRESET = Path(__file__).resolve().parents[1] / 'config' / 'realistic.yaml'
@@ -64,7 +64,7 @@ def main() -> int:
     ideal = Simulation.from_values(BASE)
     on = Simulation.from_values({**BASE, **SENSORS})
     with open(PRESET, encoding='utf-8') as stream:
-        realistic = Simulation.from_values({**ros_parameters(yaml.safe_load(stream)), **BASE})
+        realistic = Simulation.from_values({**document_values(yaml.safe_load(stream)), **BASE})
     for sim in (ideal, on, realistic):
         per_tick(sim, 100)               # compiled kernels and first allocations
     plain, sensed, everything = [], [], []

@@ -21,7 +21,7 @@ stood beside an anchor measured the same way in the same run:
   against the bare node started the same way (``start_process``); the start with
   ``--params-file config/paper.yaml`` (every parameter, under ``/**``) against the same
   start given 3 of them; and a cold first start
-  (a fresh numba cache dir, NUMBA_CACHE_DIR, filled by ``python -m screwgear_ros.numerics.warmup``
+  (a fresh numba cache dir, NUMBA_CACHE_DIR, filled by ``python -m screwgear_ros.cli.warmup``
   just before, as an install does), best of three, against the slowest warm start (both
   load the same cache, so a single cold start against their median was a coin toss, and
   one against the slowest warm start lost to discovery's slow mode; a compile, what
@@ -479,7 +479,7 @@ def main() -> int:
                 for _ in range(colds)]
         for cache in dirs:
             t = time.monotonic()
-            warm = subprocess.run([sys.executable, '-P', '-m', 'screwgear_ros.numerics.warmup'],
+            warm = subprocess.run([sys.executable, '-P', '-m', 'screwgear_ros.cli.warmup'],
                                   env={**os.environ, 'NUMBA_CACHE_DIR': cache},
                                   capture_output=True, text=True, cwd=cache)
             warmup_s = time.monotonic() - t

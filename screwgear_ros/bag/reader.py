@@ -24,9 +24,9 @@ import numpy as np
 import yaml
 
 from ..interface import CONTRACT
-from ..params.run_file import RunParameters, RunParametersError, load
 from ..sim.commands import INPUT_TOPICS, command_value
 from ..sim.events import Command, Event, ParameterChange, Reset
+from ..sim.run_file import RunParameters, RunParametersError, load
 from .bulk_decode import _bulk, _Decoder, _Message, _Pieces
 from .errors import BagError, InvalidBag, NoParameters, NotABag, TruncatedBag
 from .mcap_scan import (

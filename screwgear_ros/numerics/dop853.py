@@ -44,10 +44,10 @@ import math
 import numpy as np
 
 from ..physics.friction import FrictionPiece, speed_dip
+from ..physics.jit import allocating_kernel, inline_kernel, kernel
 from ..physics.motion import BY_LAW, Pieces, pieces, state_rate
 from ..physics.packed import N_MECHANICAL, N_STATE, TAU, Drive, PackedModel
 from .dop853_tableau import E3, E5, TABLEAU, A, B, C, Tableau
-from .jit import allocating_kernel, inline_kernel, kernel
 
 #: Error exponent: 1/(order of the error estimator + 1), Hairer's choice for DOP853.
 ERROR_EXPONENT = -1.0 / 8.0

@@ -43,10 +43,10 @@ import math
 import numpy as np
 
 from ..physics.friction import FrictionPiece, speed_dip
+from ..physics.jit import inline_kernel, kernel
 from ..physics.motion import BY_LAW, Pieces, effort_and_meshes, pieces, state_rate
 from ..physics.packed import N_STATE, TAU, Drive, PackedModel
 from . import rk
-from .jit import inline_kernel, kernel
 
 #: Changes located within one step before the step is finished by the plain law (a mesh
 #: chattering on its boundary; never reached by a sane run).

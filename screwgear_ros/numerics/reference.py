@@ -26,9 +26,9 @@ import numpy as np
 
 from ..errors import ScrewgearError
 from ..params.table import TableParams
+from ..physics.drive import DriveInput
 from ..physics.motion import rhs_vector
 from ..physics.packed import N_MECHANICAL, N_STATE, pack
-from ..sim.plant import DriveInput
 from . import dop853
 
 #: Default relative / absolute tolerances (absolute on rad and rad/s).

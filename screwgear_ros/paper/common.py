@@ -13,21 +13,12 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use('Agg')
-import matplotlib.pyplot as plt
+from ..runs.figure_style import COLORS, plt
 
 HOLDS = 'holds'
 FAILS = 'does not hold'
 VAGUE = 'vague'
 UNCHECKABLE = 'cannot be checked'
-
-#: Colours of the report's figures (colour-blind safe, Okabe–Ito).
-COLORS = ('#0072B2', '#D55E00', '#009E73', '#CC79A7', '#E69F00', '#56B4E9', '#000000')
-
-plt.rcParams.update({'figure.dpi': 110, 'font.size': 10, 'axes.grid': True,
-                     'grid.alpha': 0.3, 'legend.fontsize': 9, 'axes.titlesize': 11})
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ from numba import njit, prange, set_parallel_chunksize
 from tqdm import tqdm
 
 from ..numerics import rk
-from ..numerics.jit import OPTIONS, inline_kernel
+from ..physics.jit import OPTIONS, inline_kernel
 from . import normalized
 from .batch import Coefficients, integrate
 

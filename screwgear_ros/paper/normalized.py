@@ -20,7 +20,6 @@ import numpy as np
 import yaml
 
 from ..numerics import rk
-from ..numerics.jit import inline_kernel, kernel
 from ..params.declarations import (
     ParameterError,
     kernel_fields,
@@ -29,6 +28,7 @@ from ..params.declarations import (
     yaml_lines,
 )
 from ..params.table import TableParams, effective_stiffness
+from ..physics.jit import inline_kernel, kernel
 from ..physics.quantities import equivalent_mass, mean_mesh_force, natural_frequency
 
 

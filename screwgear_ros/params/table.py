@@ -9,7 +9,7 @@ that names the parameter, its value and the rule it breaks.
 
 Beside this module: the paper's derived quantities (:mod:`~screwgear_ros.physics.quantities`),
 RK4's stability limit (:mod:`~screwgear_ros.numerics.stability`), a whole validated set from a
-mapping or a parameter file (:mod:`~screwgear_ros.params.sets`), and the documents
+mapping or a parameter file (:mod:`~screwgear_ros.sim.parameter_set`), and the documents
 generated from these declarations (:mod:`~screwgear_ros.params.docs`).
 """
 
@@ -21,8 +21,8 @@ from enum import StrEnum
 from typing import Any
 
 from ..interface import ANSWERS
-from ..physics.sensors import MAX_DELAY, MAX_SEED, SensorConfig
 from .declarations import ParameterError, declared, parameter, plain, validate
+from .sensors import MAX_DELAY, MAX_SEED, SensorConfig
 
 
 class Mode(StrEnum):

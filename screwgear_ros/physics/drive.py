@@ -7,12 +7,13 @@ the current loops' lag and the motors' cogging. Compiled kernels on the packed m
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from enum import IntEnum
 
 import numpy as np
 
-from ..numerics.jit import kernel
 from ..params.table import Mode
+from .jit import kernel
 from .packed import (
     MODE,
     MODE_CONVENTIONAL,
@@ -24,6 +25,7 @@ from .packed import (
     TV,
     WNL,
     WV,
+    Drive,
 )
 
 
@@ -189,7 +191,32 @@ def active_path(mode: Mode, direction: int) -> int:
     return 3 if Mode(mode) is Mode.ANTI_BACKLASH and direction < 0 else 1
 
 
+@dataclass(frozen=True)
+class DriveInput:
+    """The input in force: drive torque T ≥ 0 (N·m), direction ±1, table load (N·m)."""
+
+    torque: float = 0.0
+    direction: int = 1
+    load: float = 0.0
+
+    @classmethod
+    def of(cls, torque: float, direction: int, load: float) -> DriveInput:
+        """``DriveInput(torque, direction, load)``, made without the frozen dataclass's
+        ``object.__setattr__`` per field (its generated ``__init__`` costs several times
+        this): the session makes one for every command it applies."""
+        drive = object.__new__(cls)
+        drive.__dict__.update(torque=torque, direction=direction, load=load)
+        return drive
+
+    @property
+    def kernel(self) -> Drive:
+        """The input as the compiled calls take it (all floats)."""
+        return Drive(float(self.torque), float(self.direction), float(self.load))
+
+
+
 __all__ = [
+    'DriveInput',
     'DrivePiece',
     'active_path',
     'active_speed',

@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from enum import IntEnum
 
-from ..numerics.jit import kernel
+from .jit import kernel
 
 
 class FrictionPiece(IntEnum):

@@ -11,7 +11,7 @@ from enum import IntEnum
 
 import numpy as np
 
-from ..numerics.jit import kernel
+from .jit import kernel
 from .packed import (
     FORM_ENERGY,
     FORMULATION,

@@ -11,10 +11,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..numerics.jit import kernel
 from ..params.table import Mode, TableParams, effective_stiffness, ste_slope
 from .drive import DrivePiece, lag_rates, pinion_torques
 from .friction import FrictionPiece, friction_on, friction_piece
+from .jit import kernel
 from .mesh import ContactBranch, contact_branch, mesh_load_on, mesh_motion
 from .packed import (
     CP,

@@ -1,6 +1,6 @@
 """``table_markers``: the table and both pinions drawn in one fixed frame, no TF needed.
 
-Each wheel of :mod:`screwgear_ros.physics.layout` is a disc (CYLINDER) with a mark (ARROW from
+Each wheel of :mod:`screwgear_ros.ros.layout` is a disc (CYLINDER) with a mark (ARROW from
 its axis towards its rim) that turns with its joint angle; each pinion's mesh point
 is a sphere coloured by the mesh's contact (:class:`screwgear_ros.sim.status.Contact`):
 teeth on a flank, inside the backlash gap, or disengaged. The pinion of the active
@@ -24,9 +24,9 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from ..bag.cdr import Template, template_of
 from ..params.table import TableParams
-from ..physics.layout import BASE_LINK, FACE_WIDTH, MARK_TO, PALETTE, Wheel, mesh_point, wheels
 from ..sim.plant import Outputs
 from ..sim.status import Contact, contact_states
+from .layout import BASE_LINK, FACE_WIDTH, MARK_TO, PALETTE, Wheel, mesh_point, wheels
 
 #: Marker namespaces (ids: 0, 1, 2 = pinion 1, table, pinion 3; meshes 0 = mesh 1, 1 = mesh 3).
 DISCS, MARKS, MESHES = 'discs', 'marks', 'meshes'

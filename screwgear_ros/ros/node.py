@@ -55,13 +55,13 @@ from ..interface import (
     RECORDED_TOPICS,
     TICK_TOPIC,
 )
-from ..numerics.warmup import compiled_now, without_blas_probe
-from ..params.sets import split_parameters
+from ..numerics.kernels import compiled_now, without_blas_probe
 from ..params.table import ParameterError, SimSettings, TableParams
 from ..physics.packed import pack
 from ..sim.commands import carries_no_command
 from ..sim.events import Command, ParameterChange, Reset, Setpoint
 from ..sim.pacing import AnswerGate, wall_period
+from ..sim.parameter_set import split_parameters
 from ..sim.ratelimit import RateLimiter
 from ..sim.session import Session
 from . import inputs, parameters
@@ -135,7 +135,7 @@ class TableSim(Node):
         if compiled_now():
             self.get_logger().info(
                 f'compiled the numba model in {time.perf_counter() - started:.1f} s: its cache '
-                'was missing (python3 -m screwgear_ros.numerics.warmup after an install avoids this)')
+                'was missing (ros2 run screwgear_ros warmup after an install avoids this)')
         self._fqn = self.get_fully_qualified_name()
         topics = {key: pub.topic_name for key, pub in publishers.items()}
         topics.update({topic: sub.topic_name for topic, sub in subs.items()})

@@ -6,7 +6,7 @@ Each is declared with its default's type, a description with symbol and unit,
 ``read_only`` where a run cannot change it, and a ``FloatingPointRange`` or
 ``IntegerRange`` wherever its valid values are an interval (``ros2 param describe``
 shows it; rqt_reconfigure makes a slider of it). Values are then checked by the core's
-own validation (:func:`screwgear_ros.params.sets.split_parameters`), so a refusal carries
+own validation (:func:`screwgear_ros.sim.parameter_set.split_parameters`), so a refusal carries
 the core's :class:`~screwgear_ros.params.table.ParameterError` text; rclpy itself refuses a
 value outside a declared range before that.
 

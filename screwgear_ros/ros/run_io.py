@@ -46,8 +46,8 @@ from std_msgs.msg import Empty, String
 
 from ..bag.cdr import type_name
 from ..bag.tick_encoder import TickEncoder, topic_specs
-from ..params import run_file as run_parameters
 from ..params.table import SimSettings, TableParams
+from ..sim import run_file as run_parameters
 from ..sim.events import Command, ParameterChange, Setpoint
 from ..sim.plant import Outputs
 from ..sim.session import Session, Tick

@@ -2,7 +2,7 @@
 hardware interface. Plain text; imports no rclpy.
 
 :func:`robot_description` writes it from the parameters (geometry, inertias, limits:
-:mod:`screwgear_ros.physics.layout`) and the two topics of the node the hardware interface
+:mod:`screwgear_ros.ros.layout`) and the two topics of the node the hardware interface
 talks to. The node publishes it for itself on ``robot_description``; the shipped
 ``urdf/screwgear_table.urdf`` is :func:`shipped_description` (the defaults, the node in
 namespace :data:`PLANT_NAMESPACE`), regenerated with::
@@ -23,8 +23,8 @@ import xml.etree.ElementTree as ET
 
 from ..interface import Input, topic_names
 from ..params.table import SimSettings, TableParams
-from ..physics.layout import BASE_LINK, FACE_WIDTH, MARK_FROM, MARK_TO, PALETTE, Wheel, wheels
 from ..sim.commands import COMMAND_INTERFACE, COMMANDED_JOINT, load_limit
+from .layout import BASE_LINK, FACE_WIDTH, MARK_FROM, MARK_TO, PALETTE, Wheel, wheels
 
 ROBOT_NAME = 'screwgear_table'
 #: ros2_control's stock JointState topic system (package joint_state_topic_hardware_interface;

@@ -27,11 +27,11 @@ from matplotlib.lines import Line2D
 from ..bag.errors import NoData
 from ..bag.reader import RecordedRun
 from ..errors import ScrewgearError
-from ..paper.common import COLORS, plt
 from ..params.table import Mode
 from ..physics.drive import active_path
 from ..sim.session import Tick
 from .check import MESH_SIGNALS, CheckReport, signal_names
+from .figure_style import COLORS, plt
 from .plot_series import (
     ParameterMark,
     RunMarks,

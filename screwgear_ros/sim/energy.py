@@ -50,9 +50,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..numerics.jit import kernel
 from ..params.table import SimSettings, TableParams
 from ..physics.drive import DrivePiece, pinion_torques
+from ..physics.jit import kernel
 from ..physics.mesh import (
     branch_force,
     branch_penetration,

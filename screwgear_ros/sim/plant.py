@@ -24,33 +24,10 @@ import numpy as np
 from ..numerics.integrator import OBSERVED, advance_observed, advance_ticks, observe
 from ..numerics.stability import check_step
 from ..params.table import TableParams
-from ..physics.drive import active_path
+from ..physics.drive import DriveInput, active_path
 from ..physics.equilibrium import equilibrium_state
 from ..physics.packed import N_MECHANICAL, N_STATE, Drive, PackedModel, pack
 from .simtime import sim_time_ns
-
-
-@dataclass(frozen=True)
-class DriveInput:
-    """The input in force: drive torque T ≥ 0 (N·m), direction ±1, table load (N·m)."""
-
-    torque: float = 0.0
-    direction: int = 1
-    load: float = 0.0
-
-    @classmethod
-    def of(cls, torque: float, direction: int, load: float) -> DriveInput:
-        """``DriveInput(torque, direction, load)``, made without the frozen dataclass's
-        ``object.__setattr__`` per field (its generated ``__init__`` costs several times
-        this): the session makes one for every command it applies."""
-        drive = object.__new__(cls)
-        drive.__dict__.update(torque=torque, direction=direction, load=load)
-        return drive
-
-    @property
-    def kernel(self) -> Drive:
-        """The input as the compiled calls take it (all floats)."""
-        return Drive(float(self.torque), float(self.direction), float(self.load))
 
 
 @dataclass(slots=True)

@@ -24,12 +24,12 @@ import yaml
 
 from ..errors import ScrewgearError
 from ..interface import Input
-from ..params.sets import default_values, split_parameters
 from ..params.table import ParameterError
 from ..params.yaml_reader import YamlReader
 from .commands import INPUT_TOPICS, InputRejected, apply_command
 from .control import TABLE_JOINT, DemoController, DemoGains
 from .events import Command, Event, ParameterChange, Reset
+from .parameter_set import default_values, split_parameters
 from .plant import DriveInput
 from .schedule import Schedule
 from .setpoint_profile import PROFILES, SetpointProfile, read_setpoint
@@ -288,9 +288,10 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
                                        f'{exc}') from None
                 actions.append(Action(t, kind, command, line))
     controller = _controller(reader, top['controller'][1]) if 'controller' in top else None
-    setpoint = read_setpoint(reader, top['setpoint'][1]) if 'setpoint' in top else None
+    setpoint = (read_setpoint(reader, top[Input.SETPOINT][1]) if Input.SETPOINT in top
+                else None)
     if setpoint is not None and setpoint.joint not in values['joint_names']:
-        raise reader.error(top['setpoint'][1], f'setpoint joint {setpoint.joint!r} is not one '
+        raise reader.error(top[Input.SETPOINT][1], f'setpoint joint {setpoint.joint!r} is not one '
                            f'of the joint_states names {values["joint_names"]}')
     return Scenario(str(path), tuple(start.items()), duration, tuple(actions), controller,
                     setpoint)

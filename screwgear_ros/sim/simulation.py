@@ -3,7 +3,7 @@ own :class:`~screwgear_ros.sim.session.Session`.
 
 A simulation is built from what the node takes (its parameter file, parameters by name,
 its defaults otherwise), every value checked by the node's own validation
-(:func:`screwgear_ros.params.sets.split_parameters`, the same messages). It then runs the
+(:func:`screwgear_ros.sim.parameter_set.split_parameters`, the same messages). It then runs the
 node's tick: :meth:`Simulation.step` submits the commands a controller would publish on
 the node's input topics (validated by :mod:`screwgear_ros.sim.commands`, as the node
 validates them) and integrates one tick (1/``publish_rate`` s); the commands take effect

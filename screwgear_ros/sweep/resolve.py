@@ -1,5 +1,5 @@
 """A sweep's runs: each resolved from its grid point and draw, and validated as the node
-would take it (:func:`~screwgear_ros.params.sets.split_parameters`, then the scenario's
+would take it (:func:`~screwgear_ros.sim.parameter_set.split_parameters`, then the scenario's
 parameter changes on top), before any run starts.
 """
 
@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 
 from ..params.declarations import ParameterError, declared
-from ..params.sets import split_parameters
 from ..params.table import SimSettings, TableParams
 from ..params.yaml_reader import YamlReader
+from ..sim.parameter_set import split_parameters
 from .model import Axis, Bundle, RunSpec, digest, plain, run_seed
 
 #: Parameters the node refuses to change while it runs.
@@ -44,7 +44,7 @@ def resolve_runs(reader: YamlReader, bundle: Bundle, scenario: Any, grid: tuple[
 
 
 def _default(name: str) -> Any:
-    from ..params.sets import default_values
+    from ..sim.parameter_set import default_values
     return default_values()[name]
 
 

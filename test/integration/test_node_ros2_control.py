@@ -41,8 +41,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.physics.layout import BASE_LINK, PALETTE, wheels
 from screwgear_ros.physics.packed import pack
+from screwgear_ros.ros.layout import BASE_LINK, PALETTE, wheels
 from screwgear_ros.ros.markers import DISCS, MARKS, MESHES
 from screwgear_ros.ros.urdf import PLANT_NAMESPACE, shipped_description
 from screwgear_ros.runs.replay_in_process import replay_in_process

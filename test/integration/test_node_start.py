@@ -58,7 +58,7 @@ def test_the_start_up_to_the_first_joint_states_loads_no_tool_module():
 #: target saw BLAS, that scipy.linalg imports and works afterwards, whether the start
 #: compiled any kernel.
 AFTER_START = ('import scipy.linalg, numpy as np\n'
-               'from screwgear_ros.numerics.warmup import compiled_now\n'
+               'from screwgear_ros.numerics.kernels import compiled_now\n'
                'from numba.np.arraymath import _HAVE_BLAS\n'
                'print([loaded, _HAVE_BLAS, float(scipy.linalg.det(np.eye(2) * 3.0)), '
                'compiled_now() > 0])\n')
@@ -87,7 +87,7 @@ def test_the_start_without_jit_loads_no_tool_module_either():
 @pytest.mark.ros
 def test_warmup_finds_every_kernel_module_and_compiled_now_imports_none():
     code = ('import json, sys\n'
-            'from screwgear_ros.numerics import warmup\n'
+            'from screwgear_ros.numerics import kernels as warmup\n'
             'warmup.compiled_now()\n'
             'before = {k.py_func.__module__ for k in warmup.kernels(imported_only=True)}\n'
             'unloaded = [m for m in ("screwgear_ros.numerics.dop853", "screwgear_ros.paper.normalized",\n'

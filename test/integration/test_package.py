@@ -61,8 +61,8 @@ def test_urdf_launch_files_and_ros2_control_config_are_installed():
 
 
 def test_installed_config_loads_to_the_defaults():
-    from screwgear_ros.params.sets import load_yaml
     from screwgear_ros.params.table import SimSettings, TableParams
+    from screwgear_ros.sim.parameter_file import load_yaml
     assert load_yaml(PREFIX / 'share' / PACKAGE / 'config/paper.yaml') == (TableParams(),
                                                                            SimSettings())
 
@@ -184,7 +184,7 @@ def test_the_urdf_parses_and_its_joints_are_those_of_joint_states():
     import yourdfpy
 
     from screwgear_ros.params.table import SimSettings, TableParams
-    from screwgear_ros.physics.layout import BASE_LINK, wheels
+    from screwgear_ros.ros.layout import BASE_LINK, wheels
     urdf = yourdfpy.URDF.load(_installed_urdf(), load_meshes=False, build_scene_graph=True)
     assert urdf.validate()
     names = list(SimSettings().joint_names)             # what joint_states names

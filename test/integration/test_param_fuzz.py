@@ -21,9 +21,9 @@ from ros_procs import STARTUP_TIMEOUT, Peer, start_process, wait_until
 
 from screwgear_ros.numerics.stability import max_stable_dt
 from screwgear_ros.params.declarations import EXCERPT_CHARS, Kind, yaml_value
-from screwgear_ros.params.sets import default_values, split_parameters
 from screwgear_ros.params.table import ParameterError
 from screwgear_ros.physics.quantities import equivalent_mass, natural_frequency
+from screwgear_ros.sim.parameter_set import default_values, split_parameters
 
 NODE = '/table_sim'
 SEED = 20

@@ -22,7 +22,6 @@ import pytest
 from bag_runs import reversal_run
 from scipy.integrate import solve_ivp
 
-from screwgear_ros.params import run_file as run_parameters
 from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.physics.drive import DrivePiece, active_speed, drive_piece
 from screwgear_ros.physics.equilibrium import equilibrium_state
@@ -30,6 +29,7 @@ from screwgear_ros.physics.friction import FrictionPiece
 from screwgear_ros.physics.mesh import ContactBranch, mesh_motion
 from screwgear_ros.physics.motion import Pieces, contact_branches, motion, rhs_vector
 from screwgear_ros.physics.packed import R1, R3, TS, WNL, Z1, Z3, B, C, Drive, PackedModel, pack
+from screwgear_ros.sim import run_file as run_parameters
 from screwgear_ros.sim.session import Session
 
 TORQUE = 400.0

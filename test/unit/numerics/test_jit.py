@@ -1,4 +1,4 @@
-"""How the kernels are compiled (screwgear_ros.numerics.jit): without numba's reference counting
+"""How the kernels are compiled (screwgear_ros.physics.jit): without numba's reference counting
 they give the same bits, and a kernel that allocates cannot be declared without it.
 
 Independent reference: the same kernels compiled with the reference counting on, in a
@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 from numba.core.errors import TypingError
 
-from screwgear_ros.numerics import jit
 from screwgear_ros.numerics.integrator import advance
 from screwgear_ros.params.table import TableParams
+from screwgear_ros.physics import jit
 from screwgear_ros.physics.equilibrium import equilibrium_state
 from screwgear_ros.physics.packed import Drive, pack
 
@@ -51,7 +51,7 @@ def run(mode):
 
 def counted_variant_rows(mode: str, tmp_path) -> tuple[list[str], int]:
     """RUN in a second process whose kernels keep numba's reference counts."""
-    script = ('import screwgear_ros.numerics.jit as j\n'
+    script = ('import screwgear_ros.physics.jit as j\n'
               'from numba import njit\n'
               'j.kernel = njit(**j.OPTIONS)\n'
               'j.inline_kernel = njit(inline="always", **j.OPTIONS)\n'

@@ -4,7 +4,7 @@ package says so clearly when an upgrade removes them.
 * SciPy's ``scipy.integrate._ivp.dop853_coefficients``: the DOP853 tableau of
   :mod:`screwgear_ros.numerics.dop853`;
 * numba's ``_nrt`` compile option: the kernels without reference counting of
-  :mod:`screwgear_ros.numerics.jit`.
+  :mod:`screwgear_ros.physics.jit`.
 
 A failure here names the API and the versions the suite passed with (constraints.txt),
 so an upgrade that breaks one is caught by name, not by a wrong number elsewhere.
@@ -105,7 +105,7 @@ import numba.core.cpu as cpu
 for cls in cpu.CPUTargetOptions.__mro__:
     if '_nrt' in vars(cls):
         delattr(cls, '_nrt')
-import screwgear_ros.numerics.jit
+import screwgear_ros.physics.jit
 '''
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from screwgear_ros.numerics import warmup
+from screwgear_ros.numerics import kernels as warmup
 from screwgear_ros.paper import batch, floquet
 from screwgear_ros.paper.normalized import NormalizedParams
 

@@ -12,19 +12,14 @@ import yaml
 from paths import ROOT
 from readme_blocks import generated_block
 
-from screwgear_ros.params import (
-    docs as parameter_docs,
-)
-from screwgear_ros.params import (
-    sets as parameter_sets,
-)
-from screwgear_ros.params import (
-    table as params,
-)
+from screwgear_ros.params import docs as parameter_docs
+from screwgear_ros.params import table as params
 from screwgear_ros.params.declarations import Kind, declared, yaml_value
 from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.physics import packed as layout
 from screwgear_ros.ros.parameters import PARAMETERS, complete_harmonics, descriptor
+from screwgear_ros.sim import parameter_set as parameter_sets
+from screwgear_ros.sim.parameter_file import document_values
 
 
 def test_every_field_is_declared_with_a_description_and_a_type():
@@ -90,7 +85,7 @@ def test_the_parameter_file_is_generated_from_the_declarations():
     text = (ROOT / 'config' / 'paper.yaml').read_text(encoding='utf-8')
     assert text == parameter_docs.paper_yaml(), \
         'config/paper.yaml is stale: python -m screwgear_ros.params.docs yaml > config/paper.yaml'
-    loaded = parameter_sets.ros_parameters(yaml.safe_load(text))
+    loaded = document_values(yaml.safe_load(text))
     assert loaded == parameter_sets.default_values()          # YAML 1.1 reads every value back
 
 

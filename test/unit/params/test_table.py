@@ -17,13 +17,14 @@ from paths import ROOT
 
 from screwgear_ros.numerics import stability as S
 from screwgear_ros.numerics.integrator import advance
-from screwgear_ros.params import sets as PS
 from screwgear_ros.params import table as P
 from screwgear_ros.params.declarations import excerpt
 from screwgear_ros.params.table import ParameterError, SimSettings, TableParams
 from screwgear_ros.physics import quantities as Q
 from screwgear_ros.physics.equilibrium import equilibrium_state
 from screwgear_ros.physics.packed import Drive, pack
+from screwgear_ros.sim import parameter_set as PS
+from screwgear_ros.sim.parameter_file import load_yaml
 
 CONFIG = ROOT / 'config'
 
@@ -278,7 +279,7 @@ def test_check_step_and_split_parameters_refuse_unstable_dt():
 # ---------------------------------------------------------------- YAML
 
 def test_config_files_load_to_the_defaults():
-    params, settings = PS.load_yaml(CONFIG / 'paper.yaml')
+    params, settings = load_yaml(CONFIG / 'paper.yaml')
     assert params == TableParams()
     assert settings == SimSettings()
     from screwgear_ros.paper import normalized
@@ -290,7 +291,7 @@ def test_unknown_parameter_in_yaml_refused(tmp_path):
     bad = tmp_path / 'typo.yaml'
     bad.write_text(text.replace('backlash: 7.5e-05', 'backlesh: 7.5e-05'), encoding='utf-8')
     with pytest.raises(ParameterError) as exc:
-        PS.load_yaml(bad)
+        load_yaml(bad)
     refused(exc, 'backlesh', 7.5e-05, 'not a parameter')
 
 
@@ -301,7 +302,7 @@ def test_yaml_forms_accepted(tmp_path):
                  'backlash: 1.0e-5\n'):
         f = tmp_path / 'p.yaml'
         f.write_text(body, encoding='utf-8')
-        params, _ = PS.load_yaml(f)
+        params, _ = load_yaml(f)
         assert params == TableParams(backlash=1e-5)
 
 

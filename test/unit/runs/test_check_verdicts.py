@@ -31,11 +31,11 @@ from paths import DATA
 from rosbags.typesys import Stores, get_typestore
 
 from screwgear_ros.bag.reader import read_run
-from screwgear_ros.params.sets import default_values, split_parameters
 from screwgear_ros.runs import check
 from screwgear_ros.runs.compare import compare_runs, exact_comparison
 from screwgear_ros.runs.replay_in_process import replay_in_process
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
+from screwgear_ros.sim.parameter_set import default_values, split_parameters
 from screwgear_ros.sim.schedule import Schedule
 
 STORE = get_typestore(Stores.ROS2_JAZZY)

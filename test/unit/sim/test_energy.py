@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 from paths import DATA
 
-from screwgear_ros.params.run_file import RunParameters, dump, load
 from screwgear_ros.params.table import PAPER_PINION_SPEED, SimSettings, TableParams
 from screwgear_ros.physics.equilibrium import equilibrium_state
 from screwgear_ros.physics.quantities import natural_frequency, terminal_speed
 from screwgear_ros.sim import energy
 from screwgear_ros.sim.events import Command, ParameterChange
+from screwgear_ros.sim.run_file import RunParameters, dump, load
 from screwgear_ros.sim.session import Session
 
 R1, R2 = 0.078, 0.582

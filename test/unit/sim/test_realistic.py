@@ -12,10 +12,10 @@ from paths import ROOT
 
 from screwgear_ros import Simulation
 from screwgear_ros.bag.reader import read_run
-from screwgear_ros.params.sets import load_yaml, ros_parameters
 from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.runs.check import check_run
 from screwgear_ros.sim.control import DemoController, DemoGains
+from screwgear_ros.sim.parameter_file import document_values, load_yaml
 
 PRESET = ROOT / 'config' / 'realistic.yaml'
 TARGET = 0.001          # rad: the small target
@@ -23,7 +23,7 @@ TARGET = 0.001          # rad: the issue's small target
 
 def test_every_value_of_the_preset_is_a_parameter_and_departs_from_the_ideal() -> None:
     with open(PRESET, encoding='utf-8') as stream:
-        values = ros_parameters(yaml.safe_load(stream))
+        values = document_values(yaml.safe_load(stream))
     params, settings = load_yaml(PRESET)            # refuses an unknown name or a bad value
     ideal = {**TableParams().as_dict(), **SimSettings().as_dict()}
     loaded = {**params.as_dict(), **settings.as_dict()}

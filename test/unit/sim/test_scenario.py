@@ -14,9 +14,9 @@ from paths import ROOT
 
 from screwgear_ros import Simulation
 from screwgear_ros.bag.reader import read_run
-from screwgear_ros.params.sets import default_values, split_parameters
 from screwgear_ros.params.table import ParameterError
 from screwgear_ros.sim.metrics import SETTLING_BAND, run_metrics
+from screwgear_ros.sim.parameter_set import default_values, split_parameters
 from screwgear_ros.sim.scenario import ScenarioError, SetpointProfile, load_scenario
 
 SCENARIOS = sorted((ROOT / 'test' / 'data' / 'scenarios').glob('*.yaml'))

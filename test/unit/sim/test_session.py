@@ -197,7 +197,7 @@ def test_command_timeout_zeroes_torque_and_load_once_until_the_next_command():
 
 
 def test_a_recording_from_before_command_timeout_replays_without_one():
-    from screwgear_ros.params.run_file import RunParameters, dump, load
+    from screwgear_ros.sim.run_file import RunParameters, dump, load
     text = dump(RunParameters(P, S, tuple(equilibrium_state(P))))
     old = '\n'.join(line for line in text.splitlines() if not line.startswith('command_timeout'))
     assert load(text).settings.command_timeout == S.command_timeout == 1.0

@@ -16,9 +16,9 @@ from paths import ROOT
 
 from screwgear_ros import InputRejected, ParameterError, Simulation
 from screwgear_ros.bag.reader import read_run
-from screwgear_ros.params.sets import split_parameters
 from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.sim.commands import apply_command
+from screwgear_ros.sim.parameter_set import split_parameters
 from screwgear_ros.sim.plant import DriveInput
 
 CONFIG = ROOT / 'config'
@@ -65,7 +65,7 @@ def test_from_yaml_takes_the_node_parameter_file_and_overrides(tmp_path):
                                     {'inertia_table': 'heavy'}])
 def test_a_refused_value_gets_the_nodes_message(values, tmp_path):
     with pytest.raises(ParameterError) as expected:     # what the node itself says
-        from screwgear_ros.params.sets import default_values
+        from screwgear_ros.sim.parameter_set import default_values
         split_parameters({**default_values(), **values})
     with pytest.raises(ParameterError) as got:
         Simulation.from_values(**values)

@@ -1,43 +1,30 @@
-"""Compile the numba kernels once, at install time, so no start of the node compiles.
-
-numba compiles a ``@njit(cache=True)`` function on its first call and keeps the machine
-code in the package's ``__pycache__``; later processes load it in a fraction of a
-second. ``scripts/setup_venv.sh`` runs ``python -m screwgear_ros.numerics.warmup`` after every
-install (on a colcon install, run ``ros2 run screwgear_ros warmup`` once after the
-build), so the node's first start is as fast as every other.
+"""Where the core's compiled functions are, and whether this process compiled any.
 
 :func:`compiled_now` tells a caller (the node) whether something was compiled in this
-process, i.e. whether the cache was missing. It looks only at the kernel modules this
-process imported (a module never imported compiled nothing), so importing it costs the
-node nothing beyond what it runs: check_run's DOP853 (:mod:`screwgear_ros.numerics.dop853`, which
-imports SciPy, about half a second) and :mod:`screwgear_ros.paper.normalized` are imported by
-:func:`warm`, not here.
+process, i.e. whether numba's cache was missing. It looks only at the kernel modules
+this process imported (a module never imported compiled nothing), so asking costs the
+node nothing beyond what it runs. The kernel modules are named, not imported, here: a
+start of the node must not import check_run's solver or the report's.
 
 :func:`without_blas_probe` spares the node's start numba's probe of SciPy's BLAS, which
-the kernels do not use.
+the kernels do not use. Compiling every kernel ahead of time is
+:mod:`screwgear_ros.cli.warmup`.
 """
 
 from __future__ import annotations
 
 import importlib
 import sys
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
-
-import numpy as np
-
-from ..params.table import MeshPhase, Mode, SimSettings, TableParams
-from ..sim.events import Command
-from ..sim.session import ROW, Session
-from ..sim.status import contact_states, mesh_frequency_ratio
+from typing import Any
 
 #: The modules holding the core's compiled functions.
 _MODULES = ('physics.friction', 'physics.mesh', 'physics.drive', 'physics.motion',
             'numerics.integrator', 'paper.normalized', 'numerics.dop853', 'paper.floquet')
 
 
-def kernels(imported_only: bool = False) -> list:
+def kernels(imported_only: bool = False) -> list[Any]:
     """Every compiled function of the core; with ``imported_only`` only those of the
     kernel modules this process has imported (without importing the others)."""
     names = [f'screwgear_ros.{name}' for name in _MODULES]
@@ -87,34 +74,4 @@ def without_blas_probe() -> Iterator[None]:
             del sys.modules['scipy.linalg']
 
 
-def warm() -> int:
-    """Run every kernel the node and the tools use, in every mode; the number compiled."""
-    for mode in Mode:
-        for phase in MeshPhase:
-            session = Session(TableParams(mode=mode, mesh_phase=phase,
-                                          preload_torque=0.0 if mode is Mode.CONVENTIONAL
-                                          else 350.0), SimSettings())
-            session.submit(Command('cmd_effort', [10.0]))
-            session.tick()
-            session.advance(2, rows=np.empty((2, ROW)))     # replays, check_run
-            contact_states(session.plant.params, session.last_outputs)     # diagnostics, markers
-            mesh_frequency_ratio(session.plant.params, session.last_outputs)
-    from ..paper import floquet, normalized
-    from . import dop853
-    normalized.response(normalized.NormalizedParams(), 1.0)
-    dop853.warm()                    # check_run's reference solver
-    floquet.monodromy(0.05, 0.1, 2.0, steps=64)    # the report's Floquet maps
-    return compiled_now()
-
-
-def main() -> int:
-    start = time.perf_counter()
-    compiled = warm()
-    loaded = sum(sum(k.stats.cache_hits.values()) for k in kernels())
-    print(f'screwgear_ros warmup: {compiled} kernel signatures compiled and cached, '
-          f'{loaded} loaded from the cache, {time.perf_counter() - start:.1f} s')
-    return 0
-
-
-if __name__ == '__main__':
-    sys.exit(main())
+__all__ = ['compiled_now', 'kernels', 'without_blas_probe']

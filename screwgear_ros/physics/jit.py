@@ -1,6 +1,6 @@
 """How the core's numba kernels are compiled: the options, declared once.
 
-Every kernel is cached (compiled once, at install time by :mod:`screwgear_ros.numerics.warmup`,
+Every kernel is cached (compiled once, at install time by :mod:`screwgear_ros.cli.warmup`,
 and loaded by every later process) and uses NumPy's error model (a division by zero
 gives inf or nan, which the plant's fault check catches, instead of raising).
 
@@ -44,9 +44,9 @@ def require_nrt_option() -> None:
     if not known:
         raise ImportError(
             f"screwgear_ros needs numba's private compile option '_nrt' (njit(_nrt=False), "
-            f'screwgear_ros/numerics/jit.py), which numba {numba.__version__} does not support as '
+            f'screwgear_ros/physics/jit.py), which numba {numba.__version__} does not support as '
             f'expected ({reason}). Install the versions in constraints.txt '
-            '(pip install -c constraints.txt ...), or adapt screwgear_ros/numerics/jit.py.')
+            '(pip install -c constraints.txt ...), or adapt screwgear_ros/physics/jit.py.')
 
 
 require_nrt_option()

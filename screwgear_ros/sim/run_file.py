@@ -16,8 +16,8 @@ from typing import Any
 import yaml
 
 from ..errors import ScrewgearError
-from .sets import split_parameters
-from .table import ParameterError, SimSettings, TableParams
+from ..params.table import ParameterError, SimSettings, TableParams
+from .parameter_set import split_parameters
 
 EXTRA_KEYS = ('package_version', 'initial_state', 'start_step')
 #: Parameters and settings added after the first release, with the value that recordings
