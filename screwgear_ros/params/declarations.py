@@ -25,7 +25,26 @@ from ..errors import ScrewgearError
 
 
 class ParameterError(ScrewgearError, ValueError):
-    """A parameter value that breaks a rule; says which, what and why."""
+    """A parameter value that breaks a rule; says which, what and why.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name, as the node declares it.
+    value : object
+        The value refused (shown cut to a line in the message).
+    rule : str
+        The rule it breaks, with the bound or reason.
+
+    Examples
+    --------
+    >>> from screwgear_ros import ParameterError, TableParams
+    >>> try:
+    ...     TableParams(inertia_table=0.0)
+    ... except ParameterError as exc:
+    ...     print(exc.name)
+    inertia_table
+    """
 
     def __init__(self, name: str, value: Any, rule: str) -> None:
         self.name = name

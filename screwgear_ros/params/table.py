@@ -92,6 +92,16 @@ class TableParams:
     k_m = ω0²·m_e = 1e7 N/m; c gives ζ = 0.05; ε_1 = fa·l = 1.5384 mm. Each field is
     the one declaration of its ROS parameter (:mod:`screwgear_ros.params.declarations`);
     ``kernel=True`` fields are packed, in this order, for the compiled model.
+
+    Frozen and hashable; an invalid value raises :class:`ParameterError` naming the
+    parameter, its value and the rule (a range, or a rule across parameters).
+
+    Examples
+    --------
+    >>> from screwgear_ros import TableParams
+    >>> p = TableParams(backlash=1e-4)
+    >>> p.backlash, p.replace(backlash=2e-4).backlash
+    (0.0001, 0.0002)
     """
 
     inertia_pinion_1: float = parameter(3.255e-2, 'I1', 'kg·m²', 'inertia of pinion 1',
@@ -312,7 +322,21 @@ def _velocity_filter_cutoff(joint: str, k: str) -> Any:
 
 @dataclass(frozen=True)
 class SimSettings:
-    """How the node runs the model: step, pacing, outputs, recording."""
+    """How the node runs the model: step, pacing, outputs, recording, sensors.
+
+    Each field is the one declaration of its ROS parameter, as for :class:`TableParams`;
+    an invalid value raises :class:`ParameterError` naming it.
+
+    Examples
+    --------
+    >>> from screwgear_ros import SimSettings
+    >>> SimSettings().dt
+    5e-05
+    >>> SimSettings(dt=-1.0)
+    Traceback (most recent call last):
+    ...
+    screwgear_ros.params.declarations.ParameterError: parameter 'dt' = -1.0 refused: ...
+    """
 
     dt: float = parameter(50e-6, 'dt', 's', 'RK4 integration step', low=1e-7, high=1e-2,
                           read_only=True)

@@ -179,10 +179,39 @@ class DemoLaw:
 
 class DemoController:
     """The demo law as a :meth:`Simulation.run <screwgear_ros.sim.simulation.Simulation.run>`
-    controller: ``controller(observation) -> effort``. The stamps are the node's
-    (:func:`~screwgear_ros.sim.simtime.sim_time_ns` of the observation's step), so a run gives
-    the bits a lockstep run of table_sim with demo_controller gives. A new run (an
-    observation at an earlier step than the last) restarts the profile."""
+    controller: ``controller(observation) -> effort``.
+
+    The stamps are the node's (:func:`~screwgear_ros.sim.simtime.sim_time_ns` of the
+    observation's step), so a run gives the bits a lockstep run of table_sim with
+    demo_controller gives. A new run (an observation at an earlier step than the last)
+    restarts the profile; a stamp answered already gets None (no new command).
+
+    Parameters
+    ----------
+    gains : DemoGains, optional
+        The law's gains, profile and hold band; default ``DemoGains(**values)``.
+    dt : float
+        The simulation's step, s (``SimSettings.dt``), to stamp observations as the node.
+    joint_names : sequence of str
+        The joint_states names, to find the controlled joint (``gains.joint``).
+    setpoint : callable, optional
+        ``setpoint(t) -> target angle`` (rad, t in s) instead of the demo's profile.
+    **values
+        Fields of :class:`DemoGains` when ``gains`` is not given.
+
+    Raises
+    ------
+    ValueError
+        ``gains.joint`` is not one of ``joint_names``.
+
+    Examples
+    --------
+    >>> from screwgear_ros import DemoController, Simulation
+    >>> sim = Simulation()
+    >>> run = sim.run(DemoController(dt=sim.settings.dt), 0.01)
+    >>> len(run) > 0
+    True
+    """
 
     def __init__(self, gains: DemoGains | None = None, *, dt: float = 50e-6,
                  joint_names: Sequence[str] = ('pinion_1', 'table', 'pinion_3'),
