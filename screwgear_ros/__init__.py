@@ -40,4 +40,4 @@ def __dir__() -> list[str]:
     return sorted([*globals(), *_API])
 
 
-__all__ = ['__version__', *_API]
+__all__ = ['__version__', *_API]  # noqa: PLE0604 (_API's keys are the names)
