@@ -6,7 +6,7 @@ from setuptools import find_packages, setup
 
 PACKAGE = 'screwgear_ros'
 EXECUTABLES = ['table_sim', 'demo_controller', 'check_run', 'replay_run', 'paper_report', 'plot_run',
-               'run_scenario', 'linearize', 'frequency_response', 'sweep']
+               'run_scenario', 'linearize', 'frequency_response', 'sweep', 'warmup']
 
 setup(
     name=PACKAGE,
@@ -26,7 +26,7 @@ setup(
     install_requires=['setuptools', 'numpy>=1.26,<3', 'scipy>=1.11', 'numba>=0.59',
                       'PyYAML>=6', 'mcap>=1.2', 'zstandard>=0.21', 'mcap-ros2-support>=0.5',
                       'rosbags>=0.10', 'tqdm>=4', 'matplotlib>=3.8'],
-    # pip install screwgear_ros[gym]: the Gymnasium environment (screwgear_ros.gym).
+    # pip install screwgear_ros[gym]: the Gymnasium environment (screwgear_ros.envs.table_env).
     # pip install screwgear_ros[sweep]: sweep on Dask (LocalCluster or a cluster), parquet.
     # pip install screwgear_ros[design]: linearize --format control (python-control).
     extras_require={'gym': ['gymnasium>=1.0'], 'design': ['control>=0.10'],

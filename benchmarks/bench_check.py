@@ -34,14 +34,13 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-from bag_runs import copy_bag, record_session  # noqa: E402
+import yaml
+from bag_runs import copy_bag, record_session
 
-import yaml  # noqa: E402
-
-from screwgear_ros.events import Command  # noqa: E402
-from screwgear_ros.runs.bagformat import typestore  # noqa: E402
-from screwgear_ros.params import SimSettings, TableParams  # noqa: E402
-from screwgear_ros.schedule import Schedule  # noqa: E402
+from screwgear_ros.bag.format import typestore
+from screwgear_ros.params.table import SimSettings, TableParams
+from screwgear_ros.sim.events import Command
+from screwgear_ros.sim.schedule import Schedule
 
 SECONDS = 60.0
 DT = 50e-6
@@ -84,8 +83,8 @@ def timed(exe: str, bag: Path, repeat: int, *options: str) -> tuple[float, str]:
 STAGES = r"""
 import sys, time
 t0 = time.perf_counter()
-from screwgear_ros.runs.bagread import read_run
-from screwgear_ros.runs.replay import replay_in_process
+from screwgear_ros.bag.reader import read_run
+from screwgear_ros.runs.replay_in_process import replay_in_process
 from screwgear_ros.runs import check
 t = {'import': time.perf_counter() - t0}
 s = time.perf_counter(); run = read_run(sys.argv[1]); t['read bag'] = time.perf_counter() - s
@@ -105,10 +104,10 @@ print(repr(t))
 KNOWN_KEYS = r"""
 import json
 try:
-    from screwgear_ros.parameter_sets import default_values
+    from screwgear_ros.sim.parameter_set import default_values
 except ImportError:                     # an older package: the set lived in params
-    from screwgear_ros.params import default_values
-from screwgear_ros.run_parameters import EXTRA_KEYS
+    from screwgear_ros.sim.parameter_set import default_values
+from screwgear_ros.sim.run_file import EXTRA_KEYS
 print(json.dumps([*default_values(), *EXTRA_KEYS]))
 """
 
@@ -135,7 +134,7 @@ def for_old(bag: Path, dst: Path, python: str) -> Path:
 def stages(python: str, bag: Path) -> dict[str, float]:
     out = subprocess.run([python, '-P', '-c', STAGES, str(bag)], capture_output=True,
                          text=True, check=True).stdout
-    return eval(out.strip().splitlines()[-1])   # noqa: S307 (our own dict literal)
+    return eval(out.strip().splitlines()[-1])
 
 
 def main() -> int:

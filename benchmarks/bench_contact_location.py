@@ -20,9 +20,9 @@ from __future__ import annotations
 import argparse
 import time
 
-from screwgear_ros.events import Command
-from screwgear_ros.params import SimSettings, TableParams
-from screwgear_ros.session import Session
+from screwgear_ros.params.table import SimSettings, TableParams
+from screwgear_ros.sim.events import Command
+from screwgear_ros.sim.session import Session
 
 DT = 50e-6
 TICK = 20                  # steps per tick: 1 kHz publishing at 50 µs

@@ -5,7 +5,7 @@
 Prints, measured in this run, interleaved ``--repeat`` times (median, and the range):
 
 * **physics alone**: the ticks of the in-process loop below integrated with no
-  controller, in one compiled call per chunk (``Session.tick_quietly``): the anchor;
+  controller, in one compiled call per chunk (``Session.advance`` with ``rows``): the anchor;
 * **in-process**: ``Simulation.run`` closed with a Python PD law on the table angle
   (each tick's answer applied at the next tick's first step), ticks/s and its ratio to
   the physics alone;
@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-from ros_procs import STARTUP_TIMEOUT, start_process  # noqa: E402
+from ros_procs import STARTUP_TIMEOUT, start_process
 
 VALUES = {'table_damping': 8867.0, 'command_timeout': 0.0, 'publish_rate': 1000.0}
 IN_PROCESS_TICKS = 4000
@@ -57,20 +57,20 @@ WINDOW = 5.0        # s of wall time per DDS measurement
 def pd(o) -> float:
     """The benchmark's controller: PD on the table angle towards 10 mrad."""
     wanted = 3000.0 * (0.01 - o.position[1]) - 200.0 * o.velocity[1]
-    return 300.0 if wanted > 300.0 else -300.0 if wanted < -300.0 else wanted
+    return 300.0 if wanted > 300.0 else max(wanted, -300.0)
 
 
 def physics_alone(ticks: int) -> tuple[float, float]:
     """Ticks/s of the same ticks with no controller: one compiled call per chunk; by the
     wall clock and by this thread's CPU time."""
     from screwgear_ros import Simulation
-    from screwgear_ros.session import ROW
+    from screwgear_ros.sim.session import ROW
     sim = Simulation.from_values(VALUES)
     sim.reset()
     sim.step(150.0)                      # a moving table, as in the closed loop
     rows = np.empty((ticks, ROW))
     started, cpu = time.perf_counter(), time.thread_time()
-    done = sim.session.tick_quietly(ticks, rows)
+    done = sim.session.advance(ticks, rows=rows)
     return done / (time.perf_counter() - started), done / (time.thread_time() - cpu)
 
 
@@ -92,7 +92,7 @@ def lockstep(window: float) -> float:
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
-    from screwgear_ros.simulation import Observation
+    from screwgear_ros.sim.simulation import Observation
     sim = start_process('table_sim', params={**VALUES, 'lockstep': True,
                                              'real_time_factor': 0.0})
     rclpy.init()
@@ -178,7 +178,7 @@ _ECHO = textwrap.dedent('''
     from rclpy.executors import SingleThreadedExecutor
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
-    from screwgear_ros.cli.table_sim import NODE_EXECUTOR
+    from screwgear_ros.ros.node import NODE_EXECUTOR
     rclpy.init()
     node = rclpy.create_node('bench_loop_echo')
     pub = node.create_publisher(Float64MultiArray, '/bench_loop/answer', 10)

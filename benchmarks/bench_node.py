@@ -35,16 +35,15 @@ from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import JointState
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-from ros_procs import (STARTUP_TIMEOUT, Peer, RosProcess, stamp_ns,  # noqa: E402
-                       start_process)
+from ros_procs import STARTUP_TIMEOUT, Peer, RosProcess, stamp_ns, start_process
 
 WINDOW = 10.0      # s of wall time measured per node scenario
 WARMUP = 2.0       # s before the window opens
 
 _STEPS_SCRIPT = """
 import sys, time
-from screwgear_ros.params import SimSettings, TableParams
-from screwgear_ros.session import Session
+from screwgear_ros.params.table import SimSettings, TableParams
+from screwgear_ros.sim.session import Session
 n, batch = int(sys.argv[1]), int(sys.argv[2])
 session = Session(TableParams(), SimSettings(dt=50e-6, publish_rate=1.0 / (batch * 50e-6)))
 session.tick()

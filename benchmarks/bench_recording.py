@@ -30,18 +30,17 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
 
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-from ros_procs import (STARTUP_TIMEOUT, Inbox, Peer, RosProcess, stamp_ns,  # noqa: E402
-                       start_process)
+from ros_procs import STARTUP_TIMEOUT, Inbox, Peer, RosProcess, stamp_ns, start_process
 
-from screwgear_ros.runs.bagread import read_run  # noqa: E402
+from screwgear_ros.bag.reader import read_run
 
 WINDOW = 8.0        # s of wall time per measurement
 PARAMS = {'table_damping': 8867.0, 'dt': 50e-6, 'publish_rate': 1000.0}

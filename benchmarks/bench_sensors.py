@@ -24,8 +24,8 @@ from pathlib import Path
 
 import yaml
 
-from screwgear_ros.parameter_sets import ros_parameters
-from screwgear_ros.simulation import Simulation
+from screwgear_ros.sim.parameter_file import document_values
+from screwgear_ros.sim.simulation import Simulation
 
 PRESET = Path(__file__).resolve().parents[1] / 'config' / 'realistic.yaml'
 
@@ -42,7 +42,7 @@ SENSORS = {
 
 def pd(o) -> float:
     wanted = 3000.0 * (0.01 - o.position[1]) - 200.0 * o.velocity[1]
-    return 300.0 if wanted > 300.0 else -300.0 if wanted < -300.0 else wanted
+    return 300.0 if wanted > 300.0 else max(wanted, -300.0)
 
 
 def per_tick(sim: Simulation, ticks: int) -> float:
@@ -64,7 +64,7 @@ def main() -> int:
     ideal = Simulation.from_values(BASE)
     on = Simulation.from_values({**BASE, **SENSORS})
     with open(PRESET, encoding='utf-8') as stream:
-        realistic = Simulation.from_values({**ros_parameters(yaml.safe_load(stream)), **BASE})
+        realistic = Simulation.from_values({**document_values(yaml.safe_load(stream)), **BASE})
     for sim in (ideal, on, realistic):
         per_tick(sim, 100)               # compiled kernels and first allocations
     plain, sensed, everything = [], [], []

@@ -21,7 +21,7 @@ stood beside an anchor measured the same way in the same run:
   against the bare node started the same way (``start_process``); the start with
   ``--params-file config/paper.yaml`` (every parameter, under ``/**``) against the same
   start given 3 of them; and a cold first start
-  (a fresh numba cache dir, NUMBA_CACHE_DIR, filled by ``python -m screwgear_ros.warmup``
+  (a fresh numba cache dir, NUMBA_CACHE_DIR, filled by ``python -m screwgear_ros.cli.warmup``
   just before, as an install does), best of three, against the slowest warm start (both
   load the same cache, so a single cold start against their median was a coin toss, and
   one against the slowest warm start lost to discovery's slow mode; a compile, what
@@ -50,9 +50,10 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -139,7 +140,8 @@ def _bench_node() -> Any:
 
 def start_bare(workdir: Path, rate: float) -> Any:
     from ros_procs import start_process
-    from screwgear_ros.params import SimSettings
+
+    from screwgear_ros.params.table import SimSettings
     from screwgear_ros.ros.messages import MESH_NAMES
     return start_process(sys.executable, workdir=workdir,
                          args=[str(HERE), 'bare', '--rate', f'{rate:g}',
@@ -186,7 +188,7 @@ def time_to_first(starts: dict[str, Callable[[Path], Any]], n: int,
     this process receives, ``n`` starts each, interleaved, and each of the ``once``
     starts one time, the k-th in round k + 1 (not the first round: the first start after
     the subscriber came up can wait longer for discovery); the subscriber is up first."""
-    from ros_procs import Peer, STARTUP_TIMEOUT
+    from ros_procs import STARTUP_TIMEOUT, Peer
     from sensor_msgs.msg import JointState
     bn = _bench_node()
     times: dict[str, list[float]] = {name: [] for name in [*starts, *(once or {})]}
@@ -222,8 +224,8 @@ def time_to_first(starts: dict[str, Callable[[Path], Any]], n: int,
 
 def floquet_map(n: int) -> float:
     """Seconds for the report's Floquet map, n × n (ζ × k_a') at the paper's Ω."""
-    from screwgear_ros import floquet
-    from screwgear_ros.report.stability import PAPER_OMEGA
+    from screwgear_ros.paper import floquet
+    from screwgear_ros.paper.stability import PAPER_OMEGA
     zetas, kas = np.linspace(0.01, 0.2, n), np.linspace(0.0, 0.5, n)
     t = time.perf_counter()
     floquet.monodromy(zetas[:, None], kas[None, :], PAPER_OMEGA)
@@ -477,7 +479,7 @@ def main() -> int:
                 for _ in range(colds)]
         for cache in dirs:
             t = time.monotonic()
-            warm = subprocess.run([sys.executable, '-P', '-m', 'screwgear_ros.warmup'],
+            warm = subprocess.run([sys.executable, '-P', '-m', 'screwgear_ros.cli.warmup'],
                                   env={**os.environ, 'NUMBA_CACHE_DIR': cache},
                                   capture_output=True, text=True, cwd=cache)
             warmup_s = time.monotonic() - t

@@ -2,7 +2,7 @@
 
 The physics core (params, model, integrator, reference, normalized, plant) imports no
 ROS; the node and command-line tools in this package drive it. The Python API
-(``screwgear_ros.Simulation``, :mod:`screwgear_ros.simulation`) runs the node's own
+(``screwgear_ros.Simulation``, :mod:`screwgear_ros.sim.simulation`) runs the node's own
 simulation loop in-process, without ROS; its names are imported on first use, so that
 ``import screwgear_ros`` alone loads neither ROS nor the compiled model.
 """
@@ -10,17 +10,21 @@ simulation loop in-process, without ROS; its names are imported on first use, so
 from importlib import import_module
 from typing import Any
 
+from . import _moved
+
 __version__ = '0.1.0'
 
 #: Public names and the module that defines each.
 _API = {
-    'Simulation': 'simulation', 'Observation': 'simulation', 'Run': 'simulation',
-    'InputRejected': 'commands', 'ParameterError': 'params',
-    'TableParams': 'params', 'SimSettings': 'params',
-    'Scenario': 'scenario', 'load_scenario': 'scenario', 'ScenarioError': 'scenario',
-    'run_metrics': 'metrics', 'Metrics': 'metrics',
-    'DemoController': 'control',
+    'Simulation': 'sim.simulation', 'Observation': 'sim.simulation', 'Run': 'sim.simulation',
+    'InputRejected': 'sim.commands', 'ParameterError': 'params.table',
+    'TableParams': 'params.table', 'SimSettings': 'params.table',
+    'Scenario': 'sim.scenario', 'load_scenario': 'sim.scenario', 'ScenarioError': 'sim.scenario',
+    'run_metrics': 'sim.metrics', 'Metrics': 'sim.metrics',
+    'DemoController': 'sim.control',
 }
+
+_moved.install(__name__)
 
 
 def __getattr__(name: str) -> Any:
@@ -36,4 +40,4 @@ def __dir__() -> list[str]:
     return sorted([*globals(), *_API])
 
 
-__all__ = ['__version__', *_API]
+__all__ = ['__version__', *_API]  # noqa: PLE0604 (_API's keys are the names)

@@ -2,8 +2,8 @@
 its name, message type, direction, delivery and meaning.
 
 The node's publishers and subscriptions (:mod:`screwgear_ros.ros.messages`), the input
-commands (:data:`screwgear_ros.commands.INPUT_TOPICS`), the bag contract the readers
-enforce (:mod:`screwgear_ros.runs.bagread`), lockstep's answers and the README's topic
+commands (:data:`screwgear_ros.sim.commands.INPUT_TOPICS`), the bag contract the readers
+enforce (:mod:`screwgear_ros.bag.reader`), lockstep's answers and the README's topic
 table (``python -m screwgear_ros.interface``) are all derived from :data:`TOPICS`.
 """
 
@@ -53,26 +53,41 @@ class Topic:
         return self.name.startswith('/')
 
 
+
+class Input(StrEnum):
+    """The node's inputs by name: what a controller (or a recording) sends to the table.
+
+    A member is its topic's key and equals that string, so it serves wherever a topic
+    name did; code compares inputs with these members, never with string literals.
+    """
+
+    CMD_TORQUE = 'cmd_torque'
+    CMD_DIRECTION = 'cmd_direction'
+    CMD_EFFORT = 'cmd_effort'
+    LOAD_TORQUE = 'load_torque'
+    JOINT_COMMANDS = 'joint_commands'
+    SETPOINT = 'setpoint'
+
 IN, INFO, OUT, RECORDED, SERVICE = Direction
 TOPICS = (
-    Topic('cmd_torque', 'cmd_torque', 'std_msgs/msg/Float64', IN, Delivery.AS_SENT,
+    Topic(Input.CMD_TORQUE, 'cmd_torque', 'std_msgs/msg/Float64', IN, Delivery.AS_SENT,
           'drive torque magnitude on the active pinion, N·m, 0 ≤ T ≤ `max_torque`',
           contract=True),
-    Topic('cmd_direction', 'cmd_direction', 'std_msgs/msg/Int8', IN, Delivery.AS_SENT,
+    Topic(Input.CMD_DIRECTION, 'cmd_direction', 'std_msgs/msg/Int8', IN, Delivery.AS_SENT,
           '+1 forward (path 1, screw gear A → pinion 1), −1 reverse (path 3)',
           contract=True),
-    Topic('cmd_effort', 'cmd_effort', 'std_msgs/msg/Float64MultiArray', IN, Delivery.AS_SENT,
+    Topic(Input.CMD_EFFORT, 'cmd_effort', 'std_msgs/msg/Float64MultiArray', IN, Delivery.AS_SENT,
           'one signed torque (ros2_control effort controllers): sign = direction, 0 keeps '
           'the direction', answer=True, contract=True),
-    Topic('load_torque', 'load_torque', 'std_msgs/msg/Float64', IN, Delivery.AS_SENT,
+    Topic(Input.LOAD_TORQUE, 'load_torque', 'std_msgs/msg/Float64', IN, Delivery.AS_SENT,
           'external table load, N·m, signed, \\|load\\| ≤ 10·`max_torque`·r2/r1 (ten times '
           'what the drive can hold: 29.8 kN·m by default)', contract=True),
-    Topic('joint_commands', 'joint_commands', 'sensor_msgs/msg/JointState', IN,
+    Topic(Input.JOINT_COMMANDS, 'joint_commands', 'sensor_msgs/msg/JointState', IN,
           Delivery.AS_SENT,
           "ros2_control's `JointStateTopicSystem`: every URDF joint named, `pinion_1`'s one "
           'effort value = signed drive torque as `cmd_effort`; all-NaN = no command yet '
           '(silent)', answer=True, contract=True),
-    Topic('setpoint', 'setpoint', 'std_msgs/msg/Float64', INFO, Delivery.AS_SENT,
+    Topic(Input.SETPOINT, 'setpoint', 'std_msgs/msg/Float64', INFO, Delivery.AS_SENT,
           "the controller's target for the `table` joint, rad, finite: recorded at the "
           'next tick\'s first step for plots of the tracking error; never applied, '
           'answers nothing, not replayed', contract=True),
@@ -178,9 +193,24 @@ def topic_table() -> str:
                       '|---|---|---|---|---|', *map(row, TOPICS)]) + '\n'
 
 
-__all__ = ['Direction', 'Delivery', 'Topic', 'TOPICS', 'BY_KEY', 'COMMAND_TOPICS', 'INFO_TOPICS',
-           'OUTPUT_TOPICS', 'RECORDED_TOPICS', 'LATCHED_OUTPUTS', 'CONTRACT', 'ANSWER_TOPICS',
-           'TICK_TOPIC', 'ANSWERS', 'topic_names', 'topic_table']
+__all__ = [
+    'ANSWERS',
+    'ANSWER_TOPICS',
+    'BY_KEY',
+    'COMMAND_TOPICS',
+    'CONTRACT',
+    'INFO_TOPICS',
+    'LATCHED_OUTPUTS',
+    'OUTPUT_TOPICS',
+    'RECORDED_TOPICS',
+    'TICK_TOPIC',
+    'TOPICS',
+    'Delivery',
+    'Direction',
+    'Topic',
+    'topic_names',
+    'topic_table',
+]
 
 
 if __name__ == '__main__':

@@ -71,6 +71,6 @@ PY
 fi
 if ! current kernels; then
     # Compile the numba kernels now, so that no start of the node has to.
-    "$py" -P -m screwgear_ros.warmup
+    "$py" -P -m screwgear_ros.cli.warmup
     mark kernels
 fi

@@ -10,9 +10,14 @@ from __future__ import annotations
 import fcntl
 import os
 import signal
+import sys
+from pathlib import Path
 from typing import IO
 
 _DOMAIN_LOCK: IO[str] | None = None
+
+# The tests' shared helpers (ros_procs, bag_runs, paths, ...), importable from every folder.
+sys.path.insert(0, str(Path(__file__).resolve().parent / 'support'))
 
 
 def _claim_domain_id() -> int:

@@ -1,4 +1,5 @@
-"""The imperative shell: the node and command-line tools (these import rclpy where needed).
+"""The executables' ``main()`` functions: each parses its command line and calls the
+node (:mod:`screwgear_ros.ros`) or the work it runs; these import rclpy where needed.
 
 Every tool ends with its documented exit code and a reason, never a traceback: the
 long-running offline tools stop on Ctrl-C through :func:`interruptible`, with one line
@@ -11,7 +12,8 @@ from __future__ import annotations
 
 import functools
 import sys
-from typing import Callable, Mapping
+from collections.abc import Callable, Mapping
+from typing import Self
 
 #: The tools' exit code for work done (and, where a tool gives a verdict, a good one).
 EXIT_OK = 0
@@ -80,18 +82,15 @@ class Failures:
         why = (exc.strerror or exc) if isinstance(exc, OSError) else exc
         return message.format(exc=exc, kind=type(exc).__name__, why=why, **self.context)
 
-    def __enter__(self) -> Failures:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
                  traceback: object) -> bool:
         if not isinstance(exc, Exception):      # none, or KeyboardInterrupt / SystemExit
             return False
-        for errors, message, code in self.rungs:
-            if isinstance(exc, errors):
-                break
-        else:
-            message, code = self.unexpected, EXIT_ERROR
+        message, code = next(((m, c) for errors, m, c in self.rungs if isinstance(exc, errors)),
+                             (self.unexpected, EXIT_ERROR))
         print(f'{self.tool}: {self.message(exc, message)}', file=sys.stderr)
         self.code = code
         return True

@@ -3,8 +3,8 @@ plot_run): a bag they cannot read, recorded parameters the model refuses, anythi
 
 from __future__ import annotations
 
-from ..model import EquilibriumNotFound
-from ..runs.bagread import BagError
+from ..bag.errors import BagError
+from ..physics.equilibrium import EquilibriumNotFound
 from . import Errors, Failures, Message
 
 

@@ -25,8 +25,8 @@ import sys
 
 from tqdm import tqdm
 
-from ..reference import ReferenceFailure
-from ..runs.bagread import read_run
+from ..bag.reader import read_run
+from ..numerics.reference import ReferenceFailure
 from ..runs.check import check_run, format_report
 from . import EXIT_ERROR, EXIT_OK, interruptible
 from .bag_tool import bag_failures

@@ -27,12 +27,13 @@ from pathlib import Path
 import numpy as np
 
 from ..design.closed_loop import make_controller, measure_loop
+from ..design.errors import DesignError, UsageError
 from ..design.frequency import Input, Method, measure
-from ..design.linearize import OUTPUTS, OperatingPointError
-from ..params import ParameterError
-from ..simulation import ParameterFileError, file_values, resolve
-from .linearize import format_modes
+from ..design.linear_model import OUTPUTS
+from ..params.table import ParameterError
+from ..sim.simulation import ParameterFileError, file_values, resolve
 from . import EXIT_OK, Failures, interruptible
+from .linearize import format_modes
 
 #: The model diverged during a measurement.
 EXIT_FAULT = 1
@@ -81,26 +82,26 @@ def main(argv: list[str] | None = None) -> int:
     if stem.suffix in ('.csv', '.png'):
         stem = stem.with_suffix('')
     failures = Failures('frequency_response', {
-        (ParameterFileError, ParameterError, OperatingPointError): '{exc}',
+        (ParameterFileError, ParameterError, DesignError): '{exc}',
         FloatingPointError: ('{exc}', EXIT_FAULT),
         OSError: 'cannot write {stem}: {why}',
     }, stem=stem)
     with failures:
         if not (args.low > 0.0 and args.high >= args.low and np.isfinite(args.high)):
-            raise OperatingPointError(f'--from {args.low:g} and --to {args.high:g} must be '
-                                      'finite with 0 < from <= to')
+            raise UsageError(f'--from {args.low:g} and --to {args.high:g} must be '
+                             'finite with 0 < from <= to')
         if args.points < 1:
-            raise OperatingPointError(f'--points must be >= 1, got {args.points}')
+            raise UsageError(f'--points must be >= 1, got {args.points}')
         if not stem.parent.is_dir():
-            raise OperatingPointError(f'{stem.parent} is not a directory')
+            raise UsageError(f'{stem.parent} is not a directory')
         params, settings = resolve(file_values(args.params) if args.params else {})
         frequencies = np.geomspace(args.low, args.high, args.points)
         loop = None
         if args.controller:
             if args.input != 'torque' or args.method != 'sine':
-                raise OperatingPointError('--controller measures with stepped sines added to '
-                                          "the controller's torque (--input torque, --method "
-                                          'sine)')
+                raise UsageError('--controller measures with stepped sines added to '
+                                 "the controller's torque (--input torque, --method "
+                                 'sine)')
             controller = make_controller(args.controller, settings)
             loop = measure_loop(params, settings, controller, outputs=args.output,
                                 frequencies=frequencies, amplitude=args.amplitude,

@@ -20,9 +20,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..design.linearize import LinearModel, OperatingPointError, linearize
-from ..params import ParameterError
-from ..simulation import ParameterFileError, file_values, resolve
+from ..design.errors import DesignError, UsageError
+from ..design.linear_model import LinearModel
+from ..design.linearize import linearize
+from ..params.table import ParameterError
+from ..sim.simulation import ParameterFileError, file_values, resolve
 from . import EXIT_OK, Failures, interruptible
 
 
@@ -34,12 +36,12 @@ def load_params(path: str | None):
 def holding_load(params, torque: float, load: str, direction: int) -> float:
     """``load`` as a number, N·m, or for "hold" the load that holds ``torque``."""
     if load == 'hold':
-        from ..design.frequency import default_bias
-        return default_bias(params, 'torque', 1.0, torque, None, direction)[1]
+        from ..design.frequency import Input, default_bias
+        return default_bias(params, Input.TORQUE, 1.0, torque, None, direction)[1]
     try:
         return float(load)
     except ValueError:
-        raise OperatingPointError(f'--load must be a number of N·m or "hold", not {load!r}') \
+        raise UsageError(f'--load must be a number of N·m or "hold", not {load!r}') \
             from None
 
 
@@ -81,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     if fmt == 'mat' and out.suffix != '.mat':
         out = out.with_name(out.name + '.mat')
     failures = Failures('linearize', {
-        (ParameterFileError, ParameterError, OperatingPointError): '{exc}',
+        (ParameterFileError, ParameterError, DesignError): '{exc}',
         OSError: 'cannot write {out}: {why}',
     }, out=out)
     with failures:
@@ -93,8 +95,8 @@ def main(argv: list[str] | None = None) -> int:
             try:
                 data = model.control_pickle()
             except ImportError:
-                raise OperatingPointError('--format control needs python-control '
-                                          '(pip install control)') from None
+                raise UsageError('--format control needs python-control '
+                                 '(pip install control)') from None
             out.write_bytes(data)
         else:
             model.save(out)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+
 from . import interruptible
 
 
@@ -19,7 +20,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--quick', action='store_true',
                         help='coarse grids (well under a minute; used by the tests)')
     args = parser.parse_args(argv)
-    from ..report.builder import build  # after argument parsing: --help stays fast
+    from ..paper.builder import build  # after argument parsing: --help stays fast
 
     start = time.perf_counter()
     report = build(args.outdir, quick=args.quick)

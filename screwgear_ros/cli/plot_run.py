@@ -12,8 +12,15 @@ import argparse
 import math
 import sys
 
-from ..runs.bagread import read_run
-from ..runs.plot import DEFAULT_NAME, FigureFileError, default_output, output_path, run_figure, save
+from ..bag.reader import read_run
+from ..runs.plot import (
+    DEFAULT_NAME,
+    FigureFileError,
+    default_output,
+    output_path,
+    run_figure,
+    save,
+)
 from . import EXIT_OK, interruptible
 from .bag_tool import bag_failures
 

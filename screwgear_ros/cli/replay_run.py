@@ -12,7 +12,7 @@ inside the node before the next, then answers with one std_msgs/Empty on
 The node applies them all, in order, at the tick's first step, so a replay into a fresh
 node reproduces the recording bit for bit: any number of commands on any topics in one
 tick, parameter changes, resets, and runs whose time stood still after a fault (ticks
-are counted, not told apart by their stamps). :mod:`screwgear_ros.ros.replaying`.
+are counted, not told apart by their stamps). :mod:`screwgear_ros.ros.node_replay`.
 
 **Free-running** (into a running node with ``lockstep: false``, or ``--record NEW
 --free-running``): each event is sent when the node's /clock reaches one publish tick
@@ -58,20 +58,30 @@ import signal
 import sys
 import tempfile
 import threading
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 from rclpy.utilities import remove_ros_args
 
+from ..bag.errors import BagError
+from ..bag.reader import RecordedRun, read_run
+from ..ros.node_replay import (
+    CHILD_CLOSE,
+    CHILD_GRACE,
+    START_FACTOR,
+    Progress,
+    replay_free,
+    replay_lockstep,
+    spawn_node,
+    stop_node,
+)
 from ..ros.replay_client import Interrupted, ReplayClient, ReplayError
-from ..ros.replaying import (CHILD_CLOSE, CHILD_GRACE, START_FACTOR, Progress, replay_free,
-                             replay_lockstep, spawn_node, stop_node)
 from ..ros.shutdown import STOP_SIGNALS, stop_on_signals
-from ..runs.bagread import BagError, RecordedRun, read_run
 from ..runs.compare import compare_runs, exact_comparison, format_comparison, format_exact
-from ..runs.replay import load_scenario, schedule_from_run
-from ..schedule import Schedule, differences
-from ..runs.replay_plan import LockstepPlan, plan_from_run, plan_from_schedule
+from ..runs.lockstep_plan import LockstepPlan, plan_from_run, plan_from_schedule
+from ..runs.replay_in_process import schedule_from_run, schedule_from_scenario
+from ..sim.schedule import Schedule, differences
 from . import EXIT_ERROR, EXIT_OK
 
 #: ``--compare`` found a difference.
@@ -142,7 +152,7 @@ def _load(args: argparse.Namespace) -> tuple[Schedule, RecordedRun | None]:
         if args.bag is not None:
             original = read_run(args.bag)
             return schedule_from_run(original), original
-        return load_scenario(args.script), None
+        return schedule_from_scenario(args.script), None
     except (ValueError, OSError, KeyError) as exc:   # BagError is caught by main()
         raise ReplayError(str(exc)) from None
 
@@ -281,7 +291,7 @@ def main(argv: list[str] | None = None) -> int:
     return EXIT_ERROR
 
 
-__all__ = ['main', 'EXIT_OK', 'EXIT_DIFFERENT', 'EXIT_ERROR']
+__all__ = ['EXIT_DIFFERENT', 'EXIT_ERROR', 'EXIT_OK', 'main']
 
 
 if __name__ == '__main__':

@@ -2,7 +2,7 @@
 
 Runs the scenario file (docs/scenarios.md) through the node's own simulation loop in
 this process, with no ROS graph and as fast as the machine goes, and prints the run's
-metrics (:mod:`screwgear_ros.metrics`). ``--record BAG`` records the run exactly as
+metrics (:mod:`screwgear_ros.sim.metrics`). ``--record BAG`` records the run exactly as
 table_sim would (``check_run``, ``replay_run`` and ``plot_run`` take it); ``--plot PNG``
 draws it as plot_run does.
 
@@ -21,9 +21,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..commands import InputRejected
-from ..metrics import format_metrics, run_metrics
-from ..scenario import ScenarioError, load_scenario
+from ..sim.commands import InputRejected
+from ..sim.metrics import format_metrics, run_metrics
+from ..sim.scenario import ScenarioError, load_scenario
 from . import EXIT_OK, Failures, interruptible
 
 #: The model diverged (the metrics say when).
@@ -66,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
             metrics = run_metrics(run, scenario.setpoint,
                                   scenario.setpoint.joint if scenario.setpoint else 'table')
             if plot is not None:
-                from ..runs.bagread import read_run
+                from ..bag.reader import read_run
                 plotting.save(plotting.run_figure(read_run(record)), plot)
     if failures.code is not None:
         return failures.code

@@ -22,9 +22,6 @@ import argparse
 import sys
 import time
 from pathlib import Path
-from typing import Any
-
-import yaml
 
 from . import EXIT_ERROR, EXIT_OK
 
@@ -60,9 +57,11 @@ def _arguments(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     args = _arguments(argv)
-    from ..sweep.engine import cores, describe, outcomes
+    from ..sweep.engine import cores, describe
+    from ..sweep.progress import run_pending
+    from ..sweep.report import report
     from ..sweep.spec import SweepError, load_sweep
-    from ..sweep.store import Store, failures
+    from ..sweep.store import Store
 
     try:
         sweep = load_sweep(args.sweep)
@@ -79,22 +78,23 @@ def main(argv: list[str] | None = None) -> int:
           f'{len(todo)} to run on {describe(workers, args.scheduler)}', flush=True)
     interrupted = False
     started = time.perf_counter()
-    ran: list[float] = []
+    ran: tuple[float, ...] = ()
+    out = Path(args.out)
     if todo:
         try:
-            interrupted = _run(sweep, store, done, todo, workers, args.scheduler, ran,
-                               outcomes, failures)
+            passed = run_pending(sweep, store, done, todo, workers, args.scheduler)
+            interrupted, ran = passed.interrupted, passed.wall_times
         except Exception as exc:  # noqa: BLE001 - an engine that fails: reason, no traceback
             print(f'sweep: the engine failed ({describe(workers, args.scheduler)}): '
                   f'{type(exc).__name__}: {exc}; {len(done)} runs are kept in {args.out}',
                   file=sys.stderr)
-            _results(sweep, store, done, args, quiet=True)
+            report(sweep, store, done, out, quiet=True)
             return EXIT_ERROR
     wall = time.perf_counter() - started
     if ran:
         print(f'{len(ran)} runs in {wall:.1f} s of wall time ({wall / len(ran):.3f} s a run; '
               f'each run {sum(ran) / len(ran):.3f} s on its worker)')
-    _results(sweep, store, done, args)
+    report(sweep, store, done, out, plot=not args.no_plot)
     left = len(sweep.runs) - len(done)
     if left:
         why = 'interrupted' if interrupted else f'stopped after --max-runs {args.max_runs}'
@@ -104,92 +104,16 @@ def main(argv: list[str] | None = None) -> int:
     return EXIT_OK
 
 
-def _run(sweep: Any, store: Any, done: dict[int, Any], todo: list[Any], workers: int,
-         scheduler: str | None, ran: list[float], outcomes: Any, failures: Any) -> bool:
-    """Run ``todo``, each finished run written at once; True if interrupted (Ctrl-C)."""
-    from tqdm import tqdm
+def __getattr__(name: str) -> object:
+    """``rerun_file`` under its old path, for one release."""
+    if name == 'rerun_file':
+        import warnings
 
-    failed = failures(done.values())
-    stream = outcomes(sweep.bundle, todo, workers, scheduler)
-    bar = tqdm(total=len(sweep.runs), initial=len(done), unit='run', dynamic_ncols=True,
-               desc='sweep', file=sys.stderr)
-    bar.set_postfix(failures=failed)
-    try:
-        for outcome in stream:
-            done[outcome.index] = store.add(outcome)
-            if outcome.wall_time == outcome.wall_time:      # NaN: a worker lost under it
-                ran.append(outcome.wall_time)
-            failed += outcome.status.value != 'ok'
-            bar.set_postfix(failures=failed, refresh=False)
-            bar.update(1)
-    except KeyboardInterrupt:
-        return True
-    finally:
-        bar.close()
-        close = getattr(stream, 'close', None)
-        if close is not None:
-            close()
-    return False
-
-
-def _results(sweep: Any, store: Any, done: dict[int, Any], args: argparse.Namespace,
-             quiet: bool = False) -> None:
-    """The results files, the summary figure and the worst runs."""
-    from ..sweep import summary
-
-    if not done:
-        return
-    written = store.write_results(done)
-    if not any(p.suffix == '.parquet' for p in written):
-        print("sweep: results.parquet needs pyarrow (pip install 'screwgear_ros[sweep]'); "
-              'results.csv holds the same table', file=sys.stderr)
-    if quiet:
-        return
-    table = store.table(done)
-    metrics = sweep.bundle.metrics
-    if not args.no_plot:
-        try:
-            written.append(summary.figure(table, sweep.columns, metrics, bool(sweep.draws),
-                                          Path(args.out) / 'summary.png'))
-        except (OSError, ValueError) as exc:
-            print(f'sweep: summary.png not written: {exc}', file=sys.stderr)
-    statuses = {s: table['status'].count(s) for s in dict.fromkeys(table['status'])}
-    print('status: ' + ', '.join(f'{n} {s}' for s, n in statuses.items()))
-    for k, status in enumerate(table['status']):
-        if status != 'ok':
-            print(f'  run {table["index"][k]}: {status}: {table["reason"][k]}')
-            if sum(1 for s in table['status'][:k + 1] if s != 'ok') >= 5:
-                break
-    marked = summary.worst(table, metrics[0])
-    if marked:
-        print(f'worst runs by {metrics[0]}:')
-    for position in marked:
-        index = table['index'][position]
-        swept = ', '.join(f'{c} = {table[c][position]:.6g}' if isinstance(table[c][position],
-                          float) else f'{c} = {table[c][position]}' for c in sweep.columns)
-        path = rerun_file(sweep, store, index)
-        print(f'  run {index}: {metrics[0]} = {table[metrics[0]][position]:.6g} ({swept})')
-        print(f'    run_scenario {path} --record {path.with_suffix("")}_bag')
-    print('wrote ' + ', '.join(str(p) for p in written))
-
-
-def rerun_file(sweep: Any, store: Any, index: int) -> Path:
-    """DIR/reruns/run_NNNNNN.yaml: run ``index`` as a scenario of its own (its parameters
-    resolved, the controller modules beside it), for run_scenario."""
-    spec = sweep.runs[index]
-    bundle = sweep.bundle
-    directory = store.directory / 'reruns'
-    directory.mkdir(exist_ok=True)
-    document = yaml.safe_load(bundle.scenario_text) or {}
-    document['parameters'] = {**dict(bundle.base), **dict(spec.overrides)}
-    for name, text in bundle.sources:
-        (directory / name).write_text(text, encoding='utf-8')
-    path = directory / f'run_{index:06d}.yaml'
-    header = (f'# Run {index} of the sweep {sweep.path} (seed {spec.seed}, key {spec.key}):\n'
-              f'# its scenario with every parameter resolved. run_scenario {path.name}\n')
-    path.write_text(header + yaml.safe_dump(document, sort_keys=False, allow_unicode=True),
-                    encoding='utf-8')
-    return path
+        from ..sweep import report
+        warnings.warn('screwgear_ros.cli.sweep.rerun_file moved to '
+                      'screwgear_ros.sweep.report.rerun_file', DeprecationWarning, stacklevel=2)
+        return report.rerun_file
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 if __name__ == '__main__':

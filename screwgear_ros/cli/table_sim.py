@@ -1,439 +1,32 @@
 """table_sim: the real-time rotary table plant a controller closes its loop around.
 
-A thin shell over :class:`screwgear_ros.session.Session` (``shared/spec/interface.md``):
-
-* subscriptions, the parameter callback and ``~/reset`` only turn what arrives into
-  session events (:meth:`Session.submit`); the session applies them at the first
-  step of its next tick and validates commands then;
-* a dedicated pacing thread ticks the session (one compiled call per tick), sleeps
-  to the tick's absolute deadline (:class:`screwgear_ros.pacing.Pacer`) and hands
-  the tick to :class:`screwgear_ros.ros.run_io.RunIO`, which publishes and records;
-* with ``lockstep`` the pacing thread starts tick k+1 only once the controller has
-  answered tick k's ``joint_states`` (a ``cmd_effort`` or ``joint_commands``, or
-  ``~/tick`` from a tool): :class:`screwgear_ros.pacing.AnswerGate`; while anything
-  publishes on ``~/tick``, only ``~/tick`` answers (commands are then applied but
-  answer nothing, so a tool can send any number of them in one tick);
-* a ``setpoint`` (the controller's target, informational) is submitted like a command
-  and only recorded: it changes nothing and never answers a tick;
-* a ``joint_commands`` message that carries no command yet (ros2_control's NaN before
-  any controller wrote the interface) is not submitted: no command, no warning, no
-  rejection; in lockstep it still answers the tick, as ``~/tick`` does;
-* SIGINT/SIGTERM stop the pacing thread first, then the recorder, the node, rclpy.
-
-Who owns what: ``_values`` (the parameter values in force on the ROS side) belongs to
-the executor thread: main() spins one single-threaded executor (``NODE_EXECUTOR``), so
-the parameter callbacks never run concurrently. The session's queue is guarded by its own lock;
-the session, the RunIO, the pacer, the rate limiter and the health record belong
-to the pacing thread, except ``RunIO.prepare``, which the parameter callback calls to
-render a change's YAML and URDF off the pacing thread before it accepts the change (the
-texts are handed over under RunIO's own lock). ``_gate`` is thread-safe, and so are
-``_wake`` (a threading.Event the parameter callback sets to wake the pacer) and ``_stop``
-(a threading.Event that the signal thread of
-:func:`~screwgear_ros.ros.shutdown.stop_on_signals`, a failed pacing thread and
-``close()`` set; never a signal handler). Nothing is ever set to None.
-
-Why one module of this length: the node's subscriptions, pacing thread, lockstep gate
-and shutdown share its state and the order its threads take it in, which is the whole
-correctness argument; the ROS-free parts live in the core and in ``ros/``.
+The node is :class:`screwgear_ros.ros.node.TableSim`; this module parses the command line
+and runs it until SIGINT or SIGTERM.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-import threading
-import time
-import traceback
-from functools import partial
-from typing import Any
+import warnings
 
 import rclpy
 import rclpy.logging
-from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import ParameterException
-from rclpy.experimental import EventsExecutor
-from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
-from std_msgs.msg import Empty
-from std_srvs.srv import Trigger
 
-from ..commands import carries_no_command
-from ..events import Command, ParameterChange, Reset, Setpoint
-from ..model import pack
-from ..pacing import AnswerGate, FactorMeter, Pacer, wall_period
-from ..interface import (ANSWER_TOPICS, ANSWERS, BY_KEY, LATCHED_OUTPUTS, RECORDED_TOPICS,
-                         TICK_TOPIC)
-from ..parameter_sets import split_parameters
-from ..params import ParameterError, SimSettings, TableParams
-from ..ratelimit import RateLimiter
-from ..warmup import compiled_now, without_blas_probe
-from ..session import Session, Tick
-from ..ros import inputs, messages, param_dump, parameters
-from ..ros.messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES
-from ..ros.run_io import RunIO
+from ..ros import node as _node
+from ..ros import param_dump
+from ..ros.node import EXIT_RECORDING_FAILED, NODE_EXECUTOR
 from ..ros.shutdown import spin_until, stop_on_signals
-from ..status import (MAX_PHASE_PER_STEP, Health, diagnostic_values, mesh_phase_per_step,
-                      status_line)
 
-DIAGNOSTICS_PERIOD = 1.0    # s of wall time between /diagnostics
-STATUS_PERIOD = 5.0         # s of wall time between status log lines
-LOCKSTEP_POLL = 0.1         # s of wall time between checks for shutdown while waiting
-LOCKSTEP_RESEND = 0.5       # s of wall time before the last joint_states is sent again
-LOCKSTEP_NOTICE = 3.0       # s of wall time without an answer before the node says so
 #: The interpreter's switch interval in the node's process, s (Python's default: 5 ms).
 #: Flat out the pacing thread holds the interpreter lock; a thread that wants it back
 #: after a C call released it (the recorder's writer after each chunk it compresses and
 #: writes, the executor with an arrived command) would wait up to a whole interval for
 #: it; a shorter interval makes recording flat out cheaper (bench_recording measures it).
 SWITCH_INTERVAL = 0.0005
-#: Exit status of a node whose recording failed (a full disk): it ran, and stopped as
-#: asked, but the bag ends at the fault (the log's ERROR line says where).
-EXIT_RECORDING_FAILED = 3
-#: ~/reset keeps every request and answer until delivered (the default keeps the last
-#: 10: a burst of calls lost all but those that one executor wake-up took in time).
-SERVICE_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE)
-#: s of wall time between the checks for another node of the same full name, and how
-#: many: discovery needs a moment, and the first joint_states must not wait for it.
-NAME_CHECK_PERIOD = 1.0
-NAME_CHECKS = 5
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
-#: The executor that serves the node's callbacks. rclpy's events executor takes each
-#: arrival as it comes, in C++; the SingleThreadedExecutor rebuilds its wait set from
-#: every entity of the node (and each one's QoS event handlers) in Python at every wait,
-#: holding the interpreter lock that the pacing thread needs to tick and publish: in
-#: lockstep, where every tick waits for one arrival, that work is most of a tick's.
-NODE_EXECUTOR = EventsExecutor
-
-
-class TableSim(Node):
-    """The node. ``start()`` launches the pacing thread, ``close()`` stops everything."""
-
-    def __init__(self, stop: threading.Event) -> None:
-        super().__init__('table_sim')
-        self._stop = stop
-        self._values, completed = parameters.declare(self, self.get_logger().info)
-        params, settings = split_parameters(self._values)   # ParameterError: refuse to start
-        self._gate = AnswerGate()
-        self._wake = threading.Event()     # set when a parameter change is submitted
-        self._warnings = RateLimiter(1.0)          # rejected inputs, per topic
-        self._refusals = RateLimiter(1.0)          # inputs refused unread (executor thread)
-        self._refused: dict[str, int] = {}         # their count per topic (executor thread)
-        self._reversals = RateLimiter(STATUS_PERIOD)   # one reversal line per status period
-        self.failed = False
-        self.recording_failed = False
-
-        # Endpoints before the session: DDS discovers them on its own threads while the
-        # session loads its compiled kernels (no callback runs before main() spins).
-        publishers = {key: self.create_publisher(
-            kind, topic, LATCHED if key in LATCHED_OUTPUTS else 10)
-            for key, (topic, kind) in OUTPUT_TYPES.items()
-            if (key != 'clock' or settings.publish_clock)
-            and (key != 'true_joint_states' or not settings.sensors.ideal)}
-        # The setpoint first and answers last: the events executor serves arrivals in
-        # their order, and an executor that serves the ready subscriptions of one wait in
-        # creation order (the SingleThreadedExecutor) then also applies a setpoint or a
-        # command that arrived with an answer.
-        notes = {topic: self.create_subscription(INFO_TYPES[topic], topic,
-                                                 partial(self._on_setpoint, topic), 10)
-                 for topic in INFO_TYPES}
-        ordered = sorted(INPUT_TYPES, key=lambda topic: topic in ANSWER_TOPICS)
-        # Raw: a message's size is looked at before it is decoded (ros/inputs.py).
-        subs = {topic: self.create_subscription(INPUT_TYPES[topic], topic,
-                                                partial(self._on_command, topic), 10, raw=True)
-                for topic in ordered}
-        self._tick_sub = self.create_subscription(Empty, f'~/{TICK_TOPIC}', self._on_tick, 10)
-        self.create_service(Trigger, BY_KEY['reset_service'].name, self._on_reset,
-                            qos_profile=SERVICE_QOS)
-        self._name_checks = 0
-        self._name_timer = self.create_timer(NAME_CHECK_PERIOD, self._check_name)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
-        started = time.perf_counter()
-        with without_blas_probe():           # numba's first load, without SciPy's BLAS
-            self.session = Session(params, settings)
-            self.session.plant.advance(0)    # load (or compile) the integrator now, not in tick 1
-        if compiled_now():
-            self.get_logger().info(
-                f'compiled the numba model in {time.perf_counter() - started:.1f} s: its cache '
-                'was missing (python3 -m screwgear_ros.warmup after an install avoids this)')
-        self._fqn = self.get_fully_qualified_name()
-        topics = {key: pub.topic_name for key, pub in publishers.items()}
-        topics.update({topic: sub.topic_name for topic, sub in subs.items()})
-        topics.update({topic: sub.topic_name for topic, sub in notes.items()})
-        topics.update({key: f'{self._fqn}/{key}' for key in RECORDED_TOPICS})
-        self.io = RunIO(topics, settings.joint_names, publishers)
-        self._derive(params, settings, keep=False)   # ParameterError: refuse to start
-        if completed:
-            self.get_logger().info(completed)
-        if settings.record:
-            self.io.open_recorder(settings.record, on_error=self._recording_failed)
-        self._thread = threading.Thread(target=self._run, name='table_sim pacing', daemon=True)
-
-    # ------------------------------------------------------------------ lifecycle
-
-    def start(self) -> None:
-        s, p = self.session.settings, self.session.plant.params
-        for name in parameters.unknown_overrides(self):
-            self.get_logger().warning(f'parameter {name!r} is not a table_sim parameter; '
-                                      'ignored (a typo?)')
-        self.get_logger().info(
-            f'{p.mode} mode, mesh phase {p.mesh_phase}, dt = {s.dt * 1e6:g} us, '
-            f'{s.publish_rate:g} Hz ({s.steps_per_publish} steps per tick), real-time factor '
-            f'{s.real_time_factor:g}'
-            + (', lockstep: each tick waits for the controller\'s answer '
-               f'({ANSWERS}) to the last joint_states' if s.lockstep else '')
-            + (f', recording to {s.record}' if s.record else ''))
-        self._thread.start()
-
-    def close(self) -> None:
-        """Stop and join the pacing thread, then close the recorder (idempotent).
-
-        The recorder is closed even if the pacing thread did not end in time: a
-        message it writes after that is counted as dropped, never lost silently.
-        """
-        self._stop.set()
-        self._wake.set()
-        self._gate.release()
-        if self._thread.is_alive():
-            self._thread.join(timeout=5.0)
-            if self._thread.is_alive():
-                self.get_logger().error('the pacing thread did not stop within 5 s')
-        recorder = self.io.recorder
-        if recorder is not None and not recorder.closed:
-            recorder.close()
-            self.get_logger().info(f'recording closed: {recorder.written} messages written, '
-                                   f'{recorder.dropped} dropped')
-
-    def exit_code(self) -> int:
-        """1 after a bug in the pacing thread, EXIT_RECORDING_FAILED after a failed
-        recording, else 0."""
-        return 1 if self.failed else EXIT_RECORDING_FAILED if self.recording_failed else 0
-
-    def _recording_failed(self, what: str) -> None:
-        """The recorder's writer thread, once, after it closed the bag at a write error:
-        the simulation goes on (a controller may depend on it), unrecorded."""
-        self.recording_failed = True
-        self.get_logger().error(what)
-
-    # ------------------------------------------------------------------ executor side
-
-    def _on_command(self, topic: str, data: bytes) -> None:
-        refused = inputs.oversized(topic, data)
-        if refused is not None:
-            self._refused[topic] = self._refused.get(topic, 0) + 1
-            emit, held = self._refusals.allow(topic)
-            if emit:
-                self.get_logger().warning(
-                    refused + (f' ({held} more refused since the last warning)' if held else ''))
-        else:
-            self._command(topic, inputs.value(topic, data))
-        if refused is not None and self._answers(topic):
-            self._gate.answer()         # an answer, if a bad one, as a rejected command is
-
-    def _command(self, topic: str, value: Any) -> None:
-        if not carries_no_command(topic, value):
-            self.session.submit(Command.of(topic, value))
-        if self._answers(topic):
-            self._gate.answer()
-
-    def _on_setpoint(self, topic: str, msg: Any) -> None:
-        """The controller's setpoint: recorded at the next tick's first step (the session
-        refuses a non-finite one), never an answer."""
-        self.session.submit(Setpoint(msg.data))
-
-    def _answers(self, topic: str) -> bool:
-        """Whether a message on ``topic`` answers the last tick in lockstep. A tool that
-        answers with ~/tick owns the ticks: while anything publishes there, commands are
-        only applied, so a replay can send several in one tick."""
-        return topic in ANSWER_TOPICS and not self._tick_sub.get_publisher_count()
-
-    def _on_tick(self, msg: Empty) -> None:
-        self._gate.answer()
-
-    def _on_set_parameters(self, changed: list[Any]) -> SetParametersResult:
-        candidate = parameters.changed_values(self._values, changed)
-        if candidate == self._values:
-            return SetParametersResult(successful=True)
-        try:
-            params, settings = split_parameters(candidate)
-            self._derive(params, settings)
-        except ParameterError as error:
-            return SetParametersResult(successful=False, reason=str(error))
-        self._values = candidate
-        self.session.submit(ParameterChange(params, settings))
-        self._wake.set()                     # the pacer runs the tick that applies it now
-        return SetParametersResult(successful=True)
-
-    def _check_name(self) -> None:
-        """Warn once if another node of this full name runs in the domain: both would
-        publish on the same topics, and a subscriber would see two tables' stamps."""
-        self._name_checks += 1
-        ours = (self.get_name(), self.get_namespace())
-        same = sum(1 for node in self.get_node_names_and_namespaces() if node == ours)
-        if same > 1:
-            self.get_logger().warning(
-                f'another node named {self._fqn} runs in this ROS domain: both publish on '
-                'the same topics, and a subscriber gets both tables\' messages (stamps going '
-                'back and forth); give each its own namespace (--ros-args -r __ns:=/axis_b)')
-        if same > 1 or self._name_checks >= NAME_CHECKS:
-            self._name_timer.cancel()
-
-    def _derive(self, params: TableParams, settings: SimSettings, keep: bool = True) -> None:
-        """Derive everything a parameter set needs before it is accepted: the pace, the
-        compiled model's packed parameters, the run_parameters text and the URDF
-        (with ``keep``, prepared here for the pacing thread; the start renders them again
-        once its recorder is open; the stability limit is split_parameters'). A failure
-        refuses the set with the reason instead of failing where it takes effect."""
-        try:
-            wall_period(settings.steps_per_publish * settings.dt, settings.real_time_factor)
-            pack(params)
-            if keep:
-                self.io.prepare(self.session, params, settings)
-            else:
-                self.io.render(self.session, params, settings)
-        except (ArithmeticError, ValueError) as error:
-            if isinstance(error, ParameterError):
-                raise
-            raise ParameterError('parameters', '…', 'what the node derives from them cannot '
-                                 f'be computed ({type(error).__name__}: {error})') from None
-
-    def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        self.session.submit(Reset())
-        response.success = True
-        response.message = ('reset queued: the table returns to the preload equilibrium at '
-                            'the first step of the next tick (the log says when)')
-        return response
-
-    # ------------------------------------------------------------------ pacing thread
-
-    def _run(self) -> None:
-        try:
-            self._loop()
-        except Exception:  # a bug: say so loudly, then let main() end the process
-            self.failed = True
-            self.get_logger().fatal('pacing thread failed:\n' + traceback.format_exc())
-            self._stop.set()
-
-    def _loop(self) -> None:
-        session, io = self.session, self.io
-        s = session.settings
-        pacer = Pacer(s.steps_per_publish * s.dt, s.real_time_factor)
-        meter = FactorMeter()
-        self._health = Health(s.real_time_factor, float('nan'), pacer.stats,
-                              dict(session.rejected), dt=s.dt, lockstep=s.lockstep)
-        self._gate.expect()
-        io.start(session)
-        next_status = time.monotonic() + STATUS_PERIOD
-        while not self._stop.is_set():
-            if s.lockstep and not self._await_answer(meter):
-                break
-            tick = session.tick()
-            self._report(tick)
-            if session.settings is not s:
-                s = session.settings
-                if pacer.period != s.steps_per_publish * s.dt or \
-                        pacer.real_time_factor != s.real_time_factor:
-                    pacer.restart(s.steps_per_publish * s.dt, s.real_time_factor)
-                    self._health.requested_factor = s.real_time_factor
-            if not pacer.wait(self._stop, self._wake):
-                break
-            if s.lockstep:
-                self._gate.expect()
-            io.tick(session, tick, lossless=s.real_time_factor == 0.0)   # no deadline
-            if meter.elapsed() >= DIAGNOSTICS_PERIOD:
-                self._health.achieved_factor = meter.update(tick.outputs.time)
-                self._publish_diagnostics()
-                if time.monotonic() >= next_status:
-                    next_status += STATUS_PERIOD
-                    self.get_logger().info(status_line(tick.outputs,
-                                                       self._health.achieved_factor)
-                                           + self._reversals_since())
-
-    def _await_answer(self, meter: FactorMeter) -> bool:
-        """Lockstep: wait for the controller's answer to the last outputs, re-sending
-        them every LOCKSTEP_RESEND s and saying once after LOCKSTEP_NOTICE s that it
-        waits. False when the node is stopping."""
-        started = resent = time.monotonic()
-        noticed = False
-        while not self._gate.wait(LOCKSTEP_POLL):
-            if self._stop.is_set():
-                return False
-            now = time.monotonic()
-            if now - resent >= LOCKSTEP_RESEND:
-                resent = now
-                self.io.resend('joint_states', self.io.last_joint_states)
-                self.io.resend_markers(self.session)
-            if now - started >= LOCKSTEP_NOTICE and not noticed:
-                noticed = True
-                self._health.waiting = now - started
-                self.get_logger().warning(
-                    f'lockstep: waiting for the controller since {now - started:.0f} s: '
-                    f'no {ANSWERS} has answered joint_states at t = '
-                    f'{self.session.last_outputs.time:.6f} s')
-            if noticed and meter.elapsed() >= DIAGNOSTICS_PERIOD:
-                self._health.waiting = now - started
-                meter.update(self.session.last_outputs.time)
-                self._publish_diagnostics()
-        if noticed:
-            self._health.waiting = 0.0
-            self.get_logger().info('lockstep: the controller answered; running')
-        return True
-
-    def _report(self, tick: Tick) -> None:
-        """Log what a person should know about a tick (rate-limited where it repeats)."""
-        if not (tick.applied or tick.rejected or tick.notices or tick.new_fault):
-            return                          # most ticks: nothing happened to say
-        if not self._health.commanded:
-            self._health.commanded = any(isinstance(e, Command) for e in tick.applied)
-        log = self.get_logger()
-        for error in tick.rejected:
-            emit, held = self._warnings.allow(error.topic)
-            if emit:
-                more = f' ({held} more rejected since the last warning)' if held else ''
-                log.warning(inputs.excerpt(f'{error}{more}'))
-        for notice in tick.notices:
-            log.warning(notice)
-        t = tick.start * self.session.plant.dt
-        if tick.reversal and self._reversals.allow('reversal')[0]:
-            log.info(f'reversal at t = {t:.6f} s: direction {tick.drive.direction:+d}, '
-                     f'active path {tick.previous_path} -> {tick.outputs.active_path}')
-        if any(isinstance(e, Reset) for e in tick.applied):
-            log.info(f'reset to the preload equilibrium at t = {t:.6f} s')
-        if tick.new_fault:
-            log.error(f'{tick.fault}; simulation halted, publishing the last finite state; '
-                      'call ~/reset to restart from equilibrium')
-
-    def _reversals_since(self) -> str:
-        """The status line's count of reversals not logged one by one since the last
-        status line (a controller holding the table at rest flips the path many times)."""
-        held = self._reversals.drain('reversal')
-        return f' | {held} more reversal{"s" * (held != 1)} since' if held else ''
-
-    def _publish_diagnostics(self) -> None:
-        health, session = self._health, self.session
-        out = session.last_outputs
-        health.rejected = dict(session.rejected)
-        for topic, refused in dict(self._refused).items():    # the executor's count
-            health.rejected[topic] = health.rejected.get(topic, 0) + refused
-        health.fault = session.plant.fault
-        health.command_timed_out = session.timed_out
-        recorder = self.io.recorder
-        if recorder is not None:
-            health.recorder = (recorder.written, recorder.dropped)
-            health.recorder_error = recorder.error
-        params = session.plant.params
-        level, text, values = diagnostic_values(params, out, health)
-        msg = messages.diagnostics(f'{self._fqn}: simulation', 'screwgear_ros/table_sim',
-                                   level, text, values, out.time_ns)
-        self.io.send('diagnostics', out.time_ns, msg)
-        phase_step = mesh_phase_per_step(params, out, health.dt)
-        if phase_step > MAX_PHASE_PER_STEP and self._warnings.allow('mesh_phase')[0]:
-            self.get_logger().warning(
-                f'mesh phase advances {phase_step:.3f} rad per step at t = {out.time:.3f} s '
-                f'(> {MAX_PHASE_PER_STEP:.3f}): dt = {health.dt:g} s no longer resolves the '
-                'tooth mesh at this speed; lower dt or the speed')
 
 
 def _options(args: list[str] | None) -> argparse.Namespace:
@@ -453,10 +46,10 @@ def main(args: list[str] | None = None) -> int:
     sys.setswitchinterval(SWITCH_INTERVAL)
     stop = stop_on_signals()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    node: TableSim | None = None
+    node: _node.TableSim | None = None
     try:
         try:
-            node = TableSim(stop)
+            node = _node.TableSim(stop)
             if options.dump_params:
                 log = node.get_logger()
                 param_dump.keep_written(node, options.dump_params, log.info, log.error)
@@ -474,4 +67,13 @@ def main(args: list[str] | None = None) -> int:
         rclpy.try_shutdown()
 
 
-__all__ = ['NODE_EXECUTOR', 'TableSim', 'main']
+def __getattr__(name: str) -> object:
+    """The node class under its old path, for one release."""
+    if name == 'TableSim':
+        warnings.warn('screwgear_ros.cli.table_sim.TableSim moved to '
+                      'screwgear_ros.ros.node.TableSim', DeprecationWarning, stacklevel=2)
+        return _node.TableSim
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+
+
+__all__ = ['EXIT_RECORDING_FAILED', 'NODE_EXECUTOR', 'SWITCH_INTERVAL', 'main']

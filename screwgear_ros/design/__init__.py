@@ -1,9 +1,37 @@
 """Controller design from the model, with no ROS: a linear model of the 3-DOF table at an
-operating point (:mod:`.linearize`) and its frequency response measured by simulation
-(:mod:`.frequency`)."""
+operating point (:mod:`.linearize`, :mod:`.operating_point`, :mod:`.linear_model`) and its
+frequency response measured by simulation (:mod:`.frequency`); what they refuse,
+:mod:`.errors`."""
 
-from .linearize import (INPUTS, OUTPUTS, STATES, LinearModel, ModeInfo, OperatingPoint,
-                        OperatingPointError, linearize, operating_point)
+from __future__ import annotations
 
-__all__ = ['INPUTS', 'OUTPUTS', 'STATES', 'LinearModel', 'ModeInfo', 'OperatingPoint',
-           'OperatingPointError', 'linearize', 'operating_point']
+import warnings
+
+from .errors import (
+    DesignError,
+    MeasurementFailed,
+    MeasurementRefused,
+    MeshModelUnsupported,
+    NoSteadyState,
+    OperatingPointRefused,
+    UnknownOutput,
+    UsageError,
+)
+from .linear_model import INPUTS, OUTPUTS, STATES, LinearModel, ModeInfo
+from .linearize import linearize
+from .operating_point import OperatingPoint, operating_point
+
+
+def __getattr__(name: str) -> object:
+    if name == 'OperatingPointError':
+        warnings.warn(f'{__name__}.OperatingPointError is replaced by the classes of '
+                      f'{__name__}.errors (their base: DesignError); the old name goes in the '
+                      'next release', DeprecationWarning, stacklevel=2)
+        return DesignError
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+
+
+__all__ = ['INPUTS', 'OUTPUTS', 'STATES', 'DesignError', 'LinearModel', 'MeasurementFailed',
+           'MeasurementRefused', 'MeshModelUnsupported', 'ModeInfo', 'NoSteadyState',
+           'OperatingPoint', 'OperatingPointRefused', 'UnknownOutput', 'UsageError',
+           'linearize', 'operating_point']

@@ -1,7 +1,7 @@
 """The loop of a controller around the table, measured by simulation: loop gain, sensitivity,
 closed-loop response, and the gain and phase margins read off the measured loop gain.
 
-One run of the node's own loop in-process (:class:`~screwgear_ros.simulation.Simulation`
+One run of the node's own loop in-process (:class:`~screwgear_ros.sim.simulation.Simulation`
 at the node's tick rate; the controller answers each observation with an effort that takes
 effect at the next tick, as in lockstep). A sine d is added to the controller's effort c at
 the plant input: u = c + d. Around a bias load that the controller holds (so the effort
@@ -24,15 +24,17 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 import numpy as np
 
-from ..params import SimSettings, TableParams
-from ..simulation import Observation, Simulation
+from ..params.table import SimSettings, TableParams
+from ..sim.simulation import Observation, Simulation
+from .errors import MeasurementRefused, UnknownOutput, UsageError
 from .frequency import INPUT_UNIT, Input, Measurement, Method, _fit, default_bias
-from .linearize import OUTPUTS, OperatingPointError, linearize
+from .linear_model import OUTPUTS
+from .linearize import linearize
 
 #: Rows of the closed-loop table besides the outputs' closed-loop responses.
 LOOP, SENSITIVITY = 'loop_gain', 'sensitivity'
@@ -102,9 +104,9 @@ class LoopMeasurement:
         f = r.frequency
         fig, axes = plt.subplots(3, 1, figsize=(7.5, 9.0), sharex=True)
         mag, ph, sens = axes
-        for values, style, label in ((r.linear, dict(color='C0', ls='-'), 'linear plant'),
-                                     (r.measured, dict(color='C3', ls='none', marker='o',
-                                                       ms=4), 'measured')):
+        for values, style, label in ((r.linear, {'color': 'C0', 'ls': '-'}, 'linear plant'),
+                                     (r.measured, {'color': 'C3', 'ls': 'none', 'marker': 'o',
+                                                       'ms': 4}, 'measured')):
             mag.loglog(f, np.abs(values[0]), label=label, **style)
             phase = np.degrees(np.unwrap(np.angle(values[0])))
             ph.semilogx(f, phase - 360.0 * np.ceil(phase[0] / 360.0), **style)
@@ -144,7 +146,7 @@ class LoopMeasurement:
 def measure_loop(params: TableParams, settings: SimSettings | None,
                  controller: Callable[[Observation], float | None], *,
                  outputs: Sequence[str] = ('table_angle',),
-                 frequencies: Sequence[float] = (1.0, 3.0, 10.0), amplitude: float = 10.0,
+                 frequencies: Sequence[float] | np.ndarray = (1.0, 3.0, 10.0), amplitude: float = 10.0,
                  torque: float | None = None, load: float | None = None,
                  direction: int = 1) -> LoopMeasurement:
     """Measure the loop of ``controller`` around the table (module docstring). The bias:
@@ -153,33 +155,33 @@ def measure_loop(params: TableParams, settings: SimSettings | None,
     settings = settings or SimSettings()
     unknown = [name for name in outputs if name not in OUTPUTS]
     if unknown:
-        raise OperatingPointError(f'unknown output {unknown[0]}; outputs are '
-                                  f'{", ".join(OUTPUTS)}')
+        raise UnknownOutput(f'unknown output {unknown[0]}; outputs are '
+                            f'{", ".join(OUTPUTS)}')
     if not (math.isfinite(amplitude) and amplitude > 0.0):
-        raise OperatingPointError(f'amplitude must be a finite number > 0, got {amplitude!r}')
-    frequencies = np.sort(np.asarray(frequencies, dtype=float))
+        raise MeasurementRefused(f'amplitude must be a finite number > 0, got {amplitude!r}')
+    hz_points = np.sort(np.asarray(frequencies, dtype=float))
     simulation = Simulation.from_values({**params.as_dict(), **settings.as_dict()},
                                         command_timeout=0.0, record='')
     h = simulation.tick_period
-    if frequencies.size == 0 or frequencies[0] <= 0.0 or frequencies[-1] >= 0.05 / h:
-        raise OperatingPointError(f'closed-loop frequencies must lie in (0, {0.05 / h:g}) Hz: '
-                                  f'a tenth of the Nyquist frequency of the controller\'s rate '
-                                  f'({1.0 / h:g} Hz, publish_rate)')
+    if hz_points.size == 0 or hz_points[0] <= 0.0 or hz_points[-1] >= 0.05 / h:
+        raise MeasurementRefused(f'closed-loop frequencies must lie in (0, {0.05 / h:g}) Hz: '
+                                 f'a tenth of the Nyquist frequency of the controller\'s rate '
+                                 f'({1.0 / h:g} Hz, publish_rate)')
     bias = default_bias(params, Input.TORQUE, amplitude, torque, load, direction)
     model = linearize(params, bias[0], bias[1], direction)
     rows = [OUTPUTS.index(name) for name in outputs]
     plan = []
     tick = 0
-    for hz in frequencies:
+    for hz in hz_points:
         settle = max(SETTLE, SETTLE_PERIODS / hz)
         periods = max(FIT_PERIODS, math.ceil(FIT_MIN_TIME * hz))
-        window = max(1, int(round(periods / (hz * h))))
-        start = tick + int(math.ceil(settle / h))
+        window = max(1, round(periods / (hz * h)))
+        start = tick + math.ceil(settle / h)
         plan.append((start, start + window, 2.0 * math.pi * periods / (window * h)))
         tick = start + window
     total = tick
     d = np.zeros(total + 1)
-    for k, (start, end, omega) in enumerate(plan):
+    for k, (_start, end, omega) in enumerate(plan):
         first = 0 if k == 0 else plan[k - 1][1]
         j = np.arange(first, end)                     # d[j + 1] is held over tick j + 1
         d[j + 1] = amplitude * np.cos(omega * (j + 0.5) * h)
@@ -239,13 +241,21 @@ def make_controller(use: str, simulation_settings: SimSettings, target: float = 
     """``demo`` (the demo PID holding the table at ``target`` rad) or ``module:callable``
     (a factory called as scenarios call it, ``factory(setpoint)``, with a constant
     setpoint ``target`` on the table)."""
-    from ..scenario import ControllerSpec, Setpoint
+    from ..sim.scenario import ControllerSpec, SetpointProfile
     if use != 'demo' and (use.count(':') != 1 or not all(use.split(':'))):
-        raise OperatingPointError(f'--controller must be demo or module:callable, not {use!r}')
-    setpoint = Setpoint('steps', points=((0.0, float(target)),))
+        raise UsageError(f'--controller must be demo or module:callable, not {use!r}')
+    setpoint = SetpointProfile('steps', points=((0.0, float(target)),))
     holder = Simulation(settings=simulation_settings)
     return ControllerSpec(use).make(holder, setpoint)
 
 
-__all__ = ['LOOP', 'SENSITIVITY', 'Margins', 'LoopMeasurement', 'margins', 'measure_loop',
-           'make_controller', 'INPUT_UNIT']
+__all__ = [
+    'INPUT_UNIT',
+    'LOOP',
+    'SENSITIVITY',
+    'LoopMeasurement',
+    'Margins',
+    'make_controller',
+    'margins',
+    'measure_loop',
+]

@@ -1,6 +1,6 @@
 """The table's frequency response measured by simulation, beside its linear model's.
 
-Each point runs the node's own loop in-process (:class:`~screwgear_ros.simulation.
+Each point runs the node's own loop in-process (:class:`~screwgear_ros.sim.simulation.
 Simulation`: its session, its command validation) around the operating point of
 :func:`~screwgear_ros.design.linearize.linearize`, with one tick per integration step so
 the input changes at every step. Stepped sines (``Method.SINE``): for each frequency a new
@@ -31,10 +31,6 @@ Choices where the plant is not a plain linear system:
 * **Trust.** ``coherence`` is the fraction of the detrended output's variance the fitted
   sinusoid explains (1: the output is a sinusoid at the drive frequency; lower: harmonics,
   subharmonics, impacts or an unsettled transient, where the plant is not linear).
-
-Why one module of this length: the excitation, the per-frequency runs and the fit
-are one measurement whose choices (bias, start at the crest, detrending, the hold
-correction) depend on each other; split, each part would need the others' reasons.
 """
 
 from __future__ import annotations
@@ -42,18 +38,20 @@ from __future__ import annotations
 import csv
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
-from ..events import Command
-from ..model import DrivePiece
-from ..params import SimSettings, TableParams
-from ..simulation import Simulation
-from .linearize import OUTPUT_UNITS, OUTPUTS, LinearModel, OperatingPointError, linearize
+from ..params.table import SimSettings, TableParams
+from ..physics.drive import DrivePiece
+from ..sim.events import Command
+from ..sim.simulation import Simulation
+from .errors import MeasurementFailed, MeasurementRefused, UnknownOutput
+from .linear_model import OUTPUT_UNITS, OUTPUTS, LinearModel
+from .linearize import linearize
 
 
 class Method(StrEnum):
@@ -141,8 +139,8 @@ class Measurement:
                                              - np.degrees(np.angle(at_points[row])))
             mag.loglog(fine, np.abs(dense[row]), color='C0', label='linear model')
             ph.semilogx(fine, line_phase, color='C0')
-            for mask, style in ((trusted, dict(color='C3')),
-                                (~trusted, dict(mfc='none', mec='C3'))):
+            for mask, style in ((trusted, {'color': 'C3'}),
+                                (~trusted, {'mfc': 'none', 'mec': 'C3'})):
                 if mask.any():
                     label = (f'measured ({self.method.value}, {self.amplitude:g} {INPUT_UNIT})'
                              if style.get('color') else f'measured, coherence < {TRUST:g}')
@@ -244,8 +242,8 @@ class _Runner:
             out[k] = (p[1], v[1], p[0], v[0], p[2], v[2], o.transmission_error)
         rejected = sum(session.rejected.values())
         if rejected:
-            raise OperatingPointError(f'the node refused {rejected} of the input commands '
-                                      '(torque beyond max_torque or load beyond its limit)')
+            raise MeasurementFailed(f'the node refused {rejected} of the input commands '
+                                    '(torque beyond max_torque or load beyond its limit)')
         return out[:, self.columns]
 
 
@@ -266,29 +264,30 @@ def _fit(t: np.ndarray, y: np.ndarray, omega: float) -> tuple[np.ndarray, np.nda
 
 def check_request(model: LinearModel, input: Input, amplitude: float, frequencies: np.ndarray,
                   dt: float) -> None:
-    """Refuse what the measurement cannot do (OperatingPointError saying why)."""
+    """Refuse what the measurement cannot do (:class:`~.errors.MeasurementRefused` saying
+    why)."""
     if not (math.isfinite(amplitude) and amplitude > 0.0):
-        raise OperatingPointError(f'amplitude must be a finite number > 0, got {amplitude!r}')
+        raise MeasurementRefused(f'amplitude must be a finite number > 0, got {amplitude!r}')
     if frequencies.size == 0 or not np.all(np.isfinite(frequencies)) or np.any(frequencies <= 0):
-        raise OperatingPointError('frequencies must be finite and > 0 Hz')
+        raise MeasurementRefused('frequencies must be finite and > 0 Hz')
     nyquist = 0.5 / dt
     if np.max(frequencies) >= 0.1 * nyquist:
-        raise OperatingPointError(f'the highest frequency {np.max(frequencies):g} Hz must '
-                                  f'stay below a tenth of the step rate\'s Nyquist frequency '
+        raise MeasurementRefused(f'the highest frequency {np.max(frequencies):g} Hz must '
+                                 f'stay below a tenth of the step rate\'s Nyquist frequency '
                                   f'({0.1 * nyquist:g} Hz at dt = {dt:g} s)')
     point = model.point
     if input is Input.TORQUE:
         if point.drive_piece == DrivePiece.LINE:
-            raise OperatingPointError('the drive runs on its torque–speed line at this '
-                                      'operating point: a torque command changes nothing there')
+            raise MeasurementRefused('the drive runs on its torque–speed line at this '
+                                     'operating point: a torque command changes nothing there')
         if point.torque + amplitude > model.params.max_torque:
-            raise OperatingPointError(f'bias torque {point.torque:g} + amplitude {amplitude:g} '
-                                      f'N·m exceeds max_torque {model.params.max_torque:g} N·m')
+            raise MeasurementRefused(f'bias torque {point.torque:g} + amplitude {amplitude:g} '
+                                     f'N·m exceeds max_torque {model.params.max_torque:g} N·m')
 
 
 def measure(params: TableParams, settings: SimSettings | None = None, *,
             input: Input | str = Input.TORQUE, outputs: Sequence[str] = ('table_angle',),
-            frequencies: Sequence[float] = (1.0, 10.0, 100.0), amplitude: float = 10.0,
+            frequencies: Sequence[float] | np.ndarray = (1.0, 10.0, 100.0), amplitude: float = 10.0,
             torque: float | None = None, load: float | None = None, direction: int = 1,
             method: Method | str = Method.SINE, mesh: str = 'average') -> Measurement:
     """Measure the response from ``input`` to ``outputs`` (module docstring), beside the
@@ -297,31 +296,31 @@ def measure(params: TableParams, settings: SimSettings | None = None, *,
     settings = settings or SimSettings()
     unknown = [name for name in outputs if name not in OUTPUTS]
     if unknown or not outputs:
-        raise OperatingPointError(f'unknown output {unknown[0] if unknown else "(none)"}; '
-                                  f'outputs are {", ".join(OUTPUTS)}')
-    frequencies = np.sort(np.asarray(frequencies, dtype=float))
+        raise UnknownOutput(f'unknown output {unknown[0] if unknown else "(none)"}; '
+                            f'outputs are {", ".join(OUTPUTS)}')
+    hz_points = np.sort(np.asarray(frequencies, dtype=float))
     bias = default_bias(params, input, amplitude, torque, load, direction)
     model = linearize(params, bias[0], bias[1], direction, mesh)
-    check_request(model, input, amplitude, frequencies, settings.dt)
+    check_request(model, input, amplitude, hz_points, settings.dt)
     settle = _settle_time(model)
     plan = None
     if method is Method.SINE:
-        plan = [_sine_plan(hz, settings.dt, settle) for hz in frequencies]
-        frequencies = np.array([omega / (2.0 * math.pi) for _, _, omega in plan])
+        plan = [_sine_plan(hz, settings.dt, settle) for hz in hz_points]
+        hz_points = np.array([omega / (2.0 * math.pi) for _, _, omega in plan])
     simulation = _simulation(params, settings)
     runner = _Runner(simulation, input, direction, bias, outputs)
     column = INPUT_COLUMN[input]
     rows = [OUTPUTS.index(name) for name in outputs]
-    linear = model.response(frequencies)[rows, column, :]
+    linear = model.response(hz_points)[rows, column, :]
     h = settings.dt
     u0 = bias[0] if input is Input.TORQUE else bias[1]
     started = time.perf_counter()
     if plan is not None:
         measured, coherence, simulated = _stepped_sine(runner, plan, amplitude, u0, h)
     else:
-        measured, coherence, simulated = _chirp(runner, frequencies, amplitude, u0, h, settle)
+        measured, coherence, simulated = _chirp(runner, hz_points, amplitude, u0, h, settle)
     notes = list(model.point.warnings)
-    return Measurement(input, tuple(outputs), frequencies, measured, linear, coherence, model,
+    return Measurement(input, tuple(outputs), hz_points, measured, linear, coherence, model,
                        amplitude, method, simulated, time.perf_counter() - started, notes)
 
 
@@ -331,7 +330,7 @@ def _sine_plan(hz: float, h: float, settle: float) -> tuple[int, int, float]:
     of steps (a relative change below one step per window)."""
     periods = max(FIT_PERIODS, math.ceil(FIT_MIN_TIME * hz))
     start = math.ceil(settle / h)
-    window = max(1, int(round(periods / (hz * h))))
+    window = max(1, round(periods / (hz * h)))
     return start, start + window, 2.0 * math.pi * periods / (window * h)
 
 
@@ -363,7 +362,7 @@ def _chirp(runner: _Runner, frequencies: np.ndarray, amplitude: float, u0: float
     the fraction of the detrended output a sinusoid in the sweep's phase explains."""
     f0, f1 = 0.25 * frequencies[0], min(2.0 * frequencies[-1], 0.05 / h)
     duration = max(10.0 / frequencies[0], 20.0 * settle)
-    ticks = int(round(duration / h))
+    ticks = round(duration / h)
     start = math.ceil(settle / h)
     steps = np.arange(ticks + start)
     t_mid = (steps - start + 0.5) * h               # each value holds over its step
@@ -401,5 +400,13 @@ def _chirp(runner: _Runner, frequencies: np.ndarray, amplitude: float, u0: float
     return measured, coherence, (ticks + start) * h
 
 
-__all__ = ['Method', 'Input', 'INPUT_COLUMN', 'CSV_COLUMNS', 'Measurement', 'measure',
-           'default_bias', 'check_request']
+__all__ = [
+    'CSV_COLUMNS',
+    'INPUT_COLUMN',
+    'Input',
+    'Measurement',
+    'Method',
+    'check_request',
+    'default_bias',
+    'measure',
+]

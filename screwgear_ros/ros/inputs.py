@@ -21,7 +21,8 @@ from typing import Any
 
 from rclpy.serialization import deserialize_message
 
-from ..commands import command_value
+from ..interface import Input
+from ..sim.commands import command_value
 from .messages import INPUT_TYPES
 
 #: Largest serialized input message decoded, bytes: room for hundreds of joints.
@@ -52,10 +53,10 @@ _MULTI_ARRAY_DATA = 20
 
 
 def value(topic: str, data: bytes) -> Any:
-    """The command value (:func:`~screwgear_ros.commands.command_value`) of the message of
+    """The command value (:func:`~screwgear_ros.sim.commands.command_value`) of the message of
     input ``topic`` in ``data`` (serialized CDR); a cmd_effort without layout dimensions
     is read without a message object (module docstring), with the same values."""
-    if topic == 'cmd_effort' and len(data) >= 16 and data[:2] == _CDR_LE:
+    if topic == Input.CMD_EFFORT and len(data) >= 16 and data[:2] == _CDR_LE:
         dims, count = _MULTI_ARRAY.unpack_from(data, 4)
         if not dims and not count:
             return []
@@ -73,4 +74,4 @@ def excerpt(text: str, limit: int = MAX_LINE) -> str:
     return f'{text[:half]} … [{len(text) - 2 * half} characters left out] … {text[-half:]}'
 
 
-__all__ = ['MAX_INPUT_BYTES', 'MAX_LINE', 'oversized', 'decode', 'value', 'excerpt']
+__all__ = ['MAX_INPUT_BYTES', 'MAX_LINE', 'decode', 'excerpt', 'oversized', 'value']

@@ -22,10 +22,12 @@ from __future__ import annotations
 import os
 import re
 import xml.etree.ElementTree as ET
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Callable, Iterable
 
 import yaml
+
+from ..errors import ScrewgearError
 
 #: The hardware parameters of the topic hardware interface that name table_sim's topics.
 TOPIC_PARAMS = ('joint_commands_topic', 'joint_states_topic')
@@ -57,7 +59,7 @@ class Unmet:
         return f'{self.need.package}: {self.found} installed, needs >= {self.need.minimum}'
 
 
-class MissingPackages(RuntimeError):
+class MissingPackages(ScrewgearError, RuntimeError):
     """A launch cannot run: the message lists every unmet need and how to install it."""
 
 
@@ -67,9 +69,12 @@ def _version(text: str) -> tuple[int, ...]:
 
 def minimum_versions(package_xml: str) -> dict[str, str]:
     """exec_depend name → its ``version_gte``, from a package.xml's text."""
-    root = ET.fromstring(package_xml)
-    return {e.text.strip(): e.get('version_gte') for e in root.iter('exec_depend')
-            if e.text and e.get('version_gte')}
+    found = {}
+    for element in ET.fromstring(package_xml).iter('exec_depend'):
+        version = element.get('version_gte')
+        if element.text and version:
+            found[element.text.strip()] = version
+    return found
 
 
 def plugin_package(lookup_name: str) -> str:
@@ -85,7 +90,7 @@ def ros2_control_needs(processes: Iterable[tuple[str, str]], urdf: str,
     """What ros2_control.launch.py needs (see the module docstring), in a stable order;
     ``processes`` are the (package, executable) pairs it starts."""
     block = ET.fromstring(urdf).find('ros2_control')
-    plugins = [block.findtext('hardware/plugin').strip()] if block is not None else []
+    plugins = [block.findtext('hardware/plugin', default='').strip()] if block is not None else []
     manager = (yaml.safe_load(controllers_yaml) or {}).get('controller_manager', {})
     for entry in manager.get('ros__parameters', {}).values():
         if isinstance(entry, dict) and 'type' in entry:
@@ -120,8 +125,7 @@ def unmet(needs: Iterable[Need], lookup: Callable[[str], str | None],
 def installed_version(package: str) -> str | None:
     """The version of ``package`` in the ament index (its package.xml), None if absent;
     '' when it is there without a readable package.xml."""
-    from ament_index_python.packages import (PackageNotFoundError,
-                                             get_package_share_directory)
+    from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
     try:
         share = get_package_share_directory(package)
     except (PackageNotFoundError, ValueError, LookupError):
@@ -150,8 +154,8 @@ def message(launch: str, problems: Iterable[Unmet], share: str,
     problems = list(problems)
     distro = distro or os.environ.get('ROS_DISTRO') or 'jazzy'
     apt = ' '.join(f'ros-{distro}-{p.need.package.replace("_", "-")}' for p in problems)
-    lines = [f'{launch} needs packages this ROS 2 install does not have; nothing was '
-             'started:']
+    lines = [(f'{launch} needs packages this ROS 2 install does not have; nothing was '
+             'started:')]
     lines += [f'  {p}' for p in problems]
     lines += ['install them with:', f'  sudo apt install {apt}',
               'or every dependency of this package with:',
@@ -205,7 +209,7 @@ def in_namespace(urdf: str, namespace: str) -> str:
         return urdf
     root, params = _topics(urdf)
     for element in params.values():
-        element.text = namespace + '/' + element.text.strip().rpartition('/')[2]
+        element.text = namespace + '/' + (element.text or '').strip().rpartition('/')[2]
     return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding='unicode') + '\n'
 
 
@@ -214,7 +218,21 @@ def read(path: str) -> str:
         return f.read()
 
 
-__all__ = ['TOPIC_PARAMS', 'Need', 'Unmet', 'MissingPackages', 'minimum_versions',
-           'plugin_package', 'ros2_control_needs', 'unmet', 'installed_version',
-           'installed_executable', 'message',
-           'require', 'urdf_namespace', 'normalized_namespace', 'in_namespace', 'read']
+__all__ = [
+    'TOPIC_PARAMS',
+    'MissingPackages',
+    'Need',
+    'Unmet',
+    'in_namespace',
+    'installed_executable',
+    'installed_version',
+    'message',
+    'minimum_versions',
+    'normalized_namespace',
+    'plugin_package',
+    'read',
+    'require',
+    'ros2_control_needs',
+    'unmet',
+    'urdf_namespace',
+]

@@ -1,8 +1,8 @@
 """``table_markers``: the table and both pinions drawn in one fixed frame, no TF needed.
 
-Each wheel of :mod:`screwgear_ros.layout` is a disc (CYLINDER) with a mark (ARROW from
+Each wheel of :mod:`screwgear_ros.ros.layout` is a disc (CYLINDER) with a mark (ARROW from
 its axis towards its rim) that turns with its joint angle; each pinion's mesh point
-is a sphere coloured by the mesh's contact (:class:`screwgear_ros.status.Contact`):
+is a sphere coloured by the mesh's contact (:class:`screwgear_ros.sim.status.Contact`):
 teeth on a flank, inside the backlash gap, or disengaged. The pinion of the active
 path is drawn in a brighter colour. Every marker is in :data:`layout.BASE_LINK` and
 stamped with the simulation time of the outputs it shows, so RViz (fixed frame
@@ -11,7 +11,7 @@ stamped with the simulation time of the outputs it shows, so RViz (fixed frame
 :func:`table_markers` draws the markers as a MarkerArray. The node sends them as CDR
 bytes from :class:`MarkerEncoder`: between two states with the same colours and texts
 (the active path, both contacts) only the stamps and the marks' points change, so each
-such look is drawn once, as a :class:`~screwgear_ros.cdr.Template`, and then encoded
+such look is drawn once, as a :class:`~screwgear_ros.bag.cdr.Template`, and then encoded
 by one ``struct.pack`` instead of being built and serialized again.
 """
 
@@ -22,11 +22,11 @@ from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..layout import BASE_LINK, FACE_WIDTH, MARK_TO, PALETTE, Wheel, mesh_point, wheels
-from ..params import TableParams
-from ..plant import Outputs
-from ..status import Contact, contact_states
-from ..cdr import Template, template_of
+from ..bag.cdr import Template, template_of
+from ..params.table import TableParams
+from ..sim.plant import Outputs
+from ..sim.status import Contact, contact_states
+from .layout import BASE_LINK, FACE_WIDTH, MARK_TO, PALETTE, Wheel, mesh_point, wheels
 
 #: Marker namespaces (ids: 0, 1, 2 = pinion 1, table, pinion 3; meshes 0 = mesh 1, 1 = mesh 3).
 DISCS, MARKS, MESHES = 'discs', 'marks', 'meshes'
@@ -80,7 +80,7 @@ def table_markers(params: TableParams, joint_names: list[str] | tuple[str, ...],
                                                     0.18 * wheel.radius)
         mark.color = _colour('mark')
         markers.append(mark)
-    for ident, (pinion, contact) in enumerate(zip((gears[0], gears[2]), contacts)):
+    for ident, (pinion, contact) in enumerate(zip((gears[0], gears[2]), contacts, strict=False)):
         spot = _marker(MESHES, ident, Marker.SPHERE, stamp)
         x, y = mesh_point(pinion, gears[1])
         spot.pose.position.x, spot.pose.position.y, spot.pose.position.z = x, y, TOP

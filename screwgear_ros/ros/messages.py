@@ -1,5 +1,5 @@
 """The message classes of the node's topics (declared in :mod:`screwgear_ros.interface`),
-and the messages that are not serialized once per tick by :mod:`screwgear_ros.cdr`:
+and the messages that are not serialized once per tick by :mod:`screwgear_ros.bag.cdr`:
 inputs as recorded, the active path, the URDF, diagnostics. Fresh objects: a recorder serializes them later on
 its own thread, so a message handed over must never change afterwards.
 """
@@ -7,16 +7,23 @@ its own thread, so a message handed over must never change afterwards.
 from __future__ import annotations
 
 import importlib
+from typing import Any
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Int8, String
 
-from ..commands import JointCommand
-from ..interface import BY_KEY, COMMAND_TOPICS, INFO_TOPICS, OUTPUT_TOPICS, RECORDED_TOPICS
-
-MESH_NAMES = ['mesh_1', 'mesh_3']
+from ..bag.tick_encoder import MESH_NAMES
+from ..interface import (
+    BY_KEY,
+    COMMAND_TOPICS,
+    INFO_TOPICS,
+    OUTPUT_TOPICS,
+    RECORDED_TOPICS,
+    Input,
+)
+from ..sim.commands import JointCommand
 
 
 def message_class(name: str) -> type:
@@ -26,7 +33,7 @@ def message_class(name: str) -> type:
     return getattr(importlib.import_module(f'{package}.{kind}'), cls)
 
 
-#: The message class of each input topic of :data:`screwgear_ros.commands.INPUT_TOPICS`.
+#: The message class of each input topic of :data:`screwgear_ros.sim.commands.INPUT_TOPICS`.
 INPUT_TYPES = {key: message_class(name) for key, name in COMMAND_TOPICS.items()}
 #: The inputs the node only records (the setpoint): key → message class.
 INFO_TYPES = {key: message_class(name) for key, name in INFO_TOPICS.items()}
@@ -37,18 +44,18 @@ OUTPUT_TYPES = {key: (BY_KEY[key].name, message_class(name))
 PRIVATE_TYPES = {key: message_class(name) for key, name in RECORDED_TOPICS.items()}
 
 
-def input_message(topic: str, value: object, time_ns: int = 0) -> object:
+def input_message(topic: str, value: Any, time_ns: int = 0) -> object:
     """The message of a command on input ``topic`` whose value
-    (:func:`screwgear_ros.commands.command_value`) is ``value``; a JointState is
+    (:func:`screwgear_ros.sim.commands.command_value`) is ``value``; a JointState is
     stamped ``time_ns``."""
-    if topic == 'joint_commands':
+    if topic == Input.JOINT_COMMANDS:
         if not isinstance(value, JointCommand):
             raise TypeError(f'joint_commands: not a JointCommand: {value!r}')
         msg = JointState(name=list(value.name), position=list(value.position),
                          velocity=list(value.velocity), effort=list(value.effort))
         msg.header.stamp = stamp(time_ns)
         return msg
-    data = [float(v) for v in value] if topic == 'cmd_effort' else value
+    data = [float(v) for v in value] if topic == Input.CMD_EFFORT else value
     return INPUT_TYPES[topic](data=data)
 
 
@@ -81,6 +88,17 @@ def diagnostics(name: str, hardware_id: str, level: int, message: str,
     return msg
 
 
-__all__ = ['MESH_NAMES', 'message_class', 'INPUT_TYPES', 'INFO_TYPES', 'OUTPUT_TYPES',
-           'PRIVATE_TYPES', 'input_message', 'stamp', 'setpoint', 'active_path',
-           'robot_description', 'diagnostics']
+__all__ = [
+    'INFO_TYPES',
+    'INPUT_TYPES',
+    'MESH_NAMES',
+    'OUTPUT_TYPES',
+    'PRIVATE_TYPES',
+    'active_path',
+    'diagnostics',
+    'input_message',
+    'message_class',
+    'robot_description',
+    'setpoint',
+    'stamp',
+]

@@ -28,8 +28,11 @@ import os
 import re
 import sys
 import tempfile
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any
+
+from ..errors import ScrewgearError
 
 #: Parameters that name where one run writes: a restored table must not reuse them.
 RUN_OUTPUTS = ('record',)
@@ -42,7 +45,7 @@ _YAML11_WORDS = re.compile(r'y|Y|yes|Yes|YES|n|N|no|No|NO|true|True|TRUE|false|F
                            r'on|On|ON|off|Off|OFF|null|Null|NULL|~')
 
 
-class Unwritable(ValueError):
+class Unwritable(ScrewgearError, ValueError):
     """A value no parameter file can carry exactly."""
 
 
@@ -179,5 +182,13 @@ def keep_written(node: Any, path: str | os.PathLike,
     node.add_post_set_parameters_callback(after_set)
 
 
-__all__ = ['RUN_OUTPUTS', 'WILDCARD', 'Unwritable', 'scalar', 'render', 'write',
-           'node_values', 'keep_written']
+__all__ = [
+    'RUN_OUTPUTS',
+    'WILDCARD',
+    'Unwritable',
+    'keep_written',
+    'node_values',
+    'render',
+    'scalar',
+    'write',
+]

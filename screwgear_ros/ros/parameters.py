@@ -1,13 +1,13 @@
 """The node's ROS parameters, derived from their one declaration (the fields of
-:class:`~screwgear_ros.params.TableParams` and :class:`~screwgear_ros.params.SimSettings`,
-see :mod:`screwgear_ros.declare`).
+:class:`~screwgear_ros.params.table.TableParams` and :class:`~screwgear_ros.params.table.SimSettings`,
+see :mod:`screwgear_ros.params.declarations`).
 
 Each is declared with its default's type, a description with symbol and unit,
 ``read_only`` where a run cannot change it, and a ``FloatingPointRange`` or
 ``IntegerRange`` wherever its valid values are an interval (``ros2 param describe``
 shows it; rqt_reconfigure makes a slider of it). Values are then checked by the core's
-own validation (:func:`screwgear_ros.parameter_sets.split_parameters`), so a refusal carries
-the core's :class:`~screwgear_ros.params.ParameterError` text; rclpy itself refuses a
+own validation (:func:`screwgear_ros.sim.parameter_set.split_parameters`), so a refusal carries
+the core's :class:`~screwgear_ros.params.table.ParameterError` text; rclpy itself refuses a
 value outside a declared range before that.
 
 Harmonics in one set: ``ste_amplitudes`` and ``ste_phases`` must have one entry per
@@ -24,15 +24,15 @@ other completes the other.
 from __future__ import annotations
 
 import math
-from typing import Any, Callable, Iterable
+from collections.abc import Callable, Iterable
+from typing import Any
 
-from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
-                                ParameterType)
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from ..declare import Kind, declared, excerpt
-from ..params import MAX_HARMONICS, SimSettings, TableParams
+from ..params.declarations import Kind, declared, excerpt
+from ..params.table import MAX_HARMONICS, SimSettings, TableParams
 
 #: Every node parameter, in declaration order.
 PARAMETERS = (*declared(TableParams), *declared(SimSettings))
@@ -215,5 +215,13 @@ def changed_values(current: dict[str, Any], params: Iterable[Parameter]) -> dict
     return candidate
 
 
-__all__ = ['PARAMETERS', 'HARMONICS', 'descriptor', 'declare', 'plain_value',
-           'changed_values', 'unknown_overrides', 'complete_harmonics']
+__all__ = [
+    'HARMONICS',
+    'PARAMETERS',
+    'changed_values',
+    'complete_harmonics',
+    'declare',
+    'descriptor',
+    'plain_value',
+    'unknown_overrides',
+]

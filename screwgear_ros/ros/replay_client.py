@@ -20,8 +20,9 @@ from __future__ import annotations
 import subprocess
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable, TypeVar
+from typing import Any, Self, TypeVar
 
 import rclpy
 import rclpy.executors
@@ -35,9 +36,10 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
-from ..events import Command, Event, ParameterChange, Reset, describe
+from ..errors import ScrewgearError
 from ..interface import TICK_TOPIC
-from ..schedule import Schedule
+from ..sim.events import Command, Event, ParameterChange, Reset, describe
+from ..sim.schedule import Schedule
 from .messages import INPUT_TYPES, input_message
 from .shutdown import spin_executor_until
 
@@ -57,7 +59,7 @@ RELIABLE = QoSProfile(depth=10, history=HistoryPolicy.KEEP_LAST,
 T = TypeVar('T')
 
 
-class ReplayError(RuntimeError):
+class ReplayError(ScrewgearError, RuntimeError):
     """Something that stops a replay; the message says what."""
 
 
@@ -126,7 +128,7 @@ class ReplayClient:
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 
-    def __enter__(self) -> 'ReplayClient':
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -333,7 +335,7 @@ class ReplayClient:
                    f'{CONNECT_TIMEOUT:g} s (its parameter services are not there)')
         response = self._result(self.params.get_parameters(names),
                                 f'reading the parameters of {self.full_name}')
-        return {n: parameter_value_to_python(v) for n, v in zip(names, response.values)}
+        return {n: parameter_value_to_python(v) for n, v in zip(names, response.values, strict=False)}
 
     def confirm(self, what: str) -> None:
         """A parameter-service round trip: the node has then taken every message this
@@ -373,5 +375,11 @@ class ReplayClient:
         self.tick.publish(Empty())
 
 
-__all__ = ['CONNECT_TIMEOUT', 'REPLY_TIMEOUT', 'STALL_TIMEOUT', 'ReplayError', 'Interrupted',
-           'ReplayClient']
+__all__ = [
+    'CONNECT_TIMEOUT',
+    'REPLY_TIMEOUT',
+    'STALL_TIMEOUT',
+    'Interrupted',
+    'ReplayClient',
+    'ReplayError',
+]

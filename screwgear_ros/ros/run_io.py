@@ -1,7 +1,7 @@
 """What the node makes of a session's ticks: messages, published and recorded.
 
 :class:`RunIO` serializes each output of a tick once, straight into CDR bytes
-(:mod:`screwgear_ros.cdr`: no message objects, no rclpy serializer), and hands the
+(:mod:`screwgear_ros.bag.cdr`: no message objects, no rclpy serializer), and hands the
 same bytes to the topic's publisher (rclpy publishes ``bytes`` as a serialized
 message) and to the recorder (which then only queues them); it records every event a
 tick applied at the step it took effect at (the bag contract of docs/recording.md).
@@ -37,26 +37,26 @@ from __future__ import annotations
 import os
 import threading
 import time
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 
-from .. import cdr, run_parameters
-from ..events import Command, ParameterChange, Setpoint
-from ..params import SimSettings, TableParams
-from ..plant import Outputs
-from ..session import Session, Tick
+from ..bag.cdr import type_name
+from ..bag.tick_encoder import TickEncoder, topic_specs
+from ..params.table import SimSettings, TableParams
+from ..sim import run_file as run_parameters
+from ..sim.events import Command, ParameterChange, Setpoint
+from ..sim.plant import Outputs
+from ..sim.session import Session, Tick
 from . import messages
 from .markers import MarkerEncoder
-from ..interface import LATCHED_OUTPUTS
-from ..cdr import type_name
-from .messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES, PRIVATE_TYPES
 from .urdf import robot_description
 
 if TYPE_CHECKING:
-    from ..runs.recorder import RunRecorder, TopicGroup, TopicSpec
+    from ..bag.recorder import RunRecorder, TopicGroup, TopicSpec
 # screwgear_ros.runs (the MCAP writer, rosbags' typestore) is imported where a recording
 # needs it, not at the node's start: a node that does not record never loads it.
 
@@ -64,12 +64,6 @@ if TYPE_CHECKING:
 MARKER_PERIOD = 1.0 / 30.0
 #: Wall time after which a tick's topic found matched is asked for its subscribers again, s.
 LISTENER_RECOUNT = 1.0
-
-
-def _message_class(key: str) -> type:
-    if key in OUTPUT_TYPES:
-        return OUTPUT_TYPES[key][1]
-    return INPUT_TYPES.get(key) or INFO_TYPES.get(key) or PRIVATE_TYPES[key]
 
 
 def serialize(msg: Any) -> bytes:
@@ -84,7 +78,7 @@ def serialize(msg: Any) -> bytes:
     data = serialize_message(msg)
     if isinstance(msg, JointState) and not (len(msg.position) and len(msg.velocity)
                                             and len(msg.effort)):
-        from ..runs.bagformat import typestore
+        from ..bag.format import typestore
         store = typestore()
         msgdef = store.get_msgdef(_JOINT_STATE)
         decode = msgdef.deserialize_cdr_le if data[1] else msgdef.deserialize_cdr_be
@@ -105,19 +99,10 @@ class RunIO:
         self.joint_names = list(joint_names)
         self._publishers = dict(publishers or {})
         # What every tick sends, in this order: fixed once the endpoints exist
-        # (publish_clock is read-only), so publish_outputs() looks nothing up per tick. The
-        # clock first: it has no values, so the blocks publish_outputs() encodes are the same
-        # with or without it.
-        # The exact state last (when the sensors are not ideal, the caller names its
-        # topic): joint_states then carries what the sensors measure.
-        self._tick_keys = (('clock',) if 'clock' in self.topics else ()) + (
-            'joint_states', 'mesh_state', 'transmission_error') + (
-            ('true_joint_states',) if 'true_joint_states' in self.topics else ())
-        if LATCHED_OUTPUTS.intersection(self._tick_keys):
-            raise ValueError('a latched topic must be published whether or not anybody '
-                             'listens: not one of the per-tick topics')
-        self._joint_states_at = self._tick_keys.index('joint_states')
-        self._bundle = self._tick_bundle()
+        # (publish_clock is read-only), so publish_outputs() looks nothing up per tick.
+        self._encoder = TickEncoder(self.topics, self.joint_names)
+        self._tick_keys = self._encoder.keys
+        self._joint_states_at = self._encoder.joint_states_at
         self._tick_publishers = [self._publishers.get(k) for k in self._tick_keys]
         self._tick_topics = [self.topics[k] for k in self._tick_keys]
         self._matched = [False] * len(self._tick_keys)   # found matched since the recount
@@ -136,13 +121,11 @@ class RunIO:
 
     def topic_specs(self) -> list[TopicSpec]:
         """The recorded topics, with types and the latched one."""
-        from ..runs.recorder import TopicSpec
-        return [TopicSpec(name, type_name(_message_class(key)), key in LATCHED_OUTPUTS)
-                for key, name in self.topics.items()]
+        return topic_specs(self.topics)
 
     def open_recorder(self, path: str | os.PathLike[str], **options: Any) -> RunRecorder:
         """Record from now on to a new rosbag2 directory (FileExistsError if taken)."""
-        from ..runs.recorder import RunRecorder
+        from ..bag.recorder import RunRecorder
         self.recorder = RunRecorder(path, self.topic_specs(), serialize, **options)
         self._tick_group = self.recorder.group(self._tick_topics)
         return self.recorder
@@ -204,7 +187,7 @@ class RunIO:
                 self._parameters(session, t_ns, event.params, event.settings)
                 if list(session.settings.joint_names) != self.joint_names:
                     self.joint_names = list(session.settings.joint_names)
-                    self._bundle = self._tick_bundle()
+                    self._encoder.rename(self.joint_names)
             elif self.recorder is None:
                 continue
             elif isinstance(event, Command):
@@ -223,16 +206,6 @@ class RunIO:
             self._matched = [False] * len(self._tick_keys)
         self._markers(session, now)
 
-    def _tick_bundle(self) -> cdr.Bundle:
-        """The templates of what every tick sends, in ``_tick_keys``' order, as one
-        bundle (one pack a tick)."""
-        templates = {'clock': cdr.clock_template,
-                     'joint_states': lambda: cdr.joint_state_template(self.joint_names),
-                     'mesh_state': lambda: cdr.joint_state_template(messages.MESH_NAMES),
-                     'transmission_error': cdr.float64_template,
-                     'true_joint_states': lambda: cdr.joint_state_template(self.joint_names)}
-        return cdr.Bundle([templates[key]() for key in self._tick_keys])
-
     def publish_outputs(self, out: Outputs, lossless: bool = True,
                         measured: Outputs | None = None) -> None:
         """/clock, joint_states (``measured``: what the sensors measure of ``out``; None:
@@ -240,13 +213,10 @@ class RunIO:
         if its topic is named) of ``out``; ``lossless`` as for :meth:`tick`
         (:meth:`RunRecorder.write_group`'s)."""
         t_ns = out.time_ns
-        js = out if measured is None else measured
-        tick = self._bundle.encode(t_ns, js.position, js.velocity, js.effort, out.delta,
-                                   out.delta_rate, out.mesh_force, (out.transmission_error,),
-                                   out.position, out.velocity, out.effort)
+        tick = self._encoder.encode(out, measured)
         self.last_joint_states = tick[self._joint_states_at]
         matched = self._matched
-        for i, (publisher, msg) in enumerate(zip(self._tick_publishers, tick)):
+        for i, (publisher, msg) in enumerate(zip(self._tick_publishers, tick, strict=False)):
             if publisher is None:
                 continue
             if not matched[i]:                # the module docstring: nobody, no publish
@@ -254,7 +224,7 @@ class RunIO:
                     continue
                 matched[i] = True
             publisher.publish(msg)
-        if self.recorder is not None:     # the tick's messages with one queue put
+        if self.recorder is not None and self._tick_group is not None:   # one queue put
             self.recorder.write_group(self._tick_group, t_ns, tick, lossless)
 
     def send(self, key: str, t_ns: int, msg: Any) -> None:
@@ -321,4 +291,4 @@ class RunIO:
         return t_ns, encoder.encode(out, t_ns)
 
 
-__all__ = ['serialize', 'RunIO']
+__all__ = ['RunIO', 'serialize']

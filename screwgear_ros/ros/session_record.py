@@ -1,25 +1,25 @@
 """In-process recorded runs: the node's own session and RunIO, with no DDS and no node.
 
-:class:`SessionRecording` records a :class:`~screwgear_ros.session.Session` that the
+:class:`SessionRecording` records a :class:`~screwgear_ros.sim.session.Session` that the
 caller ticks, with the node's :class:`~screwgear_ros.ros.run_io.RunIO` (publishers none),
 so a bag is written exactly as table_sim writes it, tick by tick, as fast as the machine
 goes and dropping nothing (the recorder makes a tick wait for room rather than drop
-it). :func:`record_session` plays a :class:`~screwgear_ros.schedule.Schedule` into a
+it). :func:`record_session` plays a :class:`~screwgear_ros.sim.schedule.Schedule` into a
 fresh session that way. RunIO encodes the node's messages, so recording needs rclpy's
 message packages: this module belongs to the ROS shell, and the core's
-:class:`~screwgear_ros.simulation.Simulation` imports it only when asked to record.
+:class:`~screwgear_ros.sim.simulation.Simulation` imports it only when asked to record.
 """
 
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import Any, Self
 
-from ..events import ParameterChange
+from ..bag.recorder import RunRecorder
 from ..interface import topic_names
-from ..runs.recorder import RunRecorder
-from ..schedule import Schedule
-from ..session import Session, Tick
+from ..sim.events import ParameterChange
+from ..sim.schedule import Schedule
+from ..sim.session import Session, Tick
 from .run_io import RunIO
 
 
@@ -56,7 +56,7 @@ class SessionRecording:
         self.recorder.close()
         return self.recorder
 
-    def __enter__(self) -> 'SessionRecording':
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:

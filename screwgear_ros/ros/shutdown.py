@@ -20,7 +20,6 @@ import threading
 from rclpy.executors import Executor, SingleThreadedExecutor
 from rclpy.node import Node
 
-
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
@@ -94,4 +93,4 @@ def spin_executor_until(executor: Executor, stop: threading.Event,
         executor.spin_once(timeout_sec=period)
 
 
-__all__ = ['STOP_SIGNALS', 'stop_on_signals', 'spin_executor_until', 'spin_until']
+__all__ = ['STOP_SIGNALS', 'spin_executor_until', 'spin_until', 'stop_on_signals']

@@ -2,7 +2,7 @@
 hardware interface. Plain text; imports no rclpy.
 
 :func:`robot_description` writes it from the parameters (geometry, inertias, limits:
-:mod:`screwgear_ros.layout`) and the two topics of the node the hardware interface
+:mod:`screwgear_ros.ros.layout`) and the two topics of the node the hardware interface
 talks to. The node publishes it for itself on ``robot_description``; the shipped
 ``urdf/screwgear_table.urdf`` is :func:`shipped_description` (the defaults, the node in
 namespace :data:`PLANT_NAMESPACE`), regenerated with::
@@ -12,7 +12,7 @@ namespace :data:`PLANT_NAMESPACE`), regenerated with::
 Joints are ``continuous`` (URDF's revolute joint without position limits: a rotary
 table turns for ever). Only ``joint_names[COMMANDED_JOINT]`` (pinion 1) has a command
 interface, ``effort``, whose value the node reads as the signed drive torque at the
-active pinion (:mod:`screwgear_ros.commands`); every joint has position, velocity and
+active pinion (:mod:`screwgear_ros.sim.commands`); every joint has position, velocity and
 effort state interfaces, the three arrays joint_states always fills.
 """
 
@@ -21,10 +21,10 @@ from __future__ import annotations
 import sys
 import xml.etree.ElementTree as ET
 
-from ..commands import COMMAND_INTERFACE, COMMANDED_JOINT, load_limit
-from ..interface import topic_names
-from ..layout import BASE_LINK, FACE_WIDTH, MARK_FROM, MARK_TO, PALETTE, Wheel, wheels
-from ..params import SimSettings, TableParams
+from ..interface import Input, topic_names
+from ..params.table import SimSettings, TableParams
+from ..sim.commands import COMMAND_INTERFACE, COMMANDED_JOINT, load_limit
+from .layout import BASE_LINK, FACE_WIDTH, MARK_FROM, MARK_TO, PALETTE, Wheel, wheels
 
 ROBOT_NAME = 'screwgear_table'
 #: ros2_control's stock JointState topic system (package joint_state_topic_hardware_interface;
@@ -124,7 +124,7 @@ def robot_description(params: TableParams, settings: SimSettings, commands_topic
 def shipped_description() -> str:
     """``urdf/screwgear_table.urdf``: the defaults, table_sim in PLANT_NAMESPACE."""
     names = topic_names(PLANT_NAMESPACE)
-    return robot_description(TableParams(), SimSettings(), names['joint_commands'],
+    return robot_description(TableParams(), SimSettings(), names[Input.JOINT_COMMANDS],
                              names['joint_states'])
 
 
@@ -136,5 +136,12 @@ if __name__ == '__main__':
     main()
 
 
-__all__ = ['ROBOT_NAME', 'PLUGIN', 'PLANT_NAMESPACE', 'TRIGGER_THRESHOLD', 'STATE_INTERFACES',
-           'robot_description', 'shipped_description']
+__all__ = [
+    'PLANT_NAMESPACE',
+    'PLUGIN',
+    'ROBOT_NAME',
+    'STATE_INTERFACES',
+    'TRIGGER_THRESHOLD',
+    'robot_description',
+    'shipped_description',
+]

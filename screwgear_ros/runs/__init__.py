@@ -1,10 +1,19 @@
-"""Runs of table_sim as rosbag2/MCAP bags: recording, reading, offline check, replay.
+"""What is done with a recorded run: check it against the reference solution, compare a
+replay with its original, plot it, and replay it in-process through a session.
 
-Nothing here imports rclpy: the node hands :class:`RunRecorder` its messages and a
-serializer, and the readers decode CDR with the ROS 2 Jazzy typestore of ``rosbags``.
-The bag contract (topics, log times, parameters) is described in ``docs/recording.md``.
+Nothing here imports rclpy; recording and reading bags is :mod:`screwgear_ros.bag`.
 """
 
-from .recorder import RunRecorder, TopicSpec
+from __future__ import annotations
 
-__all__ = ['RunRecorder', 'TopicSpec']
+import warnings
+from typing import Any
+
+
+def __getattr__(name: str) -> Any:
+    if name in ('RunRecorder', 'TopicSpec'):
+        warnings.warn(f'screwgear_ros.runs.{name} moved to screwgear_ros.bag.{name}; the old '
+                      'path goes in the next release', DeprecationWarning, stacklevel=2)
+        from .. import bag
+        return getattr(bag, name)
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')

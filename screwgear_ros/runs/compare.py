@@ -23,11 +23,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..events import Command, Event, ParameterChange, describe
-from .bagread import RecordedRun, Signal
+from ..bag.reader import RecordedRun, Signal
+from ..sim.events import Command, Event, ParameterChange, describe
+from ..sim.schedule import ros_values
 from .check import sensor_mismatch, signal_names
-from ..schedule import ros_values
-from .replay import replay_in_process
+from .replay_in_process import replay_in_process
 
 
 @dataclass(frozen=True)
@@ -61,7 +61,7 @@ class Comparison:
     ticks: int                                # integration steps per publish tick
     jitter_ticks: float                       # largest |delay| in publish ticks
     samples: int                              # replay samples checked against its events
-    first_difference: 'Difference | None'     # where the replay is not what its events make
+    first_difference: Difference | None     # where the replay is not what its events make
     extra: list[str] = field(default_factory=list)            # events the original lacks
     start_differences: list[str] = field(default_factory=list)  # start values that differ
     common: int = 0                           # samples at steps both runs have
@@ -126,6 +126,7 @@ def _match(original: RecordedRun, new: RecordedRun) -> tuple[list[EventTiming], 
         where.setdefault(_key(event), []).append(k)
     timings, used, j = [], set(), -1
     for _, event in _physical_events(original):
+        assert event.step is not None      # a recorded event carries its step
         places = where.get(_key(event), [])
         i = bisect_right(places, j)
         if i < len(places):
@@ -151,7 +152,8 @@ def _start_differences(original: RecordedRun, new: RecordedRun) -> list[str]:
 def shift_event(run: RecordedRun, index: int, steps: int) -> RecordedRun:
     """``run`` with event ``index`` moved by ``steps`` integration steps (same outputs
     sampled). In file order an event at step s follows the outputs of step s."""
-    moved_order, moved = run.events[index]
+    _moved_order, moved = run.events[index]
+    assert moved.step is not None      # a recorded event carries its step
     target = moved.step + steps
     out_steps = np.concatenate([run.joint_states.steps, run.transmission_error.steps])
     out_order = np.concatenate([run.joint_states.order, run.transmission_error.order])
@@ -164,7 +166,7 @@ def shift_event(run: RecordedRun, index: int, steps: int) -> RecordedRun:
 
 
 def _first_difference(steps: np.ndarray, recorded: np.ndarray, computed: np.ndarray,
-                      names: list[str]) -> 'Difference | None':
+                      names: list[str]) -> Difference | None:
     rows = np.flatnonzero(np.any(recorded != computed, axis=1))
     if not len(rows):
         return None
@@ -217,10 +219,10 @@ def compare_runs(original: RecordedRun, new: RecordedRun) -> Comparison:
 
 def format_comparison(c: Comparison) -> str:
     """What ``replay_run --compare`` prints for a free-running replay."""
-    lines = ['free-running replay vs original (events land where the wall clock put them; '
+    lines = [('free-running replay vs original (events land where the wall clock put them; '
              'the replay passes when its outputs are exactly what the original\'s events make '
              'at the steps they landed): event timing (integration steps; one publish tick = '
-             f'{c.ticks} steps)']
+             f'{c.ticks} steps)')]
     for t in c.timings:
         lines.append(f'  {t.what:<32} recorded step {t.original_step:>9}  replayed '
                      + ('never' if t.new_step is None else
@@ -321,8 +323,8 @@ def exact_comparison(original: RecordedRun, new: RecordedRun) -> ExactComparison
 def format_exact(c: ExactComparison) -> str:
     """What ``replay_run --compare`` prints for a lockstep replay."""
     late = [t for t in c.timings if t.delay != 0]
-    lines = ['replay vs original (lockstep: every event must take effect at its recorded '
-             'step and every output must be identical)',
+    lines = [('replay vs original (lockstep: every event must take effect at its recorded '
+             'step and every output must be identical)'),
              f'  events: {len(c.timings) - len(late)} of {len(c.timings)} at their recorded step']
     for t in late:
         lines.append(f'    {t.what}: recorded step {t.original_step}, replayed '
@@ -341,6 +343,16 @@ def format_exact(c: ExactComparison) -> str:
     return '\n'.join(lines)
 
 
-__all__ = ['EventTiming', 'SignalDifference', 'Comparison', 'match_events', 'shift_event',
-           'compare_runs', 'format_comparison', 'Difference', 'ExactComparison',
-           'exact_comparison', 'format_exact']
+__all__ = [
+    'Comparison',
+    'Difference',
+    'EventTiming',
+    'ExactComparison',
+    'SignalDifference',
+    'compare_runs',
+    'exact_comparison',
+    'format_comparison',
+    'format_exact',
+    'match_events',
+    'shift_event',
+]

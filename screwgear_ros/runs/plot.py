@@ -10,16 +10,13 @@ through a reset). check_run's errors are the per-sample arrays its report keeps.
 inspect it); :func:`save` writes it and closes it. Each panel carries its
 :class:`Panel` (or its signal's name) as the axes label, and every mark drawn on
 it a :class:`Mark` as gid.
-
-Why one module of this length: every view of a run is drawn on the same panels and
-marks, which the tests read back by their labels and gids.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -27,24 +24,34 @@ from matplotlib.backend_bases import FigureCanvasBase
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from ..events import ParameterChange, Reset
-from ..model import active_path
-from ..params import Mode, TableParams
-from ..plant import DriveInput
-from ..report.common import COLORS, plt
-from ..session import Tick
-from .bagread import BagError, RecordedRun
+from ..bag.errors import NoData
+from ..bag.reader import RecordedRun
+from ..errors import ScrewgearError
+from ..params.table import Mode
+from ..physics.drive import active_path
+from ..sim.session import Tick
 from .check import MESH_SIGNALS, CheckReport, signal_names
-from .replay import replay_in_process
+from .figure_style import COLORS, plt
+from .plot_series import (
+    ParameterMark,
+    RunMarks,
+    drive_series,
+    in_contact,
+    params_at,
+    run_marks,
+    setpoint_series,
+    tracking_error,
+)
+from .replay_in_process import replay_in_process
 
 #: Resolution the figures are written at (and readable at), dots per inch.
 DPI = 100
 #: Name of plot_run's figure inside the bag directory when no output is given.
 DEFAULT_NAME = 'plot.png'
 
-PARAMETER_STYLE = {'color': COLORS[3], 'linestyle': '--', 'linewidth': 1.2}
-RESET_STYLE = {'color': COLORS[6], 'linestyle': '-.', 'linewidth': 1.2}
-TOLERANCE_STYLE = {'color': COLORS[1], 'linestyle': '--', 'linewidth': 1.4}
+PARAMETER_STYLE: dict[str, Any] = {'color': COLORS[3], 'linestyle': '--', 'linewidth': 1.2}
+RESET_STYLE: dict[str, Any] = {'color': COLORS[6], 'linestyle': '-.', 'linewidth': 1.2}
+TOLERANCE_STYLE: dict[str, Any] = {'color': COLORS[1], 'linestyle': '--', 'linewidth': 1.4}
 
 
 class Panel(StrEnum):
@@ -81,115 +88,11 @@ class Mark(StrEnum):
     TRACKING_ERROR = 'tracking error'
 
 
-class FigureFileError(Exception):
+class FigureFileError(ScrewgearError):
     """The figure cannot be written where asked (format unknown, directory not writable)."""
 
 
 # ----------------------------------------------------------------------------- data
-
-
-@dataclass(frozen=True)
-class ParameterMark:
-    """A recorded parameter change: when it took effect and which values it changed."""
-
-    time: float                 # s
-    changed: tuple[str, ...]    # ROS parameter names whose value differs from before
-
-
-@dataclass(frozen=True)
-class RunMarks:
-    """The events drawn across every panel, and the commanded reversals."""
-
-    parameter_changes: tuple[ParameterMark, ...]
-    resets: tuple[float, ...]                   # s
-    reversals: tuple[tuple[float, int], ...]    # (s, commanded direction after it)
-
-
-def _values(change: ParameterChange) -> dict[str, object]:
-    return {**change.params.as_dict(), **change.settings.as_dict()}
-
-
-def run_marks(run: RecordedRun, ticks: list[Tick] | None = None) -> RunMarks:
-    """Parameter changes and resets as recorded; reversals from the replayed ``ticks``."""
-    before = _values(ParameterChange(run.parameters.params, run.parameters.settings))
-    changes: list[ParameterMark] = []
-    resets: list[float] = []
-    for _, event in run.events:
-        if isinstance(event, ParameterChange):
-            now = _values(event)
-            changes.append(ParameterMark(event.step * run.dt,
-                                         tuple(k for k in now if now[k] != before.get(k))))
-            before = now
-        elif isinstance(event, Reset):
-            resets.append(event.step * run.dt)
-    reversals = tuple((t.start * run.dt, t.drive.direction) for t in ticks or () if t.reversal)
-    return RunMarks(tuple(changes), tuple(resets), reversals)
-
-
-def drive_series(run: RecordedRun, ticks: list[Tick]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(times s, signed drive torque N·m, load torque N·m): the input in force from each
-    time on (a step function), as the node folded the recorded commands; the last
-    point is the end of the run."""
-    drive = DriveInput()
-    steps, torque, load = [run.parameters.start_step], [drive.torque * drive.direction], [drive.load]
-    for tick in ticks:
-        signed = tick.drive.torque * tick.drive.direction
-        if (signed, tick.drive.load) != (torque[-1], load[-1]):
-            steps.append(tick.start)
-            torque.append(signed)
-            load.append(tick.drive.load)
-    steps.append(max(run.end_step, steps[-1]))
-    torque.append(torque[-1])
-    load.append(load[-1])
-    return np.asarray(steps) * run.dt, np.asarray(torque), np.asarray(load)
-
-
-def params_at(run: RecordedRun, ticks: list[Tick], steps: np.ndarray) -> list[TableParams]:
-    """The parameters in force for the output sampled at each of ``steps``."""
-    starts, params = [run.parameters.start_step], [run.parameters.params]
-    for tick in ticks:
-        if tick.params is not params[-1]:
-            starts.append(tick.start)
-            params.append(tick.params)
-    # A sample at step s was computed with what took effect strictly before s.
-    index = np.clip(np.searchsorted(starts, steps, side='left') - 1, 0, None)
-    return [params[i] for i in index]
-
-
-def in_contact(run: RecordedRun, ticks: list[Tick]) -> np.ndarray:
-    """(n, 2) bool per mesh_state sample: mesh 1, mesh 3 on a flank (|δ| > b, or b = 0)."""
-    sample_params = params_at(run, ticks, run.mesh_state.steps)
-    backlash = np.array([p.backlash for p in sample_params])[:, None]
-    delta = run.mesh_state.values[:, :2]
-    return (np.abs(delta) > backlash) | (backlash <= 0.0)
-
-
-# ------------------------------------------------------------------------- drawing
-
-
-def setpoint_series(run: RecordedRun) -> tuple[np.ndarray, np.ndarray]:
-    """(times s, setpoint rad) as recorded, a step function held to the end of the run;
-    empty without a recorded setpoint."""
-    sp = run.setpoint
-    if not len(sp):
-        return np.empty(0), np.empty(0)
-    steps = np.append(sp.steps, max(run.end_step, int(sp.steps[-1])))
-    values = sp.values[:, 0]
-    return steps * run.dt, np.append(values, values[-1])
-
-
-def tracking_error(run: RecordedRun) -> tuple[np.ndarray, np.ndarray]:
-    """(times s, setpoint − θ2 rad) at every joint_states sample from the first recorded
-    setpoint on: the setpoint recorded at a sample's step is the one the controller
-    computed from that sample, so it is paired with it (a zero-order hold after)."""
-    sp, js = run.setpoint, run.joint_states
-    if not len(sp):
-        return np.empty(0), np.empty(0)
-    index = np.searchsorted(sp.steps, js.steps, side='right') - 1
-    known = index >= 0
-    error = sp.values[index[known], 0] - js.values[known, 1]
-    return js.steps[known] * run.dt, error
-
 
 def _mark_events(ax: Axes, marks: RunMarks) -> None:
     for change in marks.parameter_changes:
@@ -226,13 +129,13 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
     would be guesses).
     """
     if len(run.joint_states) < 2:
-        raise BagError('no_data', f'{run.path}: no data to plot: {len(run.joint_states)} '
+        raise NoData(f'{run.path}: no data to plot: {len(run.joint_states)} '
                        'joint_states sample(s), a run needs two to be drawn over time'
                        + (f' ({run.truncated})' if run.truncated else ''))
     if zoom is not None:
         t = run.joint_states.steps * run.dt
         if not np.any((t >= zoom[0]) & (t <= zoom[1])):
-            raise BagError('no_data', f'{run.path}: no data to plot in --zoom '
+            raise NoData(f'{run.path}: no data to plot in --zoom '
                            f'{zoom[0]:g}:{zoom[1]:g} s: the run has samples from '
                            f'{t[0]:g} s to {t[-1]:g} s')
     ticks = replay_in_process(run).ticks
@@ -248,7 +151,7 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
     fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(13, height), dpi=DPI,
                              height_ratios=[HEIGHTS.get(p, 1.0) for p in panels],
                              layout='constrained')
-    ax = dict(zip(panels, axes))
+    ax = dict(zip(panels, axes, strict=False))
     for panel, a in ax.items():
         a.set_label(panel)
 
@@ -445,6 +348,7 @@ def check_figure(run: RecordedRun, report: CheckReport) -> Figure:
             a.set_ylim(signal.tolerance * 1e-3, signal.tolerance * 10.0)
             a.text(0.5, 0.3, 'exactly 0 at every sample', transform=a.transAxes,
                    ha='center', color='0.3')
+        assert signal.times is not None and signal.errors is not None   # check_run's
         shown = np.where(signal.errors > 0.0, signal.errors, np.nan)   # log scale: 0 is -inf
         a.plot(signal.times, shown, color=COLORS[0], linewidth=0.9, gid=Mark.ERROR,
                label='|node − reference|')
@@ -505,7 +409,23 @@ def save(fig: Figure, path: str | Path) -> Path:
     return path
 
 
-__all__ = ['DPI', 'DEFAULT_NAME', 'Panel', 'Mark', 'FigureFileError', 'ParameterMark',
-           'RunMarks', 'run_marks', 'drive_series', 'setpoint_series', 'tracking_error',
-           'params_at', 'in_contact', 'run_figure', 'check_figure', 'output_path',
-           'default_output', 'save']
+__all__ = [
+    'DEFAULT_NAME',
+    'DPI',
+    'FigureFileError',
+    'Mark',
+    'Panel',
+    'ParameterMark',
+    'RunMarks',
+    'check_figure',
+    'default_output',
+    'drive_series',
+    'in_contact',
+    'output_path',
+    'params_at',
+    'run_figure',
+    'run_marks',
+    'save',
+    'setpoint_series',
+    'tracking_error',
+]

@@ -2,10 +2,12 @@
 the node's parameters, on this process, a Dask LocalCluster or a Dask cluster
 (``sweep`` executable, README "Sweeps").
 
-:mod:`.spec` reads and validates sweep files, :mod:`.worker` runs one run anywhere,
-:mod:`.engine` places the runs, :mod:`.store` keeps the results directory,
-:mod:`.summary` draws it. Only :mod:`.engine` imports Dask, and only for more than one
-worker; only :mod:`.store` imports pyarrow.
+:mod:`.spec` reads sweep files into a :mod:`.model` (the sweep, its axes and runs),
+:mod:`.resolve` resolves and validates every run, :mod:`.worker` runs one run anywhere,
+:mod:`.engine` places the runs, :mod:`.progress` runs the pending ones with a progress
+bar, :mod:`.store` keeps the results directory, :mod:`.report` writes the results and
+says what they hold, :mod:`.summary` draws them. Only :mod:`.engine` imports Dask, and
+only for more than one worker; only :mod:`.store` imports pyarrow.
 """
 
 from .spec import Sweep, SweepError, load_sweep

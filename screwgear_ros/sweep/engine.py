@@ -10,9 +10,10 @@ from __future__ import annotations
 import logging
 import math
 import os
-from typing import Any, Iterator, Sequence
+from collections.abc import Iterator, Sequence
+from typing import Any
 
-from .spec import Bundle, RunSpec
+from .model import Bundle, RunSpec
 from .worker import Outcome, Status, execute, execute_batch, hard_limit, warm_up
 
 
@@ -169,4 +170,4 @@ def describe(workers: int, scheduler: str | None) -> str:
     return f'a Dask LocalCluster of {workers} worker processes'
 
 
-__all__ = ['cores', 'in_process', 'on_dask', 'outcomes', 'describe']
+__all__ = ['cores', 'describe', 'in_process', 'on_dask', 'outcomes']

@@ -14,12 +14,13 @@ import csv
 import json
 import math
 import os
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import yaml
 
-from .spec import Sweep, SweepError, drawn_column_is_number
+from .model import Sweep, SweepError, drawn_column_is_number
 from .worker import Outcome, Status
 
 RESOLVED = 'sweep.yaml'
@@ -48,7 +49,7 @@ def _difference(old: Any, new: Any, where: str = '') -> str | None:
     if isinstance(old, list) and isinstance(new, list):
         if len(old) != len(new):
             return f'{where.rstrip(".")} has {len(new)} entries, was {len(old)}'
-        for k, (a, b) in enumerate(zip(old, new)):
+        for k, (a, b) in enumerate(zip(old, new, strict=True)):
             found = _difference(a, b, f'{where}{k}.')
             if found:
                 return found
@@ -124,7 +125,7 @@ class Store:
         with open(part, 'w', newline='', encoding='utf-8') as stream:
             writer = csv.writer(stream)
             writer.writerow(list(table))
-            writer.writerows(zip(*table.values()))
+            writer.writerows(zip(*table.values(), strict=True))
         os.replace(part, written[0])
         try:
             import pyarrow as pa

@@ -77,4 +77,4 @@ def figure(table: dict[str, list[Any]], columns: tuple[str, ...], metrics: tuple
     return path
 
 
-__all__ = ['WORST', 'worst', 'figure']
+__all__ = ['WORST', 'figure', 'worst']

@@ -1,6 +1,6 @@
 """One run of a sweep, wherever it runs (this process, a LocalCluster worker, a remote
-worker): :func:`execute` takes the shared :class:`~screwgear_ros.sweep.spec.Bundle` (file
-contents, not paths) and a :class:`~screwgear_ros.sweep.spec.RunSpec` and returns the
+worker): :func:`execute` takes the shared :class:`~screwgear_ros.sweep.model.Bundle` (file
+contents, not paths) and a :class:`~screwgear_ros.sweep.model.RunSpec` and returns the
 run's row. A run depends on nothing else (no worker state, no order), so its row is the
 same bits wherever it runs. A run that faults, fails or overruns its time limit is a row
 with its status and reason; nothing escapes.
@@ -14,12 +14,14 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
-from .spec import Bundle, RunSpec
+from ..errors import ScrewgearError
+from .model import Bundle, RunSpec
 
 
 class Status(StrEnum):
@@ -48,7 +50,7 @@ class Outcome:
                 'reason': self.reason, 'metrics': list(self.metrics)}
 
 
-class RunTimeout(Exception):
+class RunTimeout(ScrewgearError):
     """The run went past its deadline (raised between ticks)."""
 
 
@@ -60,6 +62,11 @@ class _Deadline:
     def __init__(self, controller: Any, deadline: float) -> None:
         self.controller, self.deadline = controller, deadline
         self.time = 0.0
+
+    def around(self, controller: Any) -> _Deadline:
+        """This guard, in front of ``controller`` (Scenario.run's ``guard``)."""
+        self.controller = controller
+        return self
 
     def __call__(self, observation: Any) -> Any:
         if time.perf_counter() > self.deadline:
@@ -77,7 +84,7 @@ def _scenario(bundle: Bundle) -> Any:
     controller modules (workers need no shared filesystem)."""
     digest = bundle.digest
     if digest not in _SCENARIOS:
-        from ..scenario import load_scenario
+        from ..sim.scenario import load_scenario
         directory = Path(tempfile.mkdtemp(prefix=f'sweep_{digest}_'))
         for name, text in bundle.sources:
             (directory / name).write_text(text, encoding='utf-8')
@@ -125,20 +132,17 @@ def execute(bundle: Bundle, spec: RunSpec) -> Outcome:
 
 
 def _execute(bundle: Bundle, spec: RunSpec) -> Outcome:
-    from ..commands import InputRejected
-    from ..metrics import run_metrics
-    from ..simulation import Simulation
+    from ..sim.commands import InputRejected
+    from ..sim.metrics import run_metrics
+    from ..sim.simulation import Simulation
 
     started, cpu = time.perf_counter(), time.thread_time()
     nothing = tuple(math.nan for _ in bundle.metrics)
-    guard = None
+    guard = _Deadline(None, started + bundle.time_limit)
     try:
         scenario = _scenario(bundle)
         simulation = Simulation.from_values(dict(bundle.base), **dict(spec.overrides))
-        controller = (None if scenario.controller is None
-                      else scenario.controller.make(simulation, scenario.setpoint))
-        guard = _Deadline(controller, started + bundle.time_limit)
-        run = simulation.run(guard, scenario.duration, events=scenario.events(simulation))
+        run = scenario.run(simulation=simulation, guard=guard.around)
         setpoint = scenario.setpoint
         metrics = run_metrics(run, setpoint, setpoint.joint if setpoint else 'table').as_dict()
         values = tuple(float(metrics[name]) for name in bundle.metrics)
@@ -172,9 +176,9 @@ def warm_up() -> None:
     """Load the compiled model in this process, once (so the first run's time, and its
     time limit, are its own)."""
     if not _WARM:
-        from ..simulation import Simulation
+        from ..sim.simulation import Simulation
         Simulation().reset()
         _WARM.append(True)
 
 
-__all__ = ['Status', 'Outcome', 'RunTimeout', 'execute', 'execute_batch', 'warm_up']
+__all__ = ['Outcome', 'RunTimeout', 'Status', 'execute', 'execute_batch', 'warm_up']

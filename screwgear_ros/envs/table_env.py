@@ -1,0 +1,127 @@
+"""A Gymnasium environment of the table: ``ScrewgearTable-v0``, a thin layer over
+:class:`~screwgear_ros.sim.simulation.Simulation` (``pip install screwgear_ros[gym]``).
+
+One environment step is one tick of the node (1/``publish_rate`` s of simulation time):
+the action takes effect at the tick's first step, as a lockstep controller's answer does.
+
+* **Action**: ``Box(-max_torque, max_torque, (1,), float64)``, the signed drive torque,
+  N·m, exactly cmd_effort's value: the sign is the direction (path), the magnitude the
+  torque; 0 keeps the direction. An action outside the box is clipped to it (a drive's
+  own torque limit); a non-finite one is refused
+  (:class:`~screwgear_ros.sim.commands.InputRejected`).
+* **Observation**: ``Box(-inf, inf, (9,), float64)``: θ1, θ2, θ3 (rad), ω1, ω2, ω3
+  (rad/s) of pinion 1, the table and pinion 3; the transmission error of the active path
+  (m); the target table angle at this instant (rad); the tracking error target − θ2 (rad).
+* **Reward**: ``−(e / error_scale)² − effort_weight · (u / max_torque)²`` per step, with
+  e the tracking error after the step and u the action (clipped): a quadratic tracking
+  cost with a little effort penalty.
+* **Target**: ``target(t)``, t in s from the episode's start → table angle in rad; any
+  callable, e.g. a :class:`~screwgear_ros.sim.scenario.SetpointProfile`. Default: a square wave
+  ±0.05 rad with a 3 s period (the demo controller's profile).
+* **Episode**: ends (``truncated``) after ``duration`` s of simulation time;
+  ``terminated`` when the model diverges (the plant then stands still, ``info['fault']``
+  says why).
+* **Randomness**: none unless asked. ``randomize`` maps parameter names to uniform ranges
+  (low, high); :meth:`~ScrewgearTableEnv.reset` with a seed draws each from the
+  environment's ``np_random`` (the same seed, the same draw) and validates the result as
+  the node would. Nothing else is random: without ``randomize`` every episode is the same.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from typing import Any, ClassVar
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+
+from ..sim.scenario import SetpointProfile
+from ..sim.simulation import Observation, Simulation
+
+ENV_ID = 'ScrewgearTable-v0'
+#: The observation's entries, in order.
+OBSERVATION = ('theta_1', 'theta_2', 'theta_3', 'omega_1', 'omega_2', 'omega_3',
+               'transmission_error', 'target', 'tracking_error')
+DEFAULT_TARGET = SetpointProfile('square', amplitude=0.05, period=3.0)
+
+
+class ScrewgearTableEnv(gymnasium.Env):
+    """The table as a Gymnasium environment; see the module docstring."""
+
+    metadata: ClassVar[dict[str, Any]] = {'render_modes': []}
+
+    def __init__(self, simulation: Simulation | None = None, *, duration: float = 3.0,
+                 target: Callable[[float], float] | None = None, error_scale: float = 1e-3,
+                 effort_weight: float = 1e-3,
+                 randomize: Mapping[str, tuple[float, float]] | None = None,
+                 parameters: Mapping[str, Any] | None = None,
+                 render_mode: str | None = None) -> None:
+        if render_mode is not None:
+            raise ValueError(f'{ENV_ID} renders nothing (render_mode {render_mode!r})')
+        base = simulation or Simulation()
+        if parameters:
+            base = base.with_values(**parameters)
+        self.base = base
+        self.randomize = {name: (float(lo), float(hi))
+                          for name, (lo, hi) in (randomize or {}).items()}
+        for name, (lo, hi) in self.randomize.items():
+            if not lo <= hi:
+                raise ValueError(f'randomize {name}: low {lo:g} > high {hi:g}')
+            base.with_values(**{name: lo})          # a name and a range the node takes
+            base.with_values(**{name: hi})
+        if not (math.isfinite(duration) and duration > 0.0):
+            raise ValueError(f'duration must be > 0 s, got {duration!r}')
+        self.duration = float(duration)
+        self.target = target or DEFAULT_TARGET
+        self.error_scale = float(error_scale)
+        self.effort_weight = float(effort_weight)
+        limit = base.params.max_torque
+        self.action_space = spaces.Box(-limit, limit, shape=(1,), dtype=np.float64)
+        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(len(OBSERVATION),),
+                                            dtype=np.float64)
+        self.render_mode = None
+        self.simulation = base
+        self._t0 = 0.0
+        self._steps = 0
+        self._max_steps = max(1, round(self.duration / base.tick_period))
+
+    def _observe(self, o: Observation) -> np.ndarray:
+        target = self.target(o.time - self._t0)
+        return np.array([*o.position, *o.velocity, o.transmission_error, target,
+                         target - o.position[1]], dtype=np.float64)
+
+    def reset(self, *, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        drawn = {name: float(self.np_random.uniform(lo, hi))
+                 for name, (lo, hi) in self.randomize.items()}
+        self.simulation = self.base.with_values(**drawn) if drawn else self.base
+        limit = self.simulation.params.max_torque
+        if limit != self.action_space.high[0]:
+            raise ValueError('randomize must not change max_torque (it is the action space)')
+        first = self.simulation.reset()
+        self._t0 = first.time
+        self._steps = 0
+        return self._observe(first), {'parameters': drawn, 'time': first.time}
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        u = float(np.asarray(action, dtype=np.float64).reshape(-1)[0])
+        limit = float(self.action_space.high[0])
+        if math.isfinite(u):
+            u = min(limit, max(-limit, u))
+        o = self.simulation.step(u)                # InputRejected for NaN/inf, as the node
+        self._steps += 1
+        observation = self._observe(o)
+        error = observation[-1]
+        reward = -(error / self.error_scale) ** 2 - self.effort_weight * (u / limit) ** 2
+        terminated = o.fault is not None
+        truncated = self._steps >= self._max_steps and not terminated
+        return observation, float(reward), terminated, truncated, {
+            'time': o.time, 'active_path': o.active_path, 'fault': o.fault}
+
+
+gymnasium.register(id=ENV_ID, entry_point='screwgear_ros.envs.table_env:ScrewgearTableEnv')
+
+__all__ = ['DEFAULT_TARGET', 'ENV_ID', 'OBSERVATION', 'ScrewgearTableEnv']

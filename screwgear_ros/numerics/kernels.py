@@ -1,0 +1,77 @@
+"""Where the core's compiled functions are, and whether this process compiled any.
+
+:func:`compiled_now` tells a caller (the node) whether something was compiled in this
+process, i.e. whether numba's cache was missing. It looks only at the kernel modules
+this process imported (a module never imported compiled nothing), so asking costs the
+node nothing beyond what it runs. The kernel modules are named, not imported, here: a
+start of the node must not import check_run's solver or the report's.
+
+:func:`without_blas_probe` spares the node's start numba's probe of SciPy's BLAS, which
+the kernels do not use. Compiling every kernel ahead of time is
+:mod:`screwgear_ros.cli.warmup`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+#: The modules holding the core's compiled functions.
+_MODULES = ('physics.friction', 'physics.mesh', 'physics.drive', 'physics.motion',
+            'numerics.integrator', 'paper.normalized', 'numerics.dop853', 'paper.floquet')
+
+
+def kernels(imported_only: bool = False) -> list[Any]:
+    """Every compiled function of the core; with ``imported_only`` only those of the
+    kernel modules this process has imported (without importing the others)."""
+    names = [f'screwgear_ros.{name}' for name in _MODULES]
+    modules = ([sys.modules[n] for n in names if n in sys.modules] if imported_only
+               else [importlib.import_module(n) for n in names])
+    # a kernel counts once, in the module that defines it, not in each that imports it
+    return [obj for module in modules for obj in vars(module).values()
+            if hasattr(obj, 'stats') and hasattr(obj, 'py_func')
+            and obj.py_func.__module__ == module.__name__]
+
+
+def compiled_now() -> int:
+    """How many kernel signatures this process compiled instead of loading them."""
+    return sum(sum(k.stats.cache_misses.values()) for k in kernels(imported_only=True))
+
+
+@contextmanager
+def without_blas_probe() -> Iterator[None]:
+    """Within: ``scipy.linalg`` cannot be imported, unless it already was.
+
+    The first compiled function a process loads starts numba's CPU target, which imports
+    ``scipy.linalg.cython_blas`` once to learn whether BLAS is there
+    (``numba.np.arraymath._HAVE_BLAS``; an ImportError means no). Importing
+    ``scipy.linalg`` costs 0.14 s of the node's 0.55 s to its first joint_states, and no
+    kernel calls BLAS (the linear algebra of parameter checks and reports is NumPy's,
+    outside the kernels). ``None`` in ``sys.modules`` is Python's way to make an import
+    fail; it is lifted on the way out, so a later import in the process works as usual.
+
+    What it leaves behind, and why that is safe here:
+
+    * ``_HAVE_BLAS`` stays False in this process: a kernel compiled later with
+      ``np.convolve`` or ``np.correlate`` would take numba's loop instead of BLAS;
+    * a kernel compiled *within* (the cache was missing) that calls ``np.dot`` or
+      ``np.linalg`` would fail to compile: none does, and a test compiles the node's
+      kernels within it into an empty cache;
+    * it is process-wide: the node enters it before any other thread of its own runs
+      Python that imports (its signal thread only reads a pipe).
+    """
+    if 'scipy.linalg' in sys.modules:
+        yield
+        return
+    sys.modules['scipy.linalg'] = None     # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        if sys.modules.get('scipy.linalg', 0) is None:
+            del sys.modules['scipy.linalg']
+
+
+__all__ = ['compiled_now', 'kernels', 'without_blas_probe']

@@ -1,0 +1,62 @@
+"""The joint sensors a parameter set declares: per joint an encoder's counts, noise,
+delay and speed filter, and the seed of the noise (what the sensors measure is
+:mod:`screwgear_ros.physics.sensors`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+#: The joints in joint_states order, as the sensor parameters name them.
+JOINTS = ('pinion_1', 'table', 'pinion_3')
+#: Longest measurement delay, ticks: the delay line is kept per joint.
+MAX_DELAY = 1000
+#: Largest seed (the largest value of the node's integer parameter ranges).
+MAX_SEED = 2 ** 31 - 1
+
+
+@dataclass(frozen=True)
+class JointSensor:
+    """The sensor of one joint (see the module docstring)."""
+
+    counts: int = 0                 # per revolution, 0 = ideal
+    position_noise: float = 0.0     # σ_θ, rad
+    velocity_noise: float = 0.0     # σ_ω, rad/s
+    delay: int = 0                  # ticks
+    cutoff: float = 0.0             # f_c, Hz, 0 = no filter
+
+    @property
+    def ideal(self) -> bool:
+        return not (self.counts or self.position_noise or self.velocity_noise or self.delay
+                    or self.cutoff)
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """The three joints' sensors and the seed of their noise."""
+
+    joints: tuple[JointSensor, JointSensor, JointSensor] = (JointSensor(),) * 3
+    seed: int = 0
+
+    @classmethod
+    def of(cls, settings: Any) -> SensorConfig:
+        """The sensors a :class:`~screwgear_ros.params.table.SimSettings` declares."""
+        first, second, third = (JointSensor(getattr(settings, f'encoder_counts_{j}'),
+                                            getattr(settings, f'position_noise_{j}'),
+                                            getattr(settings, f'velocity_noise_{j}'),
+                                            getattr(settings, f'measurement_delay_{j}'),
+                                            getattr(settings, f'velocity_filter_cutoff_{j}'))
+                                for j in JOINTS)
+        return cls((first, second, third), settings.sensor_seed)
+
+    @property
+    def ideal(self) -> bool:
+        """Every joint ideal: the measured joint states are the exact ones."""
+        return all(j.ideal for j in self.joints)
+
+    @property
+    def noisy(self) -> bool:
+        return any(j.position_noise or j.velocity_noise for j in self.joints)
+
+
+__all__ = ['JOINTS', 'MAX_DELAY', 'MAX_SEED', 'JointSensor', 'SensorConfig']

@@ -1,0 +1,97 @@
+"""YAML documents read with the line of every node, for messages that name it.
+
+The file formats a user writes by hand (scenario files, sweep files) are composed, not
+just loaded, so that every refusal says the file and the line of what is wrong. A
+:class:`YamlReader` raises its format's own error type (a ValueError), so each format's
+readers and callers see one exception, whatever the reader found.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+#: The error a reader raises: one of the format's ValueError types, from its message.
+ErrorType = Callable[[str], ValueError]
+
+
+class YamlReader:
+    """Values of a composed YAML document, with the line of every node for messages.
+
+    ``root`` is the document's node (None for an empty document). Every check raises
+    ``error_type('<path>: line <n>: <what is wrong>')``.
+    """
+
+    def __init__(self, path: Path, text: str, error_type: ErrorType = ValueError) -> None:
+        self.path = path
+        self.error_type = error_type
+        self._loader = yaml.SafeLoader(text)
+        try:
+            self.root: yaml.Node | None = self._loader.get_single_node()
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, 'problem_mark', None)
+            where = f'line {mark.line + 1}: ' if mark is not None else ''
+            problem = getattr(exc, 'problem', None) or str(exc)
+            raise error_type(f'{path}: {where}not valid YAML: {problem}') from None
+
+    @classmethod
+    def open(cls, path: str | Path, error_type: ErrorType = ValueError) -> YamlReader:
+        """Read and compose the file at ``path``; a file that cannot be read (missing,
+        not UTF-8) is the format's error too."""
+        path = Path(path)
+        try:
+            text = path.read_text(encoding='utf-8')
+        except (OSError, UnicodeDecodeError) as exc:
+            raise error_type(f'{path}: cannot read: '
+                             f'{getattr(exc, "strerror", None) or exc}') from None
+        return cls(path, text, error_type)
+
+    def error(self, where: yaml.Node | int | None, text: str) -> ValueError:
+        """The format's error for ``text`` at a node, or at a line (1-based) of an entry
+        read earlier, or at no line (None)."""
+        line = where.start_mark.line + 1 if isinstance(where, yaml.Node) else where
+        return self.error_type(f'{self.path}: ' + (f'line {line}: ' if line is not None
+                                                   else '') + text)
+
+    def value(self, node: yaml.Node) -> Any:
+        return self._loader.construct_object(node, deep=True)
+
+    def mapping(self, node: yaml.Node, what: str) -> dict[str, tuple[yaml.Node, yaml.Node]]:
+        """key → (key node, value node) of a mapping node (refused otherwise)."""
+        if not isinstance(node, yaml.MappingNode):
+            raise self.error(node, f'{what} must be a mapping (key: value)')
+        out: dict[str, tuple[yaml.Node, yaml.Node]] = {}
+        for key, value in node.value:
+            name = self.value(key)
+            if not isinstance(name, str):
+                raise self.error(key, f'{what}: a key must be a name, not {name!r}')
+            if name in out:
+                raise self.error(key, f'{what}: {name!r} is given twice')
+            out[name] = (key, value)
+        return out
+
+    def known(self, entries: dict[str, tuple[yaml.Node, yaml.Node]],
+              known: tuple[str, ...], what: str) -> None:
+        """Refuse the first key of ``entries`` that is not one of ``known``."""
+        for name, (key, _) in entries.items():
+            if name not in known:
+                raise self.error(key, f'unknown {what} {name!r} (known: {", ".join(known)})')
+
+    def number(self, node: yaml.Node, what: str, low: float | None = None,
+               strict: bool = False) -> float:
+        """A finite number, at least ``low`` (above it if ``strict``)."""
+        value = self.value(node)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not math.isfinite(value):
+            raise self.error(node, f'{what} must be a finite number, not {value!r}')
+        if low is not None and (value <= low if strict else value < low):
+            raise self.error(node, f'{what} must be {">" if strict else ">="} {low:g}, '
+                             f'not {value!r}')
+        return float(value)
+
+
+__all__ = ['ErrorType', 'YamlReader']

@@ -1,0 +1,250 @@
+"""The equations of motion of the 3-DOF double screw gear (``shared/spec/model.md`` §3):
+the torque on each body from the mesh law (:mod:`.mesh`), the drive line (:mod:`.drive`)
+and bearing friction (:mod:`.friction`), the right-hand side the integrators and the
+reference take, what the node publishes about a state, and the stiffest linearization
+that bounds an explicit step.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ..params.table import Mode, TableParams, effective_stiffness, ste_slope
+from .drive import DrivePiece, lag_rates, pinion_torques
+from .friction import FrictionPiece, friction_on, friction_piece
+from .jit import kernel
+from .mesh import ContactBranch, contact_branch, mesh_load_on, mesh_motion
+from .packed import (
+    CP,
+    CT,
+    I1,
+    I2,
+    I3,
+    MODE,
+    MODE_CONVENTIONAL,
+    N_MECHANICAL,
+    R1,
+    R2,
+    R3,
+    TC2,
+    TCP,
+    TS2,
+    TSP,
+    WS2,
+    WSP,
+    Z1,
+    Z3,
+    B,
+    C,
+    Drive,
+    PackedModel,
+)
+
+
+class Pieces(NamedTuple):
+    """The pieces of the law the equations of motion are on (:func:`motion`): what a step
+    holds while it integrates one smooth piece (:mod:`screwgear_ros.numerics.integrator`)."""
+
+    branch_1: ContactBranch     # of mesh 1
+    branch_3: ContactBranch     # of mesh 3
+    drive: DrivePiece           # of the drive's torque–speed line
+    # of each body's bearing friction law (:mod:`screwgear_ros.physics.friction`)
+    friction_1: FrictionPiece = FrictionPiece.FROM_STATE    # pinion 1
+    friction_2: FrictionPiece = FrictionPiece.FROM_STATE    # the table
+    friction_3: FrictionPiece = FrictionPiece.FROM_STATE    # pinion 3
+
+
+#: Pieces meaning "the ones the law picks at the state".
+BY_LAW = Pieces(ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE,
+                FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE)
+
+
+@kernel
+def body_torques(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
+                 ) -> tuple[float, float, float, float, float, float, float, ContactBranch,
+                            ContactBranch, DrivePiece]:
+    """The torque on each body from everything but its bearing friction at state y, the
+    meshes on the contact branches and the drive on the piece of its line ``held`` names
+    (FROM_STATE: the ones the contact law and the drive line pick at this state):
+
+    τ1 = T1 − Q1 − c_p·θ̇1;  τ3 = T3 − Q3 − c_p·θ̇3;  τ2 = r2·(F1 + F3) − T_load − c_t·θ̇2,
+
+    Q = r·F (`paper`) or the energy-consistent pinion load (:func:`mesh_load_on`); T1, T3
+    those of :func:`pinion_torques` (through the drive's torque–speed line; lagged by the
+    current loops; with cogging). In `conventional` mode pinion 3 is disengaged
+    (F3 = Q3 = 0).
+
+    Returns (τ1, τ2, τ3, T1, T3 in N·m, F1, F3 in N, branch of mesh 1, branch of mesh 3,
+    drive piece).
+    """
+    p = model.p
+    th1, th2, th3, w1, w2, w3 = y[0], y[1], y[2], y[3], y[4], y[5]
+    t1, t3, piece = pinion_torques(held.drive, t, y, drive.torque, drive.direction, p)
+    f1, q1, branch_1 = mesh_load_on(th1, w1, p[R1], p[Z1], th2, w2, t, model, held.branch_1)
+    if p[MODE] == MODE_CONVENTIONAL:
+        f3, q3, branch_3 = 0.0, 0.0, ContactBranch.DISENGAGED
+    else:
+        f3, q3, branch_3 = mesh_load_on(th3, w3, p[R3], p[Z3], th2, w2, t, model,
+                                        held.branch_3)
+    tau1 = t1 - q1
+    tau3 = t3 - q3
+    if p[CP] != 0.0:
+        tau1 -= p[CP] * w1
+        tau3 -= p[CP] * w3
+    table = p[R2] * (f1 + f3) - drive.load - p[CT] * w2
+    return tau1, table, tau3, t1, t3, f1, f3, branch_1, branch_3, piece
+
+
+@kernel
+def friction_pieces(y: tuple, tau1: float, tau2: float, tau3: float, p: np.ndarray,
+                    held: Pieces) -> tuple[FrictionPiece, FrictionPiece, FrictionPiece]:
+    """The pieces of the bearing friction law (:func:`~screwgear_ros.physics.friction.friction_piece`)
+    of pinion 1, the table and pinion 3 at state y, coming from the ones ``held`` names
+    (FROM_STATE: from the speeds and torques alone), under the torques τ of
+    :func:`body_torques`."""
+    return (friction_piece(held.friction_1, y[3], tau1, p[TSP]),
+            friction_piece(held.friction_2, y[4], tau2, p[TS2]),
+            friction_piece(held.friction_3, y[5], tau3, p[TSP]))
+
+
+@kernel
+def motion(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
+           ) -> tuple[float, float, float, float, float, float, float, float, Pieces]:
+    """The 3-DOF equations of motion (model.md §3) at state y, the meshes on the contact
+    branches, the drive on the piece of its line and each body's bearing friction on the
+    piece of its law ``held`` names (FROM_STATE: the ones the laws pick at this state;
+    :data:`BY_LAW` all of them).
+
+    I_j·θ̈_j = τ_j + T_f,j with the torques τ of :func:`body_torques` and the bearing
+    friction T_f of :func:`~screwgear_ros.physics.friction.friction_on` (docs/model_notes.md §14:
+    stuck, θ̈_j = 0; no friction, τ_j/I_j exactly as the model without it).
+
+    Returns (θ̈1, θ̈2, θ̈3 in rad/s², T1, net table torque (its friction included), T3
+    in N·m, F1, F3 in N, the pieces the law was on).
+    """
+    p = model.p
+    tau1, tau2, tau3, t1, t3, f1, f3, branch_1, branch_3, piece = body_torques(
+        t, y, model, drive, held)
+    friction_1, friction_2, friction_3 = held.friction_1, held.friction_2, held.friction_3
+    if friction_1 == FrictionPiece.FROM_STATE:
+        friction_1 = friction_piece(friction_1, y[3], tau1, p[TSP])
+    if friction_2 == FrictionPiece.FROM_STATE:
+        friction_2 = friction_piece(friction_2, y[4], tau2, p[TS2])
+    if friction_3 == FrictionPiece.FROM_STATE:
+        friction_3 = friction_piece(friction_3, y[5], tau3, p[TSP])
+    a1 = friction_on(friction_1, y[3], tau1, p[I1], p[TCP], p[TSP], p[WSP])[0]
+    a2, table_friction = friction_on(friction_2, y[4], tau2, p[I2], p[TC2], p[TS2], p[WS2])
+    a3 = friction_on(friction_3, y[5], tau3, p[I3], p[TCP], p[TSP], p[WSP])[0]
+    table = tau2 if friction_2 == FrictionPiece.NONE else tau2 + table_friction
+    return (a1, a2, a3, t1, table, t3, f1, f3,
+            Pieces(branch_1, branch_3, piece, friction_1, friction_2, friction_3))
+
+
+@kernel
+def state_rate(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
+               ) -> tuple[tuple, Pieces]:
+    """dy/dt (rad/s, rad/s², N·m/s) with the law on the pieces ``held`` names
+    (:func:`motion`), and the pieces it was on."""
+    m = motion(t, y, model, drive, held)
+    l1, l3 = lag_rates(y, drive.torque, drive.direction, m[8].drive, model.p)
+    return (y[3], y[4], y[5], m[0], m[1], m[2], l1, l3), m[8]
+
+
+@kernel
+def rhs(t: float, y: tuple, model: PackedModel, drive: Drive) -> tuple:
+    """dy/dt of the equations of motion (:func:`motion`) and of the current loops
+    (:func:`lag_rates`)."""
+    return state_rate(t, y, model, drive, BY_LAW)[0]
+
+
+@kernel
+def contact_branches(t: float, y: tuple, model: PackedModel
+                     ) -> tuple[ContactBranch, ContactBranch]:
+    """The branches of the contact law mesh 1 and mesh 3 are on at state y."""
+    p = model.p
+    th1, th2, th3, w1, w2, w3 = y[0], y[1], y[2], y[3], y[4], y[5]
+    _, _, d1, dd1, k1 = mesh_motion(th1, w1, p[R1], p[Z1], th2, w2, t, model)
+    if p[MODE] == MODE_CONVENTIONAL:
+        return contact_branch(d1, dd1, k1, p[C], p[B]), ContactBranch.DISENGAGED
+    _, _, d3, dd3, k3 = mesh_motion(th3, w3, p[R3], p[Z3], th2, w2, t, model)
+    return contact_branch(d1, dd1, k1, p[C], p[B]), contact_branch(d3, dd3, k3, p[C], p[B])
+
+
+@kernel
+def pieces(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces) -> Pieces:
+    """The pieces the law is on at state y, without the slope: the contact branches and
+    the drive piece the state picks, each bearing's friction piece coming from the one
+    ``held`` names (:func:`friction_pieces`: a slipping body whose speed has reached zero
+    is judged at rest; FROM_STATE, as in :data:`BY_LAW`: what :func:`motion` picks)."""
+    tau1, tau2, tau3, _, _, _, _, branch_1, branch_3, piece = body_torques(
+        t, y, model, drive, BY_LAW)
+    friction_1, friction_2, friction_3 = friction_pieces(y, tau1, tau2, tau3, model.p, held)
+    return Pieces(branch_1, branch_3, piece, friction_1, friction_2, friction_3)
+
+
+@kernel
+def effort_and_meshes(t: float, y: tuple, model: PackedModel, drive: Drive
+            ) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """What the node publishes about a state besides the state itself: the torques
+    applied to pinion 1, the table (net, = I2·θ̈2) and pinion 3 (N·m; on the pinions the
+    preload and the drive torque actually applied, :func:`pinion_torques`: the command
+    itself below the drive's line with no lag), then δ (m), δ̇ (m/s) and
+    the mesh force F (N) of mesh 1 and of mesh 3 (δ3 and δ̇3 also when pinion 3 is
+    disengaged, with F3 = 0)."""
+    p = model.p
+    th1, th2, th3, w1, w2, w3 = y[0], y[1], y[2], y[3], y[4], y[5]
+    _, _, _, t1, table, t3, f1, f3, _ = motion(t, y, model, drive, BY_LAW)
+    _, _, d1, dd1, _ = mesh_motion(th1, w1, p[R1], p[Z1], th2, w2, t, model)
+    _, _, d3, dd3, _ = mesh_motion(th3, w3, p[R3], p[Z3], th2, w2, t, model)
+    return t1, table, t3, d1, dd1, f1, d3, dd3, f3
+
+
+def rhs_vector(t: float, y: np.ndarray, model: PackedModel, drive: Drive) -> np.ndarray:
+    """The same right-hand side on a state vector, for SciPy solvers: N_STATE long, or the
+    mechanical state alone (the drives' lagged torques then 0), as long as ``y``."""
+    lag = (y[6], y[7]) if len(y) > N_MECHANICAL else (0.0, 0.0)
+    return np.array(rhs(t, (y[0], y[1], y[2], y[3], y[4], y[5], *lag), model, drive))[:len(y)]
+
+
+def stiffest_linearization(params: TableParams) -> np.ndarray:
+    """System matrix A (6×6, dy/dt = A·y) of the equations of motion linearized at their
+    stiffest: every mesh that can carry force in contact at K = k_eff + k_a, with the
+    longest pinion lever r + z·Σ n·|ε_n| (`angle` phase, see
+    :func:`~screwgear_ros.params.table.ste_slope`), mesh and table damping included, and the
+    drive's torque–speed line on every pinion it can drive (its slope −T_s/ω_nl acts as
+    a damper on the driven pinion; :func:`drive_piece`) with the pinions' viscous bearing
+    loss c_p. Bearing friction's Stribeck slope is left out (docs/model_notes.md §14).
+    Generalized mesh directions: δ1 = r1·θ1 − r2·θ2, δ3 = r3·θ3 − r2·θ2 (mesh 3 only
+    in `anti_backlash`). Its eigenvalues bound the step an explicit method can take."""
+    k = effective_stiffness(params) + params.mesh_stiffness_amplitude
+    lever_1 = params.radius_pinion_1 + ste_slope(params, '1')
+    lever_3 = params.radius_pinion_3 + ste_slope(params, '3')
+    inertia = np.array([params.inertia_pinion_1, params.inertia_table, params.inertia_pinion_3])
+    g = np.array([[lever_1, -params.radius_table, 0.0], [0.0, -params.radius_table, lever_3]])
+    drive = (params.drive_stall_torque / params.drive_no_load_speed
+             if params.drive_no_load_speed > 0.0 else 0.0)
+    driven = np.array([drive + params.pinion_damping, 0.0, drive + params.pinion_damping])
+    if params.mode is Mode.CONVENTIONAL:
+        g, driven[2] = g[:1], 0.0
+    stiffness = k * g.T @ g
+    damping = params.mesh_damping * g.T @ g + np.diag(driven + [0.0, params.table_damping, 0.0])
+    m_inv = np.diag(1.0 / inertia)
+    return np.block([[np.zeros((3, 3)), np.eye(3)], [-m_inv @ stiffness, -m_inv @ damping]])
+
+
+__all__ = [
+    'BY_LAW',
+    'Pieces',
+    'body_torques',
+    'contact_branches',
+    'effort_and_meshes',
+    'friction_pieces',
+    'motion',
+    'pieces',
+    'rhs',
+    'rhs_vector',
+    'state_rate',
+    'stiffest_linearization',
+]

@@ -1,5 +1,0 @@
-"""The paper report: one module per section, each ``compute(quick)`` → ``render(result, outdir)``.
-
-:func:`screwgear_ros.report.builder.build` runs them all and writes ``report.md`` with its
-PNG figures. Needs no ROS.
-"""

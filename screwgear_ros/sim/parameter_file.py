@@ -1,0 +1,93 @@
+"""table_sim's parameters from a ROS 2 parameter file or by name, validated as the node
+validates them: what an in-process :class:`~screwgear_ros.sim.simulation.Simulation`
+is built from."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from typing import Any
+
+import yaml
+
+from ..errors import ScrewgearError
+from ..params.table import SimSettings, TableParams
+from .parameter_set import default_values, split_parameters
+
+#: Keys of a ROS 2 parameter file whose ``ros__parameters`` table_sim takes: any node
+#: (``/**``) and the node's own name, with or without its leading slash.
+NODE_KEYS = ('/**', 'table_sim', '/table_sim', '/**/table_sim')
+
+
+class ParameterFileError(ScrewgearError, ValueError):
+    """A parameter file that cannot be read as table_sim's parameters; says why."""
+
+
+def file_values(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The table_sim parameters of a ROS 2 parameter file (``/**:`` or node-name keys
+    with ``ros__parameters``, in file order; or a bare mapping of parameter names).
+
+    The one reader of a parameter file: the node's ``--params-file`` semantics, used by
+    :meth:`~screwgear_ros.sim.simulation.Simulation.from_yaml`, sweeps and the design
+    tools alike.
+    """
+    try:
+        with open(path, encoding='utf-8') as stream:
+            document = yaml.safe_load(stream)
+    except OSError as exc:
+        raise ParameterFileError(f'{path}: cannot read: {exc.strerror or exc}') from None
+    except yaml.YAMLError as exc:
+        raise ParameterFileError(f'{path}: not valid YAML: {exc}') from None
+    return document_values(document, str(path))
+
+
+def document_values(document: Any, source: str = 'the document') -> dict[str, Any]:
+    """The table_sim parameters of a parsed parameter file (see :func:`file_values`);
+    ``source`` names it in messages."""
+    if document is None:
+        return {}
+    if not isinstance(document, dict):
+        raise ParameterFileError(f'{source}: a parameter file is a mapping, not '
+                                 f'{type(document).__name__}')
+    sections = {k: v for k, v in document.items()
+                if isinstance(v, dict) and 'ros__parameters' in v}
+    if not sections:
+        return dict(document)
+    values: dict[str, Any] = {}
+    for key, section in sections.items():
+        if key in NODE_KEYS:
+            entries = section['ros__parameters'] or {}
+            if not isinstance(entries, dict):
+                raise ParameterFileError(f'{source}: {key}: ros__parameters must be a mapping')
+            values.update(entries)
+    if not any(key in NODE_KEYS for key in sections):
+        raise ParameterFileError(f'{source}: no parameters for table_sim (keys '
+                                 f'{", ".join(NODE_KEYS)}); found {", ".join(map(str, sections))}')
+    return values
+
+
+def load_yaml(path: str | os.PathLike[str]) -> tuple[TableParams, SimSettings]:
+    """The validated (TableParams, SimSettings) of a parameter file: :func:`file_values`
+    over the node's defaults."""
+    return resolve(file_values(path))
+
+
+def resolve(values: Mapping[str, Any] | None = None, **overrides: Any) -> tuple[
+        TableParams, SimSettings]:
+    """The node's defaults, then ``values``, then ``overrides``, by parameter name,
+    validated as the node validates them (ParameterError naming the parameter)."""
+    return split_parameters({**default_values(), **dict(values or {}), **overrides})
+
+
+def __getattr__(name: str) -> Any:
+    # The merging reader ``screwgear_ros.parameter_sets`` had: the one reader serves all.
+    if name == 'ros_parameters':
+        import warnings
+        warnings.warn(f'{__name__}.ros_parameters is document_values; the old name goes in '
+                      'the next release', DeprecationWarning, stacklevel=2)
+        return document_values
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+
+
+__all__ = ['NODE_KEYS', 'ParameterFileError', 'default_values', 'document_values', 'file_values',
+           'load_yaml', 'resolve', 'split_parameters']

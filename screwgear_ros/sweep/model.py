@@ -1,0 +1,222 @@
+"""A sweep's data: the runs one sweep file resolves to, and what they share.
+
+:class:`Sweep` holds the shared :class:`Bundle` (file contents, sent to the workers),
+its :class:`Axis` list and one :class:`RunSpec` per run; :func:`run_seed` derives a
+run's seed from the sweep seed and its index alone. No Dask, no file reading here.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Any
+
+import numpy as np
+
+from ..errors import ScrewgearError
+
+
+class SweepError(ScrewgearError, ValueError):
+    """A sweep that cannot run; the message names the file, the line and the entry."""
+
+
+class Law(StrEnum):
+    """A Monte Carlo distribution: its arguments in the file, in order."""
+
+    UNIFORM = 'uniform'                      # [low, high]
+    NORMAL = 'normal'                        # [mean, std]
+    TRUNCATED_NORMAL = 'truncated_normal'    # [mean, std, low, high]
+
+
+ARGUMENTS = {Law.UNIFORM: ('low', 'high'), Law.NORMAL: ('mean', 'std'),
+             Law.TRUNCATED_NORMAL: ('mean', 'std', 'low', 'high')}
+
+
+@dataclass(frozen=True)
+class Draw:
+    """One Monte Carlo draw: ``law`` with its ``arguments``."""
+
+    law: Law
+    arguments: tuple[float, ...]
+
+    def sample(self, rng: np.random.Generator) -> float:
+        a = self.arguments
+        if self.law is Law.UNIFORM:
+            return float(rng.uniform(a[0], a[1]))
+        if self.law is Law.NORMAL:
+            return float(rng.normal(a[0], a[1]))
+        from scipy.special import ndtr, ndtri
+        mean, std, low, high = a
+        lo, hi = ndtr((low - mean) / std), ndtr((high - mean) / std)
+        value = mean + std * float(ndtri(lo + (hi - lo) * rng.random()))
+        return min(max(value, low), high)      # the inverse CDF's last-bit rounding
+
+
+@dataclass(frozen=True)
+class Axis:
+    """A swept parameter: its grid values or its draw; ``scale``: the values multiply
+    the base value (each element of a list parameter) instead of replacing it."""
+
+    name: str
+    line: int
+    scale: bool = False
+    values: tuple[Any, ...] = ()      # grid
+    draw: Draw | None = None          # Monte Carlo
+
+    @property
+    def column(self) -> str:
+        return f'{self.name}_scale' if self.scale else self.name
+
+    def sample(self, rng: np.random.Generator) -> float:
+        """One value of this axis' draw (a grid axis has none: ValueError)."""
+        if self.draw is None:
+            raise ValueError(f'{self.name} is a grid axis: it has no draw')
+        return self.draw.sample(rng)
+
+    def apply(self, base: Any, value: Any) -> Any:
+        if not self.scale:
+            return value
+        if isinstance(base, (list, tuple)):
+            return [float(x) * value for x in base]
+        return base * value
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run: ``index`` in the sweep, its ``seed``, the swept values by column
+    (:attr:`Axis.column`), the parameters they set, and ``key``: the digest of all the
+    run depends on."""
+
+    index: int
+    seed: int
+    swept: tuple[tuple[str, Any], ...]
+    overrides: tuple[tuple[str, Any], ...]
+    key: str
+
+
+@dataclass(frozen=True)
+class Bundle:
+    """What every run of a sweep shares, as contents (picklable, sent to the workers):
+    the scenario file's text and the controller modules beside it, the base values."""
+
+    scenario_name: str
+    scenario_text: str
+    sources: tuple[tuple[str, str], ...]      # (file name, text) of controller modules
+    base: tuple[tuple[str, Any], ...]         # base file, then the scenario's parameters
+    metrics: tuple[str, ...]
+    time_limit: float
+
+    @property
+    def digest(self) -> str:
+        return digest({'scenario_name': self.scenario_name, 'scenario': self.scenario_text,
+                        'sources': self.sources, 'base': self.base,
+                        'metrics': self.metrics, 'time_limit': self.time_limit})
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A validated sweep: the shared :class:`Bundle`, its axes, its runs, and the
+    resolved document written to ``DIR/sweep.yaml``."""
+
+    path: str
+    bundle: Bundle
+    grid: tuple[Axis, ...]
+    draws: tuple[Axis, ...]
+    count: int
+    seed: int
+    runs: tuple[RunSpec, ...]
+    base_file: str | None
+    scenario_file: str
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        return tuple(a.column for a in (*self.grid, *self.draws))
+
+    def resolved(self) -> dict[str, Any]:
+        """The resolved sweep (every drawn value), as written to DIR/sweep.yaml."""
+        b = self.bundle
+        return {
+            'sweep_file': self.path,
+            'parameters_file': self.base_file,
+            'scenario_file': self.scenario_file,
+            'scenario_text': b.scenario_text,
+            'controller_sources': {name: text for name, text in b.sources},
+            'base_parameters': plain(dict(b.base)),
+            'metrics': list(b.metrics),
+            'time_limit': b.time_limit,
+            'grid': {a.column: plain(list(a.values)) for a in self.grid},
+            'monte_carlo': {'count': self.count, 'seed': self.seed,
+                            'parameters': {a.column: {a.draw.law.value: list(a.draw.arguments)}
+                                           for a in self.draws if a.draw is not None}},
+            'runs': [{'index': r.index, 'seed': r.seed, 'key': r.key,
+                      'values': plain(dict(r.swept))} for r in self.runs],
+        }
+
+
+def plain(value: Any) -> Any:
+    """The value YAML/JSON-friendly: tuples → lists, enums → strings, NumPy → Python.
+
+    Parameters
+    ----------
+    value
+        Any value of a sweep (nested dicts, lists and tuples too).
+
+    Returns
+    -------
+    Any
+        The same value in plain Python types.
+
+    Examples
+    --------
+    >>> plain({1: (Law.NORMAL, 2)})
+    {'1': ['normal', 2]}
+    """
+    if isinstance(value, dict):
+        return {str(k): plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [plain(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, StrEnum):
+        return value.value
+    return value
+
+
+def digest(value: Any) -> str:
+    """A short SHA-256 digest of ``value``'s canonical JSON (:func:`plain`, sorted keys).
+
+    Parameters
+    ----------
+    value
+        What a run depends on.
+
+    Returns
+    -------
+    str
+        16 hex digits; equal values give equal digests on any machine.
+
+    Examples
+    --------
+    >>> digest({'a': 1, 'b': (2, 3)}) == digest({'b': [2, 3], 'a': 1})
+    True
+    """
+    text = json.dumps(plain(value), sort_keys=True, separators=(',', ':'))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def run_seed(sweep_seed: int, index: int) -> int:
+    """The seed of run ``index``: from the sweep seed and the index only (never from a
+    worker or from the order runs finish in)."""
+    return int(np.random.SeedSequence(sweep_seed, spawn_key=(index,))
+               .generate_state(1, np.uint32)[0])
+
+
+def drawn_column_is_number(sweep: Sweep, column: str) -> bool:
+    """Whether a swept column holds numbers (a list parameter's grid values do not)."""
+    return all(isinstance(dict(r.swept)[column], (int, float)) for r in sweep.runs)
+
+
+__all__ = ['ARGUMENTS', 'Axis', 'Bundle', 'Draw', 'Law', 'RunSpec', 'Sweep', 'SweepError',
+           'digest', 'drawn_column_is_number', 'plain', 'run_seed']

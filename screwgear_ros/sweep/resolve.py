@@ -1,0 +1,93 @@
+"""A sweep's runs: each resolved from its grid point and draw, and validated as the node
+would take it (:func:`~screwgear_ros.sim.parameter_set.split_parameters`, then the scenario's
+parameter changes on top), before any run starts.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+import numpy as np
+
+from ..params.declarations import ParameterError, declared
+from ..params.table import SimSettings, TableParams
+from ..params.yaml_reader import YamlReader
+from ..sim.parameter_set import split_parameters
+from .model import Axis, Bundle, RunSpec, digest, plain, run_seed
+
+#: Parameters the node refuses to change while it runs.
+READ_ONLY = frozenset(p.name for cls in (TableParams, SimSettings) for p in declared(cls)
+                      if p.declaration.read_only)
+
+
+def resolve_runs(reader: YamlReader, bundle: Bundle, scenario: Any, grid: tuple[Axis, ...],
+          draws: tuple[Axis, ...], count: int, seed: int) -> list[RunSpec]:
+    """Every run, in index order (grid point major, then draw), each validated."""
+    base = dict(bundle.base)
+    points = list(itertools.product(*(a.values for a in grid))) if grid else [()]
+    shared = bundle.digest
+    runs = []
+    for index in range(len(points) * count):
+        point = points[index // count]
+        rng_seed = run_seed(seed, index)
+        rng = np.random.default_rng(rng_seed)
+        chosen = [*zip(grid, point, strict=True), *((a, a.sample(rng)) for a in draws)]
+        overrides = {a.name: a.apply(base.get(a.name, _default(a.name)), v)
+                     for a, v in chosen}
+        _validate(reader, scenario, base, overrides, chosen, index)
+        swept = tuple((a.column, plain(v)) for a, v in chosen)
+        key = digest({'bundle': shared, 'index': index, 'seed': rng_seed,
+                       'overrides': overrides})
+        runs.append(RunSpec(index, rng_seed, swept, tuple(plain(overrides).items()), key))
+    return runs
+
+
+def _default(name: str) -> Any:
+    from ..sim.parameter_set import default_values
+    return default_values()[name]
+
+
+def _validate(reader: YamlReader, scenario: Any, base: dict[str, Any],
+              overrides: dict[str, Any], chosen: list[tuple[Axis, Any]], index: int) -> None:
+    """The run as the node would take it: its parameters, then the scenario's parameter
+    changes on top of them (each a run of the node's validation)."""
+    def where(name: str | None) -> int | None:
+        for axis, _ in chosen:
+            if axis.name == name:
+                return axis.line
+        for axis, _ in chosen:            # a rule of several parameters (RK4's dt limit):
+            try:                          # the first swept value that breaks it alone
+                split_parameters({**base, axis.name: overrides[axis.name]})
+            except ParameterError:
+                return axis.line
+        return chosen[0][0].line if chosen else None
+
+    swept = ', '.join(f'{a.column} = {v!r}' for a, v in chosen)
+    try:
+        params, settings = split_parameters({**base, **overrides})
+        values = {**params.as_dict(), **settings.as_dict()}
+        for action in scenario.actions:
+            if action.kind != 'parameters':
+                continue
+            for name in action.value:
+                if name in READ_ONLY and values.get(name) != action.value[name]:
+                    raise ParameterError(name, action.value[name], f'is read-only: the '
+                                         f'scenario changes it at {action.time:g} s '
+                                         f'(line {action.line}), which the node refuses')
+            values = {**values, **action.value}
+            split_parameters(values)
+    except ParameterError as exc:
+        hint = ''
+        if isinstance(exc.value, str):
+            try:
+                float(exc.value)
+                hint = (f' (YAML reads {exc.value} as text: a number with an exponent '
+                        f'needs a dot and a signed exponent, e.g. 1.0e+7, 2.0e-5)')
+            except ValueError:
+                pass
+        raise reader.error(where(exc.name), f'run {index} ({swept}) is refused by '
+                           f'table_sim: {exc}{hint}') from None
+
+
+__all__ = ['READ_ONLY', 'resolve_runs']
