@@ -22,6 +22,7 @@ _API = {
     'Scenario': 'sim.scenario', 'load_scenario': 'sim.scenario', 'ScenarioError': 'sim.scenario',
     'run_metrics': 'sim.metrics', 'Metrics': 'sim.metrics',
     'DemoController': 'sim.control',
+    'identify': 'identify', 'IdentifyResult': 'identify', 'IdentifyError': 'identify',
 }
 
 _moved.install(__name__)

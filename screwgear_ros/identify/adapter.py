@@ -1,0 +1,154 @@
+"""The one place identification touches the package's simulation and parameter code.
+
+:func:`simulate` re-runs a recording's commands through the node's own
+:class:`~screwgear_ros.sim.session.Session` (the project's one simulation loop): each
+tick that applies commands is a :meth:`Session.tick`, the ticks between them one
+compiled :meth:`Session.tick_quietly` call. What joint_states would publish is then
+made by the node's own :class:`~screwgear_ros.physics.sensors.SensorChain` with the
+base file's measurement delay and speed filter, but without noise or encoder counts:
+the fit compares a smooth prediction with the noisy measurement (quantisation would
+make the cost a staircase that finite differences cannot see into).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from ..interface import Input
+from ..params.declarations import Declaration, Kind, declared
+from ..params.table import ParameterError, SimSettings, TableParams
+from ..physics.sensors import JOINTS as SENSOR_JOINTS
+from ..physics.sensors import SensorChain, SensorConfig
+from ..sim.commands import InputRejected
+from ..sim.events import Command
+from ..sim.session import ROW, Session
+from ..sim.simulation import ParameterFileError, file_values, resolve
+from .errors import FitParameterError, RecordingError
+from .recording import Recording
+
+
+class Diverged(Exception):
+    """The model cannot be run or diverged at a trial point (a large residual)."""
+
+
+def base_values(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The parameters a ROS 2 parameter file sets (validated as the node validates them).
+
+    Raises
+    ------
+    FitParameterError
+        The file cannot be read, or the node would refuse a value in it.
+    """
+    try:
+        values = file_values(path)
+        resolve(values)
+    except (ParameterFileError, ParameterError) as exc:
+        raise FitParameterError(f'--params {path}: {exc}') from None
+    return values
+
+
+def declarations() -> dict[str, tuple[Kind, Declaration, Any]]:
+    """Every physical parameter (TableParams) with its kind, declaration, default."""
+    return {p.name: (p.kind, p.declaration, p.default) for p in declared(TableParams)}
+
+
+def settings_names() -> set[str]:
+    return {p.name for p in declared(SimSettings)}
+
+
+def model(values: Mapping[str, Any]) -> tuple[TableParams, SimSettings]:
+    """The validated model of ``values`` over the node's defaults (:class:`Diverged`
+    where the node refuses them: a trial point the model cannot run)."""
+    try:
+        return resolve(values)
+    except (ParameterError, ValueError, ArithmeticError) as exc:
+        raise Diverged(str(exc)) from None
+
+
+def tick_period(values: Mapping[str, Any]) -> float:
+    _, settings = resolve(values)
+    return settings.steps_per_publish * settings.dt
+
+
+def _prediction_sensors(settings: SimSettings) -> SensorConfig:
+    """The base file's sensors without noise and counts: delay and speed filter only."""
+    config = settings.sensors
+    joints = tuple(replace(j, counts=0, position_noise=0.0, velocity_noise=0.0)
+                   for j in config.joints)
+    return SensorConfig(joints, config.seed)  # type: ignore[arg-type]
+
+
+def simulate(values: Mapping[str, Any], recording: Recording) -> np.ndarray:
+    """(n, 6) θ and ω of the three joints as joint_states would publish them, at the
+    recording's samples, for the model of ``values``, from the preload equilibrium.
+
+    Raises
+    ------
+    Diverged
+        The node refuses ``values``, or the model diverged.
+    RecordingError
+        A recorded command the node refuses (with these parameters).
+    """
+    params, settings = model(values)
+    n = recording.samples
+    rows = np.empty((n, ROW))
+    session = Session(params, settings)
+    first = session.last_outputs
+    rows[0, :6] = (*first.position, *first.velocity)
+    inputs, k, i = recording.inputs, 0, 1
+    while i < n:
+        due = inputs[k][0] if k < len(inputs) else n
+        if due > i:
+            done = session.tick_quietly(due - i, rows[i:])
+            if done:
+                i += done
+                if session.plant.fault is not None:
+                    raise Diverged(session.plant.fault)
+                continue
+        group = []
+        while k < len(inputs) and inputs[k][0] <= i:
+            group.append(inputs[k])
+            k += 1
+        if len(group) == 1 and group[0][1] == Input.CMD_EFFORT and len(group[0][2]) == 1:
+            # a closed loop's tick: the session's fast path when it takes only this
+            tick = session.tick_effort(group[0][2][0])
+            if tick is None:
+                if session.plant.fault is not None:
+                    raise Diverged(session.plant.fault)
+                o = session.last_outputs
+                rows[i, :6] = (*o.position, *o.velocity)
+                i += 1
+                continue
+        else:
+            for _, topic, value in group:
+                session.submit(Command(str(topic), value))
+            tick = session.tick()
+        if tick.rejected:
+            error: InputRejected = tick.rejected[0]
+            raise RecordingError(f'{recording.path}: tick {i}: the node refuses a recorded '
+                                 f'command: {error}')
+        if tick.fault is not None:
+            raise Diverged(tick.fault)
+        o = tick.outputs
+        rows[i, :6] = (*o.position, *o.velocity)
+        i += 1
+    out = rows[:, :6]
+    chain = SensorChain(_prediction_sensors(settings), settings.dt)
+    if not chain.ideal:
+        steps = settings.steps_per_publish * np.arange(n)
+        for j in range(n):
+            position, velocity = chain.measure_values(int(steps[j]), out[j, :3].tolist(),
+                                                        out[j, 3:].tolist())
+            out[j, :3], out[j, 3:] = position, velocity
+    if not np.isfinite(out).all():
+        raise Diverged('the simulated joint states are not finite')
+    return np.array(out)
+
+
+__all__ = ['SENSOR_JOINTS', 'Diverged', 'base_values', 'declarations', 'model',
+           'settings_names', 'simulate', 'tick_period']
