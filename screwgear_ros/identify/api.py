@@ -162,7 +162,8 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
         describe = evaluator.describe()
         simulations, sim_seconds = evaluator.simulations, evaluator.sim_seconds
     stats = statistics(fitted, outcome.x, outcome.residual, outcome.jacobian,
-                       problem.lag_correlation(outcome.residual))
+                       problem.lag_correlation(outcome.residual),
+                       sum(r.reversals for r in recordings))
     values = values_of(fitted, outcome.x)
     after = {**base, **values}
     comparisons = compare(problem, recordings, base, after, 'fit') + \

@@ -21,7 +21,11 @@ from .stats import Estimate
 
 
 def _number(value: float) -> str:
-    return repr(float(value))
+    """The shortest text that reads back as ``value`` in YAML 1.1 (PyYAML, the ROS 2
+    parameter file parser): its exponent form needs a point in the mantissa."""
+    text = repr(float(value))
+    mantissa, e, exponent = text.partition('e')
+    return f'{mantissa}.0e{exponent}' if e and '.' not in mantissa else text
 
 
 def _comment(e: Estimate) -> str:

@@ -18,6 +18,7 @@ ticks for hardware whose drive applies a command later.
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 from collections.abc import Mapping, Sequence
@@ -61,12 +62,32 @@ class Recording:
         return float(np.median(np.diff(self.times))) * 1e-9 if self.samples > 1 else math.nan
 
     @property
+    def reversals(self) -> int:
+        """Changes of the commanded direction between consecutive commands that set one
+        (cmd_effort's sign, cmd_direction, joint_commands' drive effort's sign)."""
+        signs = [s for s in (_direction(topic, value) for _, topic, value in self.inputs) if s]
+        return sum(a != b for a, b in itertools.pairwise(signs))
+
+    @property
     def duration(self) -> float:
         return float(self.times[-1] - self.times[0]) * 1e-9 if self.samples else 0.0
 
 
 def _relative(topic: str) -> str:
     return topic.rstrip('/').rsplit('/', 1)[-1]
+
+
+def _direction(topic: Input, value: Any) -> int:
+    """The direction a command sets (0: none)."""
+    if topic == Input.CMD_DIRECTION:
+        return int(value)
+    if topic == Input.CMD_EFFORT:
+        effort = value[0] if value else 0.0
+    elif topic == Input.JOINT_COMMANDS:
+        effort = value.effort[0] if value.effort else 0.0
+    else:
+        return 0
+    return (effort > 0) - (effort < 0)
 
 
 def parse_joints(text: str | None) -> dict[str, str]:

@@ -48,6 +48,10 @@ EXCITATION = {
     'drive_time_constant': 'a PRBS or chirp of the torque up to the current loop\'s '
                            'bandwidth (fast torque changes)',
 }
+#: Parameters whose effect needs a reversal of the drive: in recordings without one they are
+#: named undetermined whatever the Jacobian says (with preload, a gap that is never
+#: crossed shows only through the stiffness ripple, which pins it to the ripple's model).
+NEEDS_REVERSAL = frozenset({'backlash'})
 DEFAULT_EXCITATION = 'a recording where this parameter changes the motion: see ' \
                      'docs/identification.md'
 
@@ -91,9 +95,10 @@ def _interval(p: FitParameter, x: float, sd: float) -> tuple[float, float]:
 
 
 def statistics(fitted: Sequence[FitParameter], x: np.ndarray, residual: np.ndarray,
-               jacobian: np.ndarray | None, lag_correlation: float = 0.0) -> Statistics:
+               jacobian: np.ndarray | None, lag_correlation: float = 0.0,
+               reversals: int = 1) -> Statistics:
     """Intervals, correlations and identifiability at ``x`` (no Jacobian: every interval
-    NaN, nothing judged)."""
+    NaN, nothing judged); ``reversals``: how many the fit recordings hold."""
     p = len(fitted)
     values = [q.to_value(float(v)) for q, v in zip(fitted, x, strict=True)]
     if jacobian is None:
@@ -131,6 +136,9 @@ def statistics(fitted: Sequence[FitParameter], x: np.ndarray, residual: np.ndarr
             why = 'near-zero singular value: the recordings cannot tell it apart'
         elif (high - low) / 2.0 > abs(v):
             why = 'its ±2σ interval is wider than its value'
+        elif not reversals and q.name in NEEDS_REVERSAL:
+            why = ('the recordings never reverse the drive, so the gap is never crossed '
+                   '(what is left of it shows only through the stiffness ripple)')
         found.append(Estimate(q.name, v, q.base, low, high, q.unit, why))
     return Statistics(tuple(found), correlation, singular, sigma)
 

@@ -11,6 +11,7 @@ from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
+import yaml
 from paths import ROOT as REPO
 
 from screwgear_ros.sim.scenario import load_scenario
@@ -79,7 +80,8 @@ def write_base(path: Path, fit: Sequence[str], extra: dict[str, Any] | None = No
     lines = PRESET.read_text(encoding='utf-8').rstrip('\n').splitlines()
     values = {**{k: v for k, v in TRUTH.items() if k not in fit}, 'command_timeout': 0.0,
               **(extra or {})}
-    lines += [f'    {name}: {value!r}' for name, value in values.items()]
+    lines += [f'    {name}: {yaml.safe_dump(value).splitlines()[0]}'
+              for name, value in values.items()]
     path.write_text('\n'.join(lines) + '\n', encoding='utf-8')
     return path
 

@@ -27,6 +27,7 @@ def test_a_plain_bag_gives_the_ticks_of_the_node_recording(recordings):
     assert all(topic is Input.CMD_EFFORT for _, topic, _ in node.inputs)
     # the controller answered every sample but the last: tick i takes the i-th answer
     assert [tick for tick, _, _ in node.inputs] == list(range(1, 3001))
+    assert node.reversals == plain.reversals == 3       # +bias, −bias, +slow, −slow
 
 
 def test_the_resimulation_at_the_truth_is_the_recorded_run(recordings):
