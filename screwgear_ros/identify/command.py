@@ -59,13 +59,13 @@ def options(args: argparse.Namespace) -> dict[str, Any]:
     """The keyword arguments of :func:`~screwgear_ros.identify.api.identify`
     (raises IdentifyError for bounds or joints it cannot parse)."""
     return {'bags': args.bags, 'params': args.params,
-                'fit': [n.strip() for n in args.fit.split(',') if n.strip()],
-                'bounds': parse_bounds(args.bounds), 'validate': args.validate,
-                'output': args.output, 'report': args.report, 'workers': args.workers,
-                'scheduler': args.scheduler, 'joints': parse_joints(args.joints),
-                'input_delay': args.input_delay, 'speeds': args.speeds, 'starts_count': args.starts,
-                'seed': args.seed, 'max_evaluations': args.max_evaluations,
-                'progress': not args.no_progress}
+            'fit': [n.strip() for n in args.fit.split(',') if n.strip()],
+            'bounds': parse_bounds(args.bounds), 'validate': args.validate,
+            'output': args.output, 'report': args.report, 'workers': args.workers,
+            'scheduler': args.scheduler, 'joints': parse_joints(args.joints),
+            'input_delay': args.input_delay, 'speeds': args.speeds,
+            'starts_count': args.starts, 'seed': args.seed,
+            'max_evaluations': args.max_evaluations, 'progress': not args.no_progress}
 
 
 def summary(result: Any) -> list[str]:
