@@ -11,6 +11,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from .problem import Comparison
 from .recording import NODE_JOINTS
 from .stats import Statistics
@@ -32,11 +34,13 @@ def markdown(stats: Statistics, comparisons: Sequence[Comparison], *, finished: 
                   'evaluated so far, without intervals.'), '']
     lines += [(f'Fitted file: `{fitted_path}`. {simulations} simulations on {workers} in '
               f'{seconds:.1f} s ({sim_seconds:.1f} s of simulation).'), '',
-              '| parameter | base | fitted | −2σ | +2σ | unit | determined |',
-              '|---|---|---|---|---|---|---|']
+              '| parameter | base | fitted | ±2σ | −2σ | +2σ | unit | determined |',
+              '|---|---|---|---|---|---|---|---|']
     for e in stats.estimates:
-        lines.append(f'| `{e.name}` | {e.base:.6g} | {e.value:.6g} | {e.low:.6g} | '
-                     f'{e.high:.6g} | {e.unit} | {"no: " + e.undetermined if e.undetermined else "yes"} |')
+        half = 100 * (e.high - e.low) / 2 / abs(e.value) if e.value else math.nan
+        verdict = 'no: ' + e.undetermined if e.undetermined else 'yes'
+        lines.append(f'| `{e.name}` | {e.base:.6g} | {e.value:.8g} | {half:.2g} % | '
+                     f'{e.low:.8g} | {e.high:.8g} | {e.unit} | {verdict} |')
     lines += ['', f'Residual standard deviation (weighted): {stats.sigma:.4g}; singular '
               'values of the column-scaled Jacobian: '
               + ', '.join(f'{s:.3g}' for s in stats.singular_values), '']
@@ -62,35 +66,43 @@ def markdown(stats: Statistics, comparisons: Sequence[Comparison], *, finished: 
 
 def figure(comparisons: Sequence[Comparison], path: str | Path) -> Path:
     """One row per recording: the table's measured angle against the model's before and
-    after, and the residuals of every joint after the fit."""
+    after, and the residuals of every joint before and after the fit, each in % of that
+    joint's measured range (the pinions turn eight times the table's angle)."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
     rows = max(1, len(comparisons))
-    fig, axes = plt.subplots(rows, 2, figsize=(12, 3.2 * rows), squeeze=False)
-    for ax, c in zip(axes, comparisons, strict=True):
+    fig, axes = plt.subplots(rows, 3, figsize=(16, 3.3 * rows), squeeze=False)
+    for ax, c in zip(axes, comparisons, strict=False):
         t = (c.recording.times - c.recording.times[0]) * 1e-9
         name = Path(c.recording.path).name
-        ax[0].plot(t, c.measured[:, 1], 'k', lw=1.2, label='measured')
+        ax[0].plot(t, c.measured[:, 1], 'k', lw=1.6, label='measured')
         for label, data, style in (('before', c.before, 'C1--'), ('after', c.after, 'C0-')):
             if data is not None:
                 fit = c.fit(label)[1]
-                ax[0].plot(t, data[:, 1], style, lw=0.9, label=f'{label} ({fit:.1f} %)')
+                ax[0].plot(t, data[:, 1], style, lw=0.9, label=f'{label} ({fit:.2f} %)')
         ax[0].set_title(f'{name} ({c.role}): table angle')
-        ax[0].set_xlabel('t, s')
-        ax[0].set_ylabel('θ table − θ(0), rad')
+        ax[0].set_ylabel('θ table, rad (zero fitted)')
         ax[0].legend(loc='best', fontsize=8)
-        if c.after is not None:
-            for j in range(c.measured.shape[1]):
-                ax[1].plot(t, c.after[:, j] - c.measured[:, j], lw=0.8,
-                           label=COLUMN_NAMES[j])
-        ax[1].set_title(f'{name}: residual after the fit (simulated − measured)')
-        ax[1].set_xlabel('t, s')
-        ax[1].set_ylabel('rad (rad/s)')
-        ax[1].legend(loc='best', fontsize=8)
+        span = np.ptp(c.measured, axis=0)
+        span = np.where(span > 0, span, 1.0)
+        for k, (label, data) in enumerate((('before', c.before), ('after', c.after)), 1):
+            if data is None:
+                ax[k].text(0.5, 0.5, 'the model diverged', ha='center',
+                           transform=ax[k].transAxes)
+            else:
+                for j in range(c.measured.shape[1]):
+                    ax[k].plot(t, 100 * (data[:, j] - c.measured[:, j]) / span[j], lw=0.7,
+                               label=COLUMN_NAMES[j], zorder=3 if j == 1 else 2)
+                ax[k].legend(loc='best', fontsize=8)
+            ax[k].set_title(f'{name}: residual {label} the fit (simulated − measured)')
+            ax[k].set_ylabel('% of the joint\'s range')
+        for a in ax:
+            a.set_xlabel('t, s')
+            a.grid(alpha=0.3)
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=80)
     plt.close(fig)
     return path
 
