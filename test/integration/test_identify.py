@@ -95,7 +95,7 @@ def test_ctrl_c_writes_the_best_point_so_far_marked_unfinished(node_bag, tmp_pat
             assert process.poll() is None, seen.decode()
         assert b'iteration=1' in seen, 'no iteration within 300 s'
         process.send_signal(signal.SIGINT)
-        out, err = process.communicate(timeout=120)
+        _, err = process.communicate(timeout=120)
     finally:
         process.kill()
     text = (seen + err).decode()
