@@ -10,6 +10,7 @@ import os
 import select
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -105,3 +106,13 @@ def test_ctrl_c_writes_the_best_point_so_far_marked_unfinished(node_bag, tmp_pat
     assert written.startswith('# UNFINISHED')
     assert Simulation.from_yaml(fitted).params.inertia_table != \
         Simulation.from_yaml(PRESET).params.inertia_table
+
+
+@pytest.mark.ros
+def test_ros2_run_finds_identify():
+    """$prefix/lib/screwgear_ros/identify, what `ros2 run screwgear_ros identify` runs."""
+    launcher = Path(sys.prefix) / 'lib' / 'screwgear_ros' / 'identify'
+    proc = subprocess.run([str(launcher), '--help'], capture_output=True, text=True,
+                          check=False, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith('usage: identify') and '--fit' in proc.stdout
