@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ScrewgearError
 from ..interface import Input
 from ..params.declarations import Declaration, Kind, declared
 from ..params.table import ParameterError, SimSettings, TableParams
@@ -32,8 +33,9 @@ from .errors import FitParameterError, RecordingError
 from .recording import Recording
 
 
-class Diverged(Exception):
-    """The model cannot be run or diverged at a trial point (a large residual)."""
+class Diverged(ScrewgearError, ArithmeticError):
+    """The model cannot be run or diverged at a trial point (a large residual, never
+    seen outside the fit)."""
 
 
 def base_values(path: str | os.PathLike[str]) -> dict[str, Any]:
