@@ -164,7 +164,16 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
     speeds = values[:, 3:]
     if np.isinf(speeds).any():
         raise RecordingError(f'{path}: joint_states holds an infinite velocity')
-    tol = max(1, int(np.median(np.diff(stamps))) // 1000)
+    gaps = np.diff(stamps)
+    period = int(np.median(gaps))
+    odd = np.flatnonzero((gaps > 1.5 * period) | (gaps < 0.5 * period))
+    if len(odd):
+        i = int(odd[0]) + 1
+        raise RecordingError(f'{path}: joint_states sample {i} comes {gaps[i - 1] * 1e-6:.4g} ms '
+                             f'after the one before, the others every {period * 1e-6:.4g} ms: '
+                             'the samples are the ticks, and a lost or repeated one cannot '
+                             'be placed')
+    tol = max(1, period // 1000)
     inputs = []
     for stamp, topic, value in logged:
         first = int(np.searchsorted(stamps, stamp - tol, side='left'))

@@ -52,7 +52,7 @@ def copy_topics(src: Path, dst: Path, keep: Iterable[str], storage: str = 'sqlit
                 change: Callable[[str, Any], Any] | None = None) -> Path:
     """A new bag ``dst`` with only the topics whose relative name is in ``keep``, written
     with rosbags' writer (``storage`` 'sqlite3' or 'mcap'); ``change(topic, message)``
-    may edit a message before it is written."""
+    may edit a message before it is written, or drop it (None)."""
     from rosbags.highlevel import AnyReader
     from rosbags.rosbag2 import StoragePlugin, Writer
 
@@ -69,6 +69,8 @@ def copy_topics(src: Path, dst: Path, keep: Iterable[str], storage: str = 'sqlit
         for c, stamp, raw in reader.messages(connections=chosen):
             if change is not None:
                 message = change(c.topic.rsplit('/', 1)[-1], reader.deserialize(raw, c.msgtype))
+                if message is None:       # dropped
+                    continue
                 raw = store.serialize_cdr(message, c.msgtype)
             writer.write(out[c.id], stamp, raw)
     return dst

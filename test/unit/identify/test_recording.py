@@ -84,6 +84,17 @@ def test_values_that_are_not_finite_are_refused(recordings, tmp_path):
         read_recording(bag)
 
 
+def test_a_lost_sample_is_refused(recordings, tmp_path):
+    def lose(topic, message):
+        if topic == 'joint_states' and message.header.stamp.nanosec == 700_000_000:
+            return None
+        return message
+    bag = copy_topics(recordings['node'], tmp_path / 'lost', ['joint_states', 'cmd_effort'],
+                      change=lose)
+    with pytest.raises(RecordingError, match='sample 700 comes 2 ms after'):
+        read_recording(bag)
+
+
 def test_a_path_that_is_no_bag_and_bad_joint_maps_are_refused(tmp_path):
     with pytest.raises(RecordingError, match='cannot read'):
         read_recording(tmp_path)
