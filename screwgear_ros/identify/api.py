@@ -11,6 +11,7 @@ correlations and the parameters the data cannot determine
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 from collections.abc import Mapping, Sequence
@@ -19,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .adapter import base_values, simulate, tick_period
+from .adapter import Diverged, base_values, simulate, tick_period
 from .errors import TooShortError
 from .fit import minimize
 from .output import write_fitted
@@ -154,7 +155,10 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
                             f'{len(fitted)} parameter(s): at least {needed} samples '
                             f'({needed * period:.3g} s at {1 / period:g} Hz) are needed')
     for recording in (*recordings, *checks):
-        simulate(base, recording)     # a recorded command the node refuses: refused now
+        # a recorded command the node refuses is refused now; base values at which the
+        # model diverges are a large residual to fit from
+        with contextlib.suppress(Diverged):
+            simulate(base, recording)
     weights = problem.weights
     with Evaluator(problem, weights, workers, scheduler) as evaluator:
         outcome = minimize(evaluator, fitted, starts(fitted, starts_count, seed),
