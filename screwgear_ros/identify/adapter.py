@@ -77,17 +77,27 @@ def tick_period(values: Mapping[str, Any]) -> float:
     return settings.steps_per_publish * settings.dt
 
 
-def _prediction_sensors(settings: SimSettings) -> SensorConfig:
-    """The base file's sensors without noise and counts: delay and speed filter only."""
+#: Counts per revolution of the encoders that predict a counting drive's speed: the most
+#: the node takes, so fine that their quantisation is far below any encoder's noise.
+FINE_COUNTS = 1 << 30
+
+
+def _prediction_sensors(settings: SimSettings, speeds: bool) -> SensorConfig:
+    """The base file's sensors without noise: delay and speed filter. For angles without
+    counts either; for speeds, where a joint counts, with :data:`FINE_COUNTS`, so the
+    speed is a backward difference over the tick as the drive computes it."""
     config = settings.sensors
-    joints = tuple(replace(j, counts=0, position_noise=0.0, velocity_noise=0.0)
-                   for j in config.joints)
+    joints = tuple(replace(j, counts=FINE_COUNTS if speeds and j.counts else 0,
+                           position_noise=0.0, velocity_noise=0.0) for j in config.joints)
     return SensorConfig(joints, config.seed)  # type: ignore[arg-type]
 
 
-def simulate(values: Mapping[str, Any], recording: Recording) -> np.ndarray:
+def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = False
+             ) -> np.ndarray:
     """(n, 6) θ and ω of the three joints as joint_states would publish them, at the
-    recording's samples, for the model of ``values``, from the preload equilibrium.
+    recording's samples, for the model of ``values``, from the preload equilibrium
+    (``speeds``: ω as counting encoders measure it, else the exact ω, delayed and
+    filtered as the angles).
 
     Raises
     ------
@@ -139,14 +149,20 @@ def simulate(values: Mapping[str, Any], recording: Recording) -> np.ndarray:
         o = tick.outputs
         rows[i, :6] = (*o.position, *o.velocity)
         i += 1
-    out = rows[:, :6]
-    chain = SensorChain(_prediction_sensors(settings), settings.dt)
-    if not chain.ideal:
-        steps = settings.steps_per_publish * np.arange(n)
-        for j in range(n):
-            position, velocity = chain.measure_values(int(steps[j]), out[j, :3].tolist(),
-                                                        out[j, 3:].tolist())
-            out[j, :3], out[j, 3:] = position, velocity
+    exact = rows[:, :6]
+    out = exact.copy()
+    steps = (settings.steps_per_publish * np.arange(n)).tolist()
+    angles = SensorChain(_prediction_sensors(settings, False), settings.dt)
+    if not angles.ideal:
+        for j, step in enumerate(steps):
+            out[j, :3], out[j, 3:] = angles.measure_values(step, exact[j, :3].tolist(),
+                                                           exact[j, 3:].tolist())
+    counting = _prediction_sensors(settings, True)
+    if speeds and any(joint.counts for joint in counting.joints):
+        chain = SensorChain(counting, settings.dt)
+        for j, step in enumerate(steps):
+            out[j, 3:] = chain.measure_values(step, exact[j, :3].tolist(),
+                                              exact[j, 3:].tolist())[1]
     if not np.isfinite(out).all():
         raise Diverged('the simulated joint states are not finite')
     return np.array(out)

@@ -61,7 +61,7 @@ class Problem:
     def predict(self, values: Mapping[str, Any], recording: Recording) -> np.ndarray:
         """The prediction in :meth:`measured`'s columns, each angle's zero the one that
         fits the recording best (raises Diverged)."""
-        out = simulate(values, recording)[:, self.columns]
+        out = simulate(values, recording, self.speeds)[:, self.columns]
         out[:, :3] += np.nanmean(self.measured(recording)[:, :3] - out[:, :3], axis=0)
         return out
 

@@ -88,3 +88,19 @@ def test_a_recording_too_short_for_the_parameters_is_refused(recordings, tmp_pat
     names = ['inertia_table', 'mesh_stiffness_mean', 'preload_torque']
     with pytest.raises(TooShortError, match='too short to fit 3 parameter'):
         screwgear_ros.identify([bag], PRESET, names)
+
+
+def test_speeds_are_compared_when_asked(recordings, tmp_path):
+    from screwgear_ros.identify.adapter import base_values
+    from screwgear_ros.identify.parameters import fit_parameters, start_point
+    from screwgear_ros.identify.problem import Problem, fit_percent
+    from screwgear_ros.identify.recording import read_recording
+    base = base_values(write_base(tmp_path / 'base.yaml', []))      # the truth itself
+    fitted = fit_parameters(['inertia_table'], base)
+    recording = read_recording(recordings['plain'])
+    problem = Problem(base, fitted, (recording,), speeds=True)
+    residual = problem.residual(start_point(fitted)).reshape(-1, 6)
+    assert residual.shape == (recording.samples, 6)
+    prediction = problem.predict(base, recording)
+    fits = fit_percent(problem.measured(recording), prediction)
+    assert (fits[:3] > 99.99).all() and (fits[3:] > 99.0).all(), fits
