@@ -1,4 +1,6 @@
-"""The one place identification touches the package's simulation and parameter code.
+"""The one place identification touches the package's simulation, parameter and bag
+code (the message codec and the node's reading of a command's message are re-exported
+here for :mod:`~screwgear_ros.identify.recording`).
 
 :func:`simulate` re-runs a recording's commands through the node's own
 :class:`~screwgear_ros.sim.session.Session` (the project's one simulation loop): each
@@ -15,22 +17,25 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..bag.format import typestore
 from ..errors import ScrewgearError
 from ..interface import Input
 from ..params.declarations import Declaration, Kind, declared
 from ..params.table import ParameterError, SimSettings, TableParams
 from ..physics.sensors import JOINTS as SENSOR_JOINTS
 from ..physics.sensors import SensorChain, SensorConfig
-from ..sim.commands import InputRejected
+from ..sim.commands import InputRejected, carries_no_command, command_value
 from ..sim.events import Command
 from ..sim.session import ROW, Session
 from ..sim.simulation import ParameterFileError, file_values, resolve
 from .errors import FitParameterError, RecordingError
-from .recording import Recording
+
+if TYPE_CHECKING:
+    from .recording import Recording
 
 
 class Diverged(ScrewgearError, ArithmeticError):
@@ -168,5 +173,16 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
     return np.array(out)
 
 
-__all__ = ['SENSOR_JOINTS', 'Diverged', 'base_values', 'declarations', 'model',
-           'settings_names', 'simulate', 'tick_period']
+__all__ = [
+    'SENSOR_JOINTS',
+    'Diverged',
+    'base_values',
+    'carries_no_command',
+    'command_value',
+    'declarations',
+    'model',
+    'settings_names',
+    'simulate',
+    'tick_period',
+    'typestore',
+]

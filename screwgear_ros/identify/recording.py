@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from ..interface import Input
-from ..sim.commands import carries_no_command, command_value
+from .adapter import carries_no_command, command_value, typestore
 from .errors import RecordingError
 
 #: The node's joints, in joint_states order.
@@ -125,8 +125,6 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
         Not a bag, no joint_states, no commands, a joint missing, non-finite values.
     """
     from rosbags.highlevel import AnyReader
-
-    from ..bag.format import typestore
     names = {j: (joints or {}).get(j, j) for j in NODE_JOINTS}
     times: list[int] = []
     rows: list[tuple[float, ...]] = []
