@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -33,9 +33,7 @@ from ..sim.events import Command
 from ..sim.session import ROW, Session
 from ..sim.simulation import ParameterFileError, file_values, resolve
 from .errors import FitParameterError, RecordingError
-
-if TYPE_CHECKING:
-    from .recording import Recording
+from .samples import Recording
 
 
 class Diverged(ScrewgearError, ArithmeticError):

@@ -26,8 +26,9 @@ from .fit import minimize
 from .output import write_fitted
 from .parameters import fit_parameters, starts, values_of
 from .problem import Comparison, Problem, compare
-from .recording import Recording, check_alike, read_recording
+from .recording import check_alike, read_recording
 from .report import write_report
+from .samples import Recording
 from .stats import Estimate, Statistics, statistics
 from .workers import Evaluator
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from .adapter import Diverged, simulate
 from .parameters import FitParameter, values_of
-from .recording import Recording
+from .samples import Recording
 
 #: Residual of every element at a trial point the model cannot run or diverges at.
 DIVERGED = 1.0e3

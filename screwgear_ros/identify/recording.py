@@ -1,5 +1,6 @@
-"""A recording as identification takes it: the measured joint angles and speeds at each
-tick, and the commands with the tick that applies each.
+"""Read a bag as identification takes it (:class:`~screwgear_ros.identify.samples.Recording`):
+the measured joint angles and speeds at each tick, and the commands with the tick that
+applies each.
 
 Any rosbag2 bag serves (MCAP or sqlite3 storage, read with ``rosbags``): table_sim's own
 recordings and ``ros2 bag record`` of a real table, which hold only ``joint_states`` and
@@ -18,11 +19,9 @@ ticks for hardware whose drive applies a command later.
 
 from __future__ import annotations
 
-import itertools
 import math
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -31,63 +30,11 @@ import numpy as np
 from ..interface import Input
 from .adapter import carries_no_command, command_value, typestore
 from .errors import RecordingError
-
-#: The node's joints, in joint_states order.
-NODE_JOINTS = ('pinion_1', 'table', 'pinion_3')
-#: The inputs a recording's commands come on (the setpoint is only informational).
-COMMANDS = (Input.CMD_EFFORT, Input.CMD_TORQUE, Input.CMD_DIRECTION, Input.LOAD_TORQUE,
-            Input.JOINT_COMMANDS)
-JOINT_STATES = 'joint_states'
-
-
-@dataclass(frozen=True, eq=False)
-class Recording:
-    """One bag, read: ``position`` and ``velocity`` (n, 3) in the node's joint order
-    (NaN speeds where the bag has none), ``times`` the samples' log times (ns), and
-    ``inputs`` (tick that applies it, input, value) in the order they were logged."""
-
-    path: str
-    times: np.ndarray
-    position: np.ndarray
-    velocity: np.ndarray
-    inputs: tuple[tuple[int, Input, Any], ...]
-
-    @property
-    def samples(self) -> int:
-        return len(self.times)
-
-    @property
-    def period(self) -> float:
-        """The median time between samples, s."""
-        return float(np.median(np.diff(self.times))) * 1e-9 if self.samples > 1 else math.nan
-
-    @property
-    def reversals(self) -> int:
-        """Changes of the commanded direction between consecutive commands that set one
-        (cmd_effort's sign, cmd_direction, joint_commands' drive effort's sign)."""
-        signs = [s for s in (_direction(topic, value) for _, topic, value in self.inputs) if s]
-        return sum(a != b for a, b in itertools.pairwise(signs))
-
-    @property
-    def duration(self) -> float:
-        return float(self.times[-1] - self.times[0]) * 1e-9 if self.samples else 0.0
+from .samples import COMMANDS, JOINT_STATES, NODE_JOINTS, Recording
 
 
 def _relative(topic: str) -> str:
     return topic.rstrip('/').rsplit('/', 1)[-1]
-
-
-def _direction(topic: Input, value: Any) -> int:
-    """The direction a command sets (0: none)."""
-    if topic == Input.CMD_DIRECTION:
-        return int(value)
-    if topic == Input.CMD_EFFORT:
-        effort = value[0] if value else 0.0
-    elif topic == Input.JOINT_COMMANDS:
-        effort = value.effort[0] if value.effort else 0.0
-    else:
-        return 0
-    return (effort > 0) - (effort < 0)
 
 
 def parse_joints(text: str | None) -> dict[str, str]:
@@ -225,5 +172,4 @@ def check_alike(recordings: Sequence[Recording], period: float) -> None:
                 'base parameter file to the recording\'s rate')
 
 
-__all__ = ['COMMANDS', 'NODE_JOINTS', 'Recording', 'check_alike', 'parse_joints',
-           'read_recording']
+__all__ = ['check_alike', 'parse_joints', 'read_recording']

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from .problem import Comparison
-from .recording import NODE_JOINTS
+from .samples import NODE_JOINTS
 from .stats import Statistics
 
 COLUMN_NAMES = [f'θ {j}' for j in NODE_JOINTS] + [f'ω {j}' for j in NODE_JOINTS]
