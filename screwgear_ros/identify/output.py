@@ -30,7 +30,7 @@ def _number(value: float) -> str:
 
 def _comment(e: Estimate) -> str:
     if math.isfinite(e.low) and math.isfinite(e.high):
-        text = f'fitted, ±2σ: {e.low:.6g} … {e.high:.6g}'
+        text = f'fitted, ±2σ: {e.low:.8g} … {e.high:.8g}'
     else:
         text = 'fitted'
     return text + (f'; undetermined: {e.undetermined}' if e.undetermined else '')
