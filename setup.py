@@ -6,7 +6,8 @@ from setuptools import find_packages, setup
 
 PACKAGE = 'screwgear_ros'
 EXECUTABLES = ['table_sim', 'demo_controller', 'check_run', 'replay_run', 'paper_report', 'plot_run',
-               'run_scenario', 'linearize', 'frequency_response', 'sweep', 'warmup']
+               'run_scenario', 'linearize', 'frequency_response', 'sweep', 'warmup',
+               'identify']
 
 setup(
     name=PACKAGE,

@@ -22,6 +22,8 @@ _API = {
     'Scenario': 'sim.scenario', 'load_scenario': 'sim.scenario', 'ScenarioError': 'sim.scenario',
     'run_metrics': 'sim.metrics', 'Metrics': 'sim.metrics',
     'DemoController': 'sim.control',
+    'identify': 'identification', 'IdentifyResult': 'identification',
+    'IdentifyError': 'identification',
 }
 
 _moved.install(__name__)
