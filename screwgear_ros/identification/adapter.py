@@ -23,7 +23,6 @@ import numpy as np
 
 from ..bag.format import typestore
 from ..errors import ScrewgearError
-from ..interface import Input
 from ..params.declarations import Declaration, Kind, declared
 from ..params.table import ParameterError, SimSettings, TableParams
 from ..physics.sensors import JOINTS as SENSOR_JOINTS
