@@ -65,7 +65,28 @@ class JointCommand:
 
 
 class InputRejected(ScrewgearError, ValueError):
-    """A command refused; the message names the topic, the value and the rule."""
+    """A command refused; the message names the topic, the value and the rule.
+
+    Parameters
+    ----------
+    topic : str
+        The input it came on (an :class:`~screwgear_ros.interface.Input` value).
+    value : object
+        The value refused.
+    rule : str
+        Why: the rule it breaks.
+
+    Examples
+    --------
+    >>> from screwgear_ros import InputRejected, Simulation
+    >>> sim = Simulation()
+    >>> _ = sim.reset()
+    >>> try:
+    ...     sim.step(torque=-1.0)
+    ... except InputRejected as exc:
+    ...     print(exc.topic)
+    cmd_torque
+    """
 
     def __init__(self, topic: str, value: Any, rule: str) -> None:
         self.topic = topic

@@ -45,7 +45,17 @@ CONTROLLER_KEYS = ('use', 'parameters')
 
 
 class ScenarioError(ScrewgearError, ValueError):
-    """A scenario that cannot be run; the message names the file and the line."""
+    """A scenario that cannot be run; the message names the file and the line.
+
+    Examples
+    --------
+    >>> from screwgear_ros import ScenarioError, load_scenario
+    >>> try:
+    ...     load_scenario('no/such/scenario.yaml')
+    ... except ScenarioError as exc:
+    ...     print('cannot read' in str(exc) or 'no/such' in str(exc))
+    True
+    """
 
 
 # ---------------------------------------------------------------- controllers
@@ -135,7 +145,34 @@ class Action:
 
 @dataclass(frozen=True)
 class Scenario:
-    """A validated scenario (module docstring). Immutable and picklable."""
+    """A validated scenario (module docstring, ``docs/scenarios.md``). Immutable and
+    picklable; :func:`load_scenario` makes one from a file.
+
+    Attributes
+    ----------
+    path : str
+        The file it was read from.
+    values : tuple of (str, object)
+        The node's parameters at the start, by name.
+    duration : float
+        Simulation time to run, s.
+    actions : tuple of Action
+        What happens when: commands and parameter changes at their times.
+    controller : ControllerSpec or None
+        The controller closing the loop (``demo`` or ``module:callable``).
+    setpoint : SetpointProfile or None
+        The target the controller and the metrics follow.
+
+    Examples
+    --------
+    >>> from screwgear_ros import load_scenario
+    >>> from screwgear_ros.sim.parameter_file import NODE_KEYS
+    >>> import screwgear_ros, pathlib
+    >>> example = pathlib.Path(screwgear_ros.__file__).parents[1] / 'docs/examples/pd_sine.yaml'
+    >>> scenario = load_scenario(example) if example.exists() else None
+    >>> scenario is None or scenario.duration > 0
+    True
+    """
 
     path: str
     values: tuple[tuple[str, Any], ...]          # the node's parameters at the start
@@ -145,12 +182,34 @@ class Scenario:
     setpoint: SetpointProfile | None = None
 
     def simulation(self, **overrides: Any) -> Simulation:
-        """The scenario's simulation, some parameters changed (validated)."""
+        """The scenario's simulation, some parameters changed (validated).
+
+        Parameters
+        ----------
+        **overrides
+            Parameters by name, on top of the scenario's start values.
+
+        Returns
+        -------
+        Simulation
+            Not started: :meth:`run` or ``Simulation.run`` starts it.
+        """
         return Simulation.from_values(dict(self.values), **overrides)
 
     def events(self, simulation: Simulation) -> list[Event]:
         """The actions as session events at their steps (parameter changes on top of the
-        simulation's own parameters)."""
+        simulation's own parameters).
+
+        Parameters
+        ----------
+        simulation : Simulation
+            The simulation the events are for (its step and parameters).
+
+        Returns
+        -------
+        list of Event
+            In step order, each with its ``step`` set.
+        """
         dt = simulation.settings.dt
         values = {**simulation.params.as_dict(), **simulation.settings.as_dict()}
         out: list[Event] = []
@@ -220,16 +279,46 @@ class Scenario:
         return None
 
     def schedule(self) -> Any:
-        """What ``replay_run --script`` plays into a node: the start values and the
-        actions at their steps (:class:`~screwgear_ros.sim.schedule.Schedule`)."""
+        """What ``replay_run --script`` plays into a node.
+
+        Returns
+        -------
+        Schedule
+            The start values and the actions at their steps
+            (:class:`~screwgear_ros.sim.schedule.Schedule`).
+        """
         simulation = self.simulation()
         return Schedule(simulation.params, simulation.settings, self.events(simulation),
                         end_step=round(self.duration / simulation.settings.dt))
 
 
 def load_scenario(path: str | os.PathLike[str]) -> Scenario:
-    """Read and validate a scenario file (docs/scenarios.md); :class:`ScenarioError`
-    naming the line of what is wrong."""
+    """Read and validate a scenario file (``docs/scenarios.md``).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The scenario file (YAML).
+
+    Returns
+    -------
+    Scenario
+        Every value checked as the node checks it.
+
+    Raises
+    ------
+    ScenarioError
+        Naming the file and the line of what is wrong.
+
+    Examples
+    --------
+    >>> from screwgear_ros import load_scenario
+    >>> import screwgear_ros, pathlib
+    >>> root = pathlib.Path(screwgear_ros.__file__).parents[1]
+    >>> path = root / 'docs/examples/demo_position_steps.yaml'
+    >>> load_scenario(path).duration > 0 if path.exists() else True
+    True
+    """
     path = Path(path)
     reader = YamlReader.open(path, ScenarioError)
     if reader.root is None:
