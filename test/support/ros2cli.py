@@ -1,0 +1,192 @@
+"""The real ``ros2`` command line and ``launch`` for the tests, in an overlay of their own.
+
+ROS 2's ``ros2cli``, ``launch`` and ``launch_ros`` have no PyPI wheels; the machines keep
+wheels built from their Jazzy sources in ``../shared/ros2cli`` beside the checkout (or
+where ``SCREWGEAR_ROS2CLI_WHEELS`` points), with ``composition_interfaces``, a message
+package launch_ros imports, as an install prefix. They never go into the user's venv:
+:func:`overlay` installs them, and from PyPI their pure-Python dependencies at the
+versions of ``constraints.txt``, into a child venv under the user's cache directory that
+sees the test run's venv through a ``.pth`` file. The child venv's name is a hash of the
+wheels, the constraints and the base venv, so a change to any of them builds a new one
+and nothing changed rebuilds nothing. Concurrent test runs build it once, under a file
+lock; the first build says what it is doing on the terminal.
+
+* :func:`overlay` (cached per process): the :class:`Overlay`, or None and
+  :data:`WHY_NOT` says why (the tests skip with it).
+* :meth:`Overlay.env`: the environment the ``ros2`` processes run in.
+* :meth:`Overlay.run`: ``ros2 <verb> ...`` to the end, output captured.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import functools
+import hashlib
+import os
+import subprocess
+import sys
+import sysconfig
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from paths import ROOT
+
+#: The wheels' pure-Python dependencies from PyPI (their READMEs' list), pinned in
+#: constraints.txt.
+DEPENDENCIES = ('argcomplete', 'psutil', 'lark', 'osrf-pycommon', 'PyYAML', 'packaging',
+                'catkin-pkg', 'importlib-metadata')
+CONSTRAINTS = ROOT / 'constraints.txt'
+PYTHON = f'python{sys.version_info.major}.{sys.version_info.minor}'
+
+
+def shared_folder() -> Path:
+    """Where the wheels are looked for: ``SCREWGEAR_ROS2CLI_WHEELS`` or ../shared/ros2cli."""
+    chosen = os.environ.get('SCREWGEAR_ROS2CLI_WHEELS')
+    return Path(chosen) if chosen else ROOT.parent / 'shared' / 'ros2cli'
+
+
+def cache_root() -> Path:
+    cache = Path(os.environ.get('XDG_CACHE_HOME') or Path.home() / '.cache')
+    return cache / 'screwgear_ros' / 'ros2cli'
+
+
+@dataclass(frozen=True)
+class Overlay:
+    """A built overlay: its venv and the composition_interfaces prefix."""
+
+    venv: Path
+    interfaces: Path
+
+    @property
+    def ros2(self) -> Path:
+        return self.venv / 'bin' / 'ros2'
+
+    @property
+    def python(self) -> Path:
+        return self.venv / 'bin' / 'python'
+
+    def env(self, extra: Mapping[str, str] | None = None) -> dict[str, str]:
+        """The test run's environment with the overlay in front: its venv's bin on PATH
+        and its prefix on the ament index (the wheels' share/ament_index lies there),
+        composition_interfaces on AMENT_PREFIX_PATH, PYTHONPATH and LD_LIBRARY_PATH."""
+        env = {**os.environ, 'PYTHONUNBUFFERED': '1', 'RCUTILS_COLORIZED_OUTPUT': '0'}
+
+        def front(name: str, *paths: Path) -> None:
+            old = env.get(name)
+            env[name] = os.pathsep.join([*map(str, paths), *([old] if old else [])])
+
+        front('PATH', self.venv / 'bin')
+        front('AMENT_PREFIX_PATH', self.venv, self.interfaces)
+        front('PYTHONPATH', self.interfaces / 'lib' / PYTHON / 'site-packages')
+        front('LD_LIBRARY_PATH', self.interfaces / 'lib')
+        env.update(extra or {})
+        return env
+
+    def run(self, *args: str, timeout: float = 60.0, check: bool = True,
+            env: Mapping[str, str] | None = None,
+            cwd: str | os.PathLike | None = None) -> subprocess.CompletedProcess:
+        """``ros2 *args`` to its end; ``check``: AssertionError naming the output unless
+        it returned 0."""
+        done = subprocess.run([str(self.ros2), *args], capture_output=True, text=True,
+                              env=self.env(env), timeout=timeout, check=False, cwd=cwd)
+        if check and done.returncode != 0:
+            raise AssertionError(f'ros2 {" ".join(args)} returned {done.returncode}:\n'
+                                 f'{done.stdout[-3000:]}\n{done.stderr[-3000:]}')
+        return done
+
+
+def _key(wheels: Sequence[Path]) -> str:
+    digest = hashlib.sha256()
+    for wheel in wheels:
+        digest.update(wheel.name.encode())
+        digest.update(hashlib.sha256(wheel.read_bytes()).digest())
+    digest.update(CONSTRAINTS.read_bytes())
+    digest.update(sys.prefix.encode())
+    digest.update(sys.version.encode())
+    return digest.hexdigest()[:16]
+
+
+def _say(text: str) -> None:
+    """To the terminal past pytest's capture: a first build takes a minute or more."""
+    try:
+        with open('/dev/tty', 'w') as tty:
+            tty.write(f'\n[ros2cli overlay] {text}\n')
+            return
+    except OSError:
+        pass
+    sys.__stderr__.write(f'\n[ros2cli overlay] {text}\n')
+    sys.__stderr__.flush()
+
+
+def _pip(python: Path, *args: str) -> None:
+    done = subprocess.run([str(python), '-m', 'pip', 'install', '--disable-pip-version-check',
+                           '-q', *args], capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise RuntimeError(f'pip install {" ".join(args)} failed:\n{done.stderr[-3000:]}')
+
+
+def _build(venv: Path, wheels: Sequence[Path]) -> None:
+    """The child venv: created beside ``venv`` and moved there when complete, so a run
+    that was killed half way leaves nothing that looks built."""
+    partial = venv.with_name(venv.name + f'.partial-{os.getpid()}')
+    t0 = time.monotonic()
+    _say(f'building the test overlay of the ros2 CLI in {venv} (once; about a minute)')
+    subprocess.run([sys.executable, '-m', 'venv', '--without-pip', str(partial)], check=True)
+    base = sysconfig.get_paths()['purelib']
+    site = partial / 'lib' / PYTHON / 'site-packages'
+    # addsitedir, not a plain path: the base venv's own .pth files (a light venv's link
+    # to its parent's packages) are read too
+    (site / 'zz_screwgear_base.pth').write_text(f'import site; site.addsitedir({base!r})\n')
+    python = partial / 'bin' / 'python'
+    _say('installing the wheels of ros2cli, launch and launch_ros')
+    _pip(python, '--no-deps', '--no-index', *map(str, wheels))
+    _say(f'installing their dependencies from PyPI: {", ".join(DEPENDENCIES)}')
+    _pip(python, '-c', str(CONSTRAINTS), *DEPENDENCIES)
+    # venv wrote the partial path into the scripts' first lines: point them at the
+    # final place before the move
+    for script in (partial / 'bin').iterdir():
+        if script.is_file() and not script.is_symlink():
+            text = script.read_bytes()
+            if text.startswith(b'#!') and str(partial).encode() in text.split(b'\n', 1)[0]:
+                script.write_bytes(text.replace(str(partial).encode(), str(venv).encode(), 1))
+    for cfg in (partial / 'pyvenv.cfg',):
+        cfg.write_text(cfg.read_text().replace(str(partial), str(venv)))
+    partial.rename(venv)
+    _say(f'overlay ready after {time.monotonic() - t0:.0f} s')
+
+
+#: Why :func:`overlay` returned None (empty when it did not).
+WHY_NOT = ''
+
+
+@functools.cache
+def overlay() -> Overlay | None:
+    """The overlay, built if needed; None where no wheels are found (see :data:`WHY_NOT`)."""
+    global WHY_NOT
+    folder = shared_folder()
+    wheels = sorted((folder / 'wheels').glob('*.whl'))
+    interfaces = folder / 'composition_interfaces'
+    if not wheels or not interfaces.is_dir():
+        WHY_NOT = (f'no ros2cli wheels with composition_interfaces in {folder} (set '
+                   'SCREWGEAR_ROS2CLI_WHEELS or put them in ../shared/ros2cli)')
+        return None
+    root = cache_root()
+    root.mkdir(parents=True, exist_ok=True)
+    venv = root / _key(wheels)
+    if not (venv / 'bin' / 'ros2').is_file():
+        with open(root / '.lock', 'w') as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if not (venv / 'bin' / 'ros2').is_file():
+                _build(venv, wheels)
+    return Overlay(venv, interfaces)
+
+
+def why_not() -> str:
+    """The skip reason when :func:`overlay` is None."""
+    overlay()
+    return WHY_NOT
+
+
+__all__ = ['DEPENDENCIES', 'Overlay', 'overlay', 'shared_folder', 'why_not']
