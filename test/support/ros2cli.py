@@ -15,6 +15,9 @@ lock; the first build says what it is doing on the terminal.
   :data:`WHY_NOT` says why (the tests skip with it).
 * :meth:`Overlay.env`: the environment the ``ros2`` processes run in.
 * :meth:`Overlay.run`: ``ros2 <verb> ...`` to the end, output captured.
+* :meth:`Overlay.ask`: the same for a verb that asks a node over DDS, again while the
+  ``ros2`` process did not yet discover the node (``Node not found``).
+* :meth:`Overlay.start`: ``ros2 run``/``ros2 launch`` as a :class:`ros_procs.RosProcess`.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ import fcntl
 import functools
 import hashlib
 import os
+import signal
 import subprocess
 import sys
 import sysconfig
@@ -32,6 +36,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from paths import ROOT
+from ros_procs import RosProcess
 
 #: The wheels' pure-Python dependencies from PyPI (their READMEs' list), pinned in
 #: constraints.txt.
@@ -95,6 +100,77 @@ class Overlay:
             raise AssertionError(f'ros2 {" ".join(args)} returned {done.returncode}:\n'
                                  f'{done.stdout[-3000:]}\n{done.stderr[-3000:]}')
         return done
+
+
+    def ask(self, *args: str, timeout: float = 30.0) -> subprocess.CompletedProcess:
+        """Like :meth:`run` (checked), again until the ``ros2`` process, a new DDS
+        participant each time, has discovered the node it asks (``--no-daemon``: no
+        daemon outlives a test)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            done = self.run(*args, '--no-daemon', check=False)
+            said = done.stdout + done.stderr
+            lost = ('Node not found' in said or 'not available' in said
+                    or 'Could not find' in said)
+            if not lost or time.monotonic() > deadline:
+                break
+            time.sleep(0.5)
+        if done.returncode != 0:
+            raise AssertionError(f'ros2 {" ".join(args)} returned {done.returncode}:\n'
+                                 f'{done.stdout[-3000:]}\n{done.stderr[-3000:]}')
+        return done
+
+    def start(self, *args: str, workdir: str | os.PathLike,
+              env: Mapping[str, str] | None = None) -> RosProcess:
+        """``ros2 *args`` started in ``workdir``, its output to files there, in a session
+        of its own (its children, the nodes, can be found and signalled as a group)."""
+        workdir = Path(workdir)
+        workdir.mkdir(parents=True, exist_ok=True)
+        command = [str(self.ros2), *args]
+        with open(workdir / 'stdout.txt', 'w') as out, \
+                open(workdir / 'stderr.txt', 'w') as err:       # the child keeps its copies
+            popen = subprocess.Popen(command, stdout=out, stderr=err, env=self.env(env),
+                                     cwd=workdir, start_new_session=True)
+        return RosProcess(popen, workdir, command)
+
+
+def stop_group(proc: RosProcess, sig: int = signal.SIGINT, timeout: float = 20.0) -> int:
+    """``sig`` to the process group of ``proc`` (a started ``ros2`` and the nodes it
+    started), as Ctrl-C in a terminal; the exit code of ``proc``. What is still running
+    after ``timeout`` is killed and AssertionError raised."""
+    if proc.alive():
+        os.killpg(proc.pid, sig)
+        try:
+            proc.popen.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.popen.wait()
+            proc.kill()
+            raise AssertionError(f'{proc.command[1:3]} ignored signal {sig} for {timeout} s'
+                                 ) from None
+    deadline = time.monotonic() + timeout
+    while group_alive(proc.pid) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    if group_alive(proc.pid):
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.kill()
+        raise AssertionError(f'a process of {proc.command[1:3]} outlived it by {timeout} s')
+    proc.kill()
+    return proc.popen.returncode
+
+
+def group_alive(pgid: int) -> bool:
+    """Whether a process of group ``pgid`` (zombies aside) still runs."""
+    for entry in Path('/proc').iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            fields = (entry / 'stat').read_text().rpartition(')')[2].split()
+        except OSError:
+            continue
+        if fields[0] != 'Z' and int(fields[2]) == pgid:
+            return True
+    return False
 
 
 def _key(wheels: Sequence[Path]) -> str:
@@ -189,4 +265,5 @@ def why_not() -> str:
     return WHY_NOT
 
 
-__all__ = ['DEPENDENCIES', 'Overlay', 'overlay', 'shared_folder', 'why_not']
+__all__ = ['DEPENDENCIES', 'Overlay', 'group_alive', 'overlay', 'shared_folder',
+           'stop_group', 'why_not']
