@@ -14,7 +14,6 @@ import importlib
 import importlib.metadata
 import math
 import re
-from pathlib import Path
 
 import pytest
 import yaml
