@@ -38,10 +38,10 @@ from pathlib import Path
 from paths import ROOT
 from ros_procs import RosProcess
 
-#: The wheels' pure-Python dependencies from PyPI (their READMEs' list), pinned in
-#: constraints.txt.
+#: The wheels' pure-Python dependencies from PyPI (their README's list), and filelock,
+#: which ros2_control's stock spawner imports besides ros2param; pinned in constraints.txt.
 DEPENDENCIES = ('argcomplete', 'psutil', 'lark', 'osrf-pycommon', 'PyYAML', 'packaging',
-                'catkin-pkg', 'importlib-metadata')
+                'catkin-pkg', 'importlib-metadata', 'filelock')
 CONSTRAINTS = ROOT / 'constraints.txt'
 PYTHON = f'python{sys.version_info.major}.{sys.version_info.minor}'
 
@@ -72,11 +72,14 @@ class Overlay:
     def python(self) -> Path:
         return self.venv / 'bin' / 'python'
 
-    def env(self, extra: Mapping[str, str] | None = None) -> dict[str, str]:
-        """The test run's environment with the overlay in front: its venv's bin on PATH
-        and its prefix on the ament index (the wheels' share/ament_index lies there),
-        composition_interfaces on AMENT_PREFIX_PATH, PYTHONPATH and LD_LIBRARY_PATH."""
-        env = {**os.environ, 'PYTHONUNBUFFERED': '1', 'RCUTILS_COLORIZED_OUTPUT': '0'}
+    def env(self, extra: Mapping[str, str] | None = None,
+            base: Mapping[str, str] | None = None) -> dict[str, str]:
+        """``base`` (the test run's environment) with the overlay in front: its venv's
+        bin on PATH and its prefix on the ament index (the wheels' share/ament_index lies
+        there), composition_interfaces on AMENT_PREFIX_PATH, PYTHONPATH and
+        LD_LIBRARY_PATH."""
+        env = {**(os.environ if base is None else base), 'PYTHONUNBUFFERED': '1',
+               'RCUTILS_COLORIZED_OUTPUT': '0'}
 
         def front(name: str, *paths: Path) -> None:
             old = env.get(name)
