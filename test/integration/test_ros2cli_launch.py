@@ -5,16 +5,14 @@ a launch that cannot run ending non-zero with the reason and leaving no process 
 
 from __future__ import annotations
 
-import os
 import re
-import signal
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
 import yaml
 from paths import ROOT
-from ros2cli import group_alive, overlay, stop_group, why_not
+from ros2cli import group_alive, kill_group, overlay, stop_group, why_not
 from ros_procs import STARTUP_TIMEOUT, Peer, wait_until, write_params_file
 from sensor_msgs.msg import JointState
 
@@ -73,7 +71,7 @@ def test_a_namespace_a_recording_and_a_params_file_are_taken(tmp_path):
         assert values == {'max_torque': 300.0, 'record': str(bag)}
         assert stop_group(launch) == 0, ''.join(launch.output())[-3000:]
     finally:
-        launch.kill()
+        kill_group(launch)
     assert (bag / 'metadata.yaml').is_file()
     assert yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information'][
         'message_count'] > 0
@@ -91,9 +89,7 @@ def _failed_launch(tmp_path: Path, *arguments: str) -> str:
         assert code != 0, output
         wait_until(lambda: not group_alive(launch.pid), 10.0, 'the launch\'s processes ending')
     finally:
-        if group_alive(launch.pid):
-            os.killpg(launch.pid, signal.SIGKILL)
-        launch.kill()
+        kill_group(launch)
     return output
 
 

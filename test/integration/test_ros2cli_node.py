@@ -19,7 +19,7 @@ import pytest
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 from paths import ROOT
-from ros2cli import overlay, stop_group, why_not
+from ros2cli import kill_group, overlay, stop_group, why_not
 from ros_procs import STARTUP_TIMEOUT, Peer, wait_until, write_params_file
 from sensor_msgs.msg import JointState
 
@@ -90,7 +90,7 @@ def node(tmp_path_factory):
         assert stop_group(proc) == 0, ''.join(proc.output())[-3000:]
         assert 'Traceback' not in ''.join(proc.output())
     finally:
-        proc.kill()
+        kill_group(proc)
 
 
 def get(name: str, node: str = NODE):
@@ -124,7 +124,7 @@ def test_ros2_run_without_a_params_file_runs_the_papers_example(tmp_path):
             assert get(name, '/bare/table_sim') == PAPER[name], name
         assert stop_group(proc) == 0, ''.join(proc.output())[-3000:]
     finally:
-        proc.kill()
+        kill_group(proc)
 
 
 def _node_info() -> dict[str, dict[str, str]]:
@@ -335,9 +335,9 @@ def test_param_dump_then_a_restart_with_it_gives_identical_parameters(tmp_path):
         assert again[name]['ros__parameters']['encoder_counts_table'] == 4096
         assert stop_group(second) == 0
     finally:
-        first.kill()
+        kill_group(first)
         if second is not None:
-            second.kill()
+            kill_group(second)
 
 
 def _read_as_text(value) -> bool:

@@ -22,6 +22,7 @@ lock; the first build says what it is doing on the terminal.
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import functools
 import hashlib
@@ -162,6 +163,15 @@ def stop_group(proc: RosProcess, sig: int = signal.SIGINT, timeout: float = 20.0
     return proc.popen.returncode
 
 
+def kill_group(proc: RosProcess) -> None:
+    """Teardown of last resort: SIGKILL to every process of ``proc``'s group (the nodes a
+    ``ros2 run`` or ``ros2 launch`` started outlive a killed ``ros2``)."""
+    if group_alive(proc.pid):
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+    proc.kill()
+
+
 def group_alive(pgid: int) -> bool:
     """Whether a process of group ``pgid`` (zombies aside) still runs."""
     for entry in Path('/proc').iterdir():
@@ -268,5 +278,6 @@ def why_not() -> str:
     return WHY_NOT
 
 
-__all__ = ['DEPENDENCIES', 'Overlay', 'group_alive', 'overlay', 'shared_folder',
+__all__ = ['DEPENDENCIES', 'Overlay', 'group_alive', 'kill_group', 'overlay',
+           'shared_folder',
            'stop_group', 'why_not']
