@@ -238,8 +238,8 @@ def message(launch: str, problems: Iterable[Unmet], share: str,
     problems = list(problems)
     distro = distro or os.environ.get('ROS_DISTRO') or 'jazzy'
     apt = ' '.join(f'ros-{distro}-{p.need.package.replace("_", "-")}' for p in problems)
-    lines = [f'{launch} needs packages this ROS 2 install does not have; nothing was '
-             'started:']
+    lines = [(f'{launch} needs packages this ROS 2 install does not have; nothing was '
+              'started:')]
     lines += [f'  {p}' for p in problems]
     lines += ['install them with:', f'  sudo apt install {apt}',
               'or every dependency of this package with:',

@@ -29,7 +29,11 @@ from pathlib import Path
 
 import pytest
 import yaml
-from ros2cli import overlay, why_not
+from ros2cli import (
+    NEEDS_OVERLAY,
+    overlay,
+    ros2cli_overlay,  # noqa: F401  (the fixture NEEDS_OVERLAY uses)
+)
 
 from screwgear_ros.ros import launch_support as support
 
@@ -43,7 +47,7 @@ LIGHT = ('os', 'ament_index_python', 'launch', 'launch_ros', 'screwgear_ros.ros.
 HEAVY = ('numba', 'llvmlite', 'scipy', 'matplotlib', 'screwgear_ros.physics.model',
          'screwgear_ros.sim.plant', 'screwgear_ros.sim.session', 'screwgear_ros.ros.urdf',
          'screwgear_ros.ros.run_io')
-NEEDS_LAUNCH = pytest.mark.skipif(overlay() is None, reason=why_not() or 'no overlay')
+NEEDS_LAUNCH, USES_OVERLAY = NEEDS_OVERLAY
 
 
 def _run(code: str, in_overlay: bool) -> str:
@@ -83,6 +87,7 @@ def test_the_light_helper_loads_nothing_heavy():
 
 @pytest.mark.ros
 @NEEDS_LAUNCH
+@USES_OVERLAY
 @pytest.mark.parametrize('name', LAUNCH_FILES)
 def test_generate_launch_description_and_its_arguments_load_nothing_heavy(name):
     code = ('import importlib.util\n'
@@ -97,6 +102,7 @@ def test_generate_launch_description_and_its_arguments_load_nothing_heavy(name):
 
 @pytest.mark.ros
 @NEEDS_LAUNCH
+@USES_OVERLAY
 def test_ros2_control_launch_arguments_and_the_namespace_default():
     code = ('import importlib.util\n'
             'spec = importlib.util.spec_from_file_location(\n'
@@ -281,6 +287,7 @@ def _processes_with(marker: str) -> list[tuple[int, str]]:
 
 @pytest.mark.ros
 @NEEDS_LAUNCH
+@USES_OVERLAY
 def test_ros2_launch_without_ros2_control_starts_nothing_and_names_every_package(tmp_path):
     needs = [n.package for n in _needs()]
     if not support.unmet(_needs(), support.installed_version):

@@ -43,7 +43,11 @@ import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 from paths import ROOT
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from ros2cli import overlay
+from ros2cli import (
+    overlay,
+    ros2cli_overlay,  # noqa: F401  (the fixture that builds the overlay first)
+    why_not,
+)
 from ros_procs import STARTUP_TIMEOUT, Peer, wait_until
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, Int8
@@ -78,7 +82,8 @@ def find_prefix() -> tuple[Path | None, str]:
 
 
 PREFIX, WHY_NOT = find_prefix()
-pytestmark = pytest.mark.skipif(PREFIX is None, reason=WHY_NOT)
+pytestmark = [pytest.mark.skipif(PREFIX is None, reason=WHY_NOT),
+              pytest.mark.usefixtures('ros2cli_overlay')]
 
 
 # ---------------------------------------------------------------- reading the launch file
@@ -677,7 +682,7 @@ def test_deactivating_the_controller_leaves_zero_drive_and_the_direction(stack):
 
 
 @pytest.mark.ros
-@pytest.mark.skipif(overlay() is None, reason='no overlay of the ros2 CLI')
+@pytest.mark.skipif(bool(why_not()), reason=why_not() or 'overlay found')
 def test_ros2_launch_refuses_a_missing_params_file_before_it_starts_anything(stack,
                                                                             tmp_path):
     """With every package it needs on the paths, the real ``ros2 launch`` gets past the

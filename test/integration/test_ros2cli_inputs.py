@@ -13,12 +13,15 @@ import contextlib
 
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
-from ros2cli import overlay, why_not
+from ros2cli import (
+    NEEDS_OVERLAY,
+    overlay,
+    ros2cli_overlay,  # noqa: F401  (the fixture NEEDS_OVERLAY uses)
+)
 from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, start_process, wait_until
 from sensor_msgs.msg import JointState
 
-pytestmark = [pytest.mark.ros,
-              pytest.mark.skipif(overlay() is None, reason=why_not() or 'no overlay')]
+pytestmark = [pytest.mark.ros, *NEEDS_OVERLAY]
 
 FLOAT64 = 'std_msgs/msg/Float64'
 JOINTS = '[pinion_1, table, pinion_3]'

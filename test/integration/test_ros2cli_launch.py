@@ -12,12 +12,18 @@ from pathlib import Path
 import pytest
 import yaml
 from paths import ROOT
-from ros2cli import group_alive, kill_group, overlay, stop_group, why_not
+from ros2cli import (
+    NEEDS_OVERLAY,
+    group_alive,
+    kill_group,
+    overlay,
+    ros2cli_overlay,  # noqa: F401  (the fixture NEEDS_OVERLAY uses)
+    stop_group,
+)
 from ros_procs import STARTUP_TIMEOUT, Peer, wait_until, write_params_file
 from sensor_msgs.msg import JointState
 
-pytestmark = [pytest.mark.ros,
-              pytest.mark.skipif(overlay() is None, reason=why_not() or 'no overlay')]
+pytestmark = [pytest.mark.ros, *NEEDS_OVERLAY]
 
 PACKAGE = 'screwgear_ros'
 

@@ -12,7 +12,7 @@ and nothing changed rebuilds nothing. Concurrent test runs build it once, under 
 lock; the first build says what it is doing on the terminal.
 
 * :func:`overlay` (cached per process): the :class:`Overlay`, or None and
-  :data:`WHY_NOT` says why (the tests skip with it).
+  :func:`why_not` says why (the tests skip with it: :data:`NEEDS_OVERLAY`).
 * :meth:`Overlay.env`: the environment the ``ros2`` processes run in.
 * :meth:`Overlay.run`: ``ros2 <verb> ...`` to the end, output captured.
 * :meth:`Overlay.ask`: the same for a verb that asks a node over DDS, again while the
@@ -36,6 +36,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import pytest
 from paths import ROOT
 from ros_procs import RosProcess
 
@@ -198,15 +199,9 @@ def _key(wheels: Sequence[Path]) -> str:
 
 
 def _say(text: str) -> None:
-    """To the terminal past pytest's capture: a first build takes a minute or more."""
-    try:
-        with open('/dev/tty', 'w') as tty:
-            tty.write(f'\n[ros2cli overlay] {text}\n')
-            return
-    except OSError:
-        pass
-    sys.__stderr__.write(f'\n[ros2cli overlay] {text}\n')
-    sys.__stderr__.flush()
+    """What a build does: a first one takes a minute or more (:func:`ros2cli_overlay`
+    builds with pytest's capture off, so this reaches the terminal or the CI log)."""
+    print(f'\n[ros2cli overlay] {text}', file=sys.stderr, flush=True)
 
 
 def _pip(python: Path, *args: str) -> None:
@@ -246,21 +241,23 @@ def _build(venv: Path, wheels: Sequence[Path]) -> None:
     _say(f'overlay ready after {time.monotonic() - t0:.0f} s')
 
 
-#: Why :func:`overlay` returned None (empty when it did not).
-WHY_NOT = ''
+def why_not() -> str:
+    """Why there is no overlay, '' where its wheels are there; builds nothing."""
+    folder = shared_folder()
+    if not any((folder / 'wheels').glob('*.whl')) or \
+            not (folder / 'composition_interfaces').is_dir():
+        return (f'no ros2cli wheels with composition_interfaces in {folder} (set '
+                'SCREWGEAR_ROS2CLI_WHEELS or put them in ../shared/ros2cli)')
+    return ''
 
 
 @functools.cache
 def overlay() -> Overlay | None:
-    """The overlay, built if needed; None where no wheels are found (see :data:`WHY_NOT`)."""
-    global WHY_NOT
+    """The overlay, built if needed; None where no wheels are found (:func:`why_not`)."""
+    if why_not():
+        return None
     folder = shared_folder()
     wheels = sorted((folder / 'wheels').glob('*.whl'))
-    interfaces = folder / 'composition_interfaces'
-    if not wheels or not interfaces.is_dir():
-        WHY_NOT = (f'no ros2cli wheels with composition_interfaces in {folder} (set '
-                   'SCREWGEAR_ROS2CLI_WHEELS or put them in ../shared/ros2cli)')
-        return None
     root = cache_root()
     root.mkdir(parents=True, exist_ok=True)
     venv = root / _key(wheels)
@@ -269,15 +266,26 @@ def overlay() -> Overlay | None:
             fcntl.flock(lock, fcntl.LOCK_EX)
             if not (venv / 'bin' / 'ros2').is_file():
                 _build(venv, wheels)
-    return Overlay(venv, interfaces)
+    return Overlay(venv, folder / 'composition_interfaces')
 
 
-def why_not() -> str:
-    """The skip reason when :func:`overlay` is None."""
-    overlay()
-    return WHY_NOT
+@pytest.fixture(scope='session')
+def ros2cli_overlay(pytestconfig: pytest.Config) -> Overlay | None:
+    """The overlay, built before the first test that uses it with pytest's output
+    capture off: a first build says what it is doing as it goes. Import it into a test
+    module (or take :data:`NEEDS_OVERLAY`) to use it."""
+    capture = pytestconfig.pluginmanager.getplugin('capturemanager')
+    with (capture.global_and_fixture_disabled() if capture is not None
+          else contextlib.nullcontext()):
+        return overlay()
 
 
-__all__ = ['DEPENDENCIES', 'Overlay', 'group_alive', 'kill_group', 'overlay',
-           'shared_folder',
-           'stop_group', 'why_not']
+#: The marks of a test that runs the real ros2 CLI: skipped with the reason where the
+#: wheels are not found, the overlay built first (the module must import
+#: :func:`ros2cli_overlay` too, for pytest to find the fixture).
+NEEDS_OVERLAY = [pytest.mark.skipif(bool(why_not()), reason=why_not() or 'overlay found'),
+                 pytest.mark.usefixtures('ros2cli_overlay')]
+
+
+__all__ = ['DEPENDENCIES', 'NEEDS_OVERLAY', 'Overlay', 'group_alive', 'kill_group', 'overlay',
+           'ros2cli_overlay', 'shared_folder', 'stop_group', 'why_not']
