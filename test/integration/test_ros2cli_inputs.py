@@ -21,18 +21,20 @@ from ros2cli import (
 from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, start_process, wait_until
 from sensor_msgs.msg import JointState
 
+from screwgear_ros.interface import Input
+
 pytestmark = [pytest.mark.ros, *NEEDS_OVERLAY]
 
 FLOAT64 = 'std_msgs/msg/Float64'
 JOINTS = '[pinion_1, table, pinion_3]'
 #: (topic, type, message as YAML)
 MALFORMED = [
-    *(('cmd_torque', FLOAT64, f'{{data: {v}}}') for v in ('.nan', '-.inf', '-5.0', '400.5')),
-    *(('cmd_direction', 'std_msgs/msg/Int8', f'{{data: {v}}}') for v in (0, -128)),
-    *(('cmd_effort', 'std_msgs/msg/Float64MultiArray', f'{{data: {v}}}')
+    *((Input.CMD_TORQUE, FLOAT64, f'{{data: {v}}}') for v in ('.nan', '-.inf', '-5.0', '400.5')),
+    *((Input.CMD_DIRECTION, 'std_msgs/msg/Int8', f'{{data: {v}}}') for v in (0, -128)),
+    *((Input.CMD_EFFORT, 'std_msgs/msg/Float64MultiArray', f'{{data: {v}}}')
       for v in ('[]', '[1.0, 2.0]', '[.nan]', '[500.0]')),
-    *(('load_torque', FLOAT64, f'{{data: {v}}}') for v in ('.inf', '1.0e+300')),
-    *(('joint_commands', 'sensor_msgs/msg/JointState', v) for v in (
+    *((Input.LOAD_TORQUE, FLOAT64, f'{{data: {v}}}') for v in ('.inf', '1.0e+300')),
+    *((Input.JOINT_COMMANDS, 'sensor_msgs/msg/JointState', v) for v in (
         f'{{name: {JOINTS}, effort: [1.0, 2.0]}}',
         f'{{name: {JOINTS}, effort: []}}',
         f'{{name: {JOINTS}, position: [0.5], effort: [10.0]}}',
@@ -41,7 +43,7 @@ MALFORMED = [
         f'{{name: {JOINTS}, effort: [.inf]}}',
         f'{{name: {JOINTS}, effort: [400.5]}}')),
 ]
-TWO_NANS = ('joint_commands', 'sensor_msgs/msg/JointState',
+TWO_NANS = (Input.JOINT_COMMANDS, 'sensor_msgs/msg/JointState',
             f'{{name: {JOINTS}, effort: [.nan, .nan]}}')
 
 
