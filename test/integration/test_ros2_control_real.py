@@ -534,17 +534,25 @@ def stack(tmp_path_factory):
         st.bag, st.topic_states = work / 'run', params['joint_states_topic']
         namespace = params['joint_states_topic'].rpartition('/')[0]
         st.path = peer.subscribe(f'{namespace}/active_path', Int8, LATCHED)
+        stock_spawners = []
         for spec in nodes:
-            if spec.executable == 'spawner' and not runs_spawner:
-                st.spawners.append(spawner_args(spec))
+            if spec.executable == 'spawner':
+                if runs_spawner:
+                    stock_spawners.append(spec)
+                else:
+                    st.spawners.append(spawner_args(spec))
                 continue
             procs.append(start(spec, env, work))
-            if spec.executable == 'spawner':
-                assert procs[-1].popen.wait(timeout=90) == 0, procs[-1].output()[-3000:]
             if spec.package == PACKAGE:
                 st.node_js.wait_for(lambda m: True, STARTUP_TIMEOUT, "table_sim's joint_states")
+        # the controllers once the hardware has the node's states (the broadcaster of a
+        # controller activated before would publish the interfaces' initial NaNs)
         st.commands.wait_for(lambda m: True, STARTUP_TIMEOUT, "the plugin's first message")
         # all at once, as launch starts the spawners
+        spawned = [start(spec, env, work) for spec in stock_spawners]
+        procs.extend(spawned)
+        for p in spawned:
+            assert p.popen.wait(timeout=90) == 0, p.output()[-3000:]
         with ThreadPoolExecutor() as pool:
             for done in pool.map(lambda s: spawn(env, 'activate', *s), st.spawners):
                 st.activated.update(done)
