@@ -16,7 +16,8 @@ joint_state_broadcaster's /joint_states; robot_state_publisher with that URDF (i
 publishes /robot_description, where the Jazzy controller manager takes the URDF from,
 and /tf from /joint_states); ros2_control_node with config/ros2_control.yaml; spawners
 for joint_state_broadcaster and effort_controller. ``params_file`` and ``record`` are
-passed to table_sim.launch.py.
+passed to table_sim.launch.py. A process that exits with an error ends the launch,
+non-zero, with its last error line as the reason.
 """
 
 import os
@@ -59,7 +60,7 @@ def _controlled(context, share):
     files = _files(share)
     description = support.in_namespace(support.read(files['urdf/screwgear_table.urdf']),
                                        LaunchConfiguration('namespace').perform(context))
-    return [
+    nodes = [
         Node(package=STATE_PUBLISHER[0], executable=STATE_PUBLISHER[1],
              parameters=[{'robot_description': description}], output='screen'),
         Node(package=CONTROL_NODE[0], executable=CONTROL_NODE[1],
@@ -69,6 +70,8 @@ def _controlled(context, share):
                output='screen')
           for name in CONTROLLERS),
     ]
+    # one that exits with an error ends the launch (table_sim's watch is in its file)
+    return [action for node in nodes for action in (*support.watched(node), node)]
 
 
 def generate_launch_description():

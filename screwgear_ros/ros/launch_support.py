@@ -15,6 +15,11 @@ numba, nothing of the model), so that ``ros2 launch`` loads no more than it uses
   to it: one that failed after table_sim had been started left table_sim running.
 * :func:`urdf_namespace` and :func:`in_namespace`: the namespace a URDF's ros2_control
   block points the topic hardware interface at, and that URDF pointed at another one.
+* :func:`require_params_file`: a parameter file that is not there is refused before
+  anything starts (launch_ros only warns and starts the node with its defaults).
+* :class:`ExitWatch`: what ends a launch when a process it started exits with an error,
+  with the process's last error line as the reason (launch then returns non-zero and
+  stops every other process it started); :func:`watched` registers it with launch.
 """
 
 from __future__ import annotations
@@ -27,7 +32,7 @@ from dataclasses import dataclass
 
 import yaml
 
-from ..errors import ScrewgearError
+from screwgear_ros.errors import ScrewgearError
 
 #: The hardware parameters of the topic hardware interface that name table_sim's topics.
 TOPIC_PARAMS = ('joint_commands_topic', 'joint_states_topic')
@@ -61,6 +66,88 @@ class Unmet:
 
 class MissingPackages(ScrewgearError, RuntimeError):
     """A launch cannot run: the message lists every unmet need and how to install it."""
+
+
+class LaunchRefused(ScrewgearError, RuntimeError):
+    """A launch ends before or while it runs: a parameter file that is not there, or a
+    process that exited with an error (the message says which and why)."""
+
+
+def require_params_file(path: str) -> str:
+    """``path`` if it is a readable file; :class:`LaunchRefused` otherwise.
+
+    Examples
+    --------
+    >>> require_params_file('/no/such/table.yaml')  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    screwgear_ros.ros.launch_support.LaunchRefused: params_file /no/such/table.yaml is ...
+    """
+    if not os.path.isfile(path) or not os.access(path, os.R_OK):
+        raise LaunchRefused(f'params_file {path} is not a file; nothing was started')
+    return path
+
+
+_COLOUR = re.compile(r'\x1b\[[0-9;]*m')
+
+
+class ExitWatch:
+    """The last error line of each process, and the refusal when one exits non-zero.
+
+    A launch file feeds :meth:`saw` each ``ProcessIO`` event of stderr and calls
+    :meth:`check` on each ``ProcessExited`` event; :meth:`check` raises
+    :class:`LaunchRefused` for a non-zero code, which ``ros2 launch`` reports as
+    ``Caught exception in launch`` before it stops everything and returns 1.
+
+    Examples
+    --------
+    >>> watch = ExitWatch()
+    >>> watch.saw('table_sim-1', b'[FATAL] [table_sim]: cannot start: x exists\\n')
+    >>> watch.check('table_sim-1', 0)
+    >>> watch.check('table_sim-1', 2)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    screwgear_ros.ros.launch_support.LaunchRefused: table_sim-1 exited with code 2: [FATAL] ...
+    """
+
+    def __init__(self) -> None:
+        self._last: dict[str, str] = {}
+
+    def saw(self, process: str, text: bytes) -> None:
+        # the node colours its lines on launch's pseudo-terminal: the reason drops that
+        plain = _COLOUR.sub('', text.decode(errors='replace'))
+        lines = [line.strip() for line in plain.splitlines()]
+        lines = [line for line in lines if line]
+        if lines:
+            self._last[process] = lines[-1]
+
+    def check(self, process: str, returncode: int | None) -> None:
+        # a signal a stop sent (Ctrl-C, launch's own SIGTERM) is no error: Python
+        # nodes exit 0 or -2/-15 then
+        if returncode in (0, None, -2, -15):
+            return
+        said = self._last.get(process)
+        raise LaunchRefused(f'{process} exited with code {returncode}'
+                            + (f': {said}' if said else ''))
+
+
+def watched(action: object, watch: ExitWatch | None = None) -> list[object]:
+    """The launch actions that end a launch when ``action`` (a process it starts) exits
+    with an error: an :class:`ExitWatch` fed by launch's ``OnProcessIO`` and
+    ``OnProcessExit`` handlers. Put them before ``action`` in the description.
+
+    Imports ``launch`` when called, from the ``ros2 launch`` process that has it.
+    """
+    from launch.actions import RegisterEventHandler
+    from launch.event_handlers import OnProcessExit, OnProcessIO
+    watch = watch or ExitWatch()
+    return [
+        RegisterEventHandler(OnProcessIO(
+            target_action=action, on_stderr=lambda e: watch.saw(e.process_name, e.text))),
+        RegisterEventHandler(OnProcessExit(
+            target_action=action,
+            on_exit=lambda e, context: watch.check(e.process_name, e.returncode))),
+    ]
 
 
 def _version(text: str) -> tuple[int, ...]:
@@ -155,7 +242,7 @@ def message(launch: str, problems: Iterable[Unmet], share: str,
     distro = distro or os.environ.get('ROS_DISTRO') or 'jazzy'
     apt = ' '.join(f'ros-{distro}-{p.need.package.replace("_", "-")}' for p in problems)
     lines = [(f'{launch} needs packages this ROS 2 install does not have; nothing was '
-             'started:')]
+              'started:')]
     lines += [f'  {p}' for p in problems]
     lines += ['install them with:', f'  sudo apt install {apt}',
               'or every dependency of this package with:',
@@ -220,6 +307,8 @@ def read(path: str) -> str:
 
 __all__ = [
     'TOPIC_PARAMS',
+    'ExitWatch',
+    'LaunchRefused',
     'MissingPackages',
     'Need',
     'Unmet',
@@ -232,7 +321,9 @@ __all__ = [
     'plugin_package',
     'read',
     'require',
+    'require_params_file',
     'ros2_control_needs',
     'unmet',
     'urdf_namespace',
+    'watched',
 ]

@@ -3,22 +3,21 @@ when a package it needs is missing.
 
 * What the ``ros2 launch`` process imports: the launch files import only launch,
   launch_ros, ament_index_python and :mod:`screwgear_ros.ros.launch_support`, which
-  pulls in no numba, rclpy or model (checked in a fresh interpreter). Where launch and
-  launch_ros are importable (they have no wheel: not in this project's requirements),
-  each file's ``generate_launch_description()`` and its arguments (what
-  ``ros2 launch --show-args`` prints) are loaded in a fresh interpreter too; otherwise
-  that test is skipped with the reason.
+  pulls in no numba, rclpy or model (checked in a fresh interpreter). launch and
+  launch_ros have no wheel on PyPI: the tests' overlay of the real ones
+  (test/support/ros2cli.py) loads each file's ``generate_launch_description()`` and its
+  arguments (what ``ros2 launch --show-args`` prints) in a fresh interpreter too; where
+  the overlay's wheels are not found, those tests are skipped with the reason.
 * The package check: against a real ament index built in a temporary prefix and read by
   ament_index_python, no launch needed.
-* Where the ``ros2`` CLI with ros2launch is installed: ``ros2 launch`` of
-  ros2_control.launch.py on an install without ros2_control fails with one message
-  naming every missing package, and no process outlives it.
+* The real ``ros2 launch`` of the overlay: ros2_control.launch.py on an install without
+  ros2_control fails with one message naming every missing package, and no process
+  outlives it.
 """
 
 from __future__ import annotations
 
 import ast
-import importlib.util
 import os
 import shutil
 import signal
@@ -30,6 +29,11 @@ from pathlib import Path
 
 import pytest
 import yaml
+from ros2cli import (
+    NEEDS_OVERLAY,
+    overlay,
+    ros2cli_overlay,  # noqa: F401  (the fixture NEEDS_OVERLAY uses)
+)
 
 from screwgear_ros.ros import launch_support as support
 
@@ -43,21 +47,26 @@ LIGHT = ('os', 'ament_index_python', 'launch', 'launch_ros', 'screwgear_ros.ros.
 HEAVY = ('numba', 'llvmlite', 'scipy', 'matplotlib', 'screwgear_ros.physics.motion',
          'screwgear_ros.sim.plant', 'screwgear_ros.sim.session', 'screwgear_ros.ros.urdf',
          'screwgear_ros.ros.run_io')
-HAS_LAUNCH = all(importlib.util.find_spec(m) is not None for m in ('launch', 'launch_ros'))
-NEEDS_LAUNCH = pytest.mark.skipif(
-    not HAS_LAUNCH, reason='launch/launch_ros are not installed (no PyPI wheels; build them '
-                           'from the Jazzy sources to run this)')
+NEEDS_LAUNCH, USES_OVERLAY = NEEDS_OVERLAY
 
 
-def _loaded(code: str, heavy: tuple[str, ...] = HEAVY) -> list[str]:
+def _run(code: str, in_overlay: bool) -> str:
+    """``code`` in a fresh interpreter (the overlay's, with launch and launch_ros, when
+    ``in_overlay``); what it printed last."""
+    python, env = ((str(overlay().python), overlay().env()) if in_overlay
+                   else (sys.executable, None))
+    proc = subprocess.run([python, '-P', '-c', code], capture_output=True, text=True,
+                          check=False, timeout=120, env=env)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return proc.stdout.strip().splitlines()[-1]
+
+
+def _loaded(code: str, heavy: tuple[str, ...] = HEAVY, in_overlay: bool = False) -> list[str]:
     """Run ``code`` in a fresh interpreter; the ``heavy`` modules it left loaded."""
     probe = (code + '\nimport sys\n'
              f'print(sorted(m for m in sys.modules if any(m == h or m.startswith(h + ".") '
              f'for h in {heavy!r})))\n')
-    proc = subprocess.run([sys.executable, '-P', '-c', probe], capture_output=True,
-                          text=True, check=False, timeout=120)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    return ast.literal_eval(proc.stdout.strip().splitlines()[-1])
+    return ast.literal_eval(_run(probe, in_overlay))
 
 
 @pytest.mark.parametrize('name', LAUNCH_FILES)
@@ -78,6 +87,7 @@ def test_the_light_helper_loads_nothing_heavy():
 
 @pytest.mark.ros
 @NEEDS_LAUNCH
+@USES_OVERLAY
 @pytest.mark.parametrize('name', LAUNCH_FILES)
 def test_generate_launch_description_and_its_arguments_load_nothing_heavy(name):
     code = ('import importlib.util\n'
@@ -86,20 +96,25 @@ def test_generate_launch_description_and_its_arguments_load_nothing_heavy(name):
             'spec.loader.exec_module(module)\n'
             'description = module.generate_launch_description()\n'
             'names = [a.name for a in description.get_launch_arguments()]\n'
-            'print(names)\n')
-    assert _loaded(code) == []
+            'assert names, names\n')
+    assert _loaded(code, in_overlay=True) == []
 
 
+@pytest.mark.ros
 @NEEDS_LAUNCH
+@USES_OVERLAY
 def test_ros2_control_launch_arguments_and_the_namespace_default():
-    spec = importlib.util.spec_from_file_location('lf', SHARE / 'launch' / 'ros2_control.launch.py')
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    arguments = {a.name: a for a in module.generate_launch_description().get_launch_arguments()}
+    code = ('import importlib.util\n'
+            'spec = importlib.util.spec_from_file_location(\n'
+            f'    "lf", {str(SHARE / "launch" / "ros2_control.launch.py")!r})\n'
+            'module = importlib.util.module_from_spec(spec)\n'
+            'spec.loader.exec_module(module)\n'
+            'arguments = module.generate_launch_description().get_launch_arguments()\n'
+            'print({a.name: [t.describe() for t in a.default_value] for a in arguments})\n')
+    arguments = ast.literal_eval(_run(code, in_overlay=True))
     assert list(arguments) == ['namespace', 'params_file', 'record']
     from screwgear_ros.ros.urdf import PLANT_NAMESPACE
-    assert [t.describe() for t in arguments['namespace'].default_value] == \
-        [repr(PLANT_NAMESPACE)]
+    assert arguments['namespace'] == [repr(PLANT_NAMESPACE)]
 
 
 # ------------------------------------------------------------------ the package check
@@ -271,18 +286,16 @@ def _processes_with(marker: str) -> list[tuple[int, str]]:
 
 
 @pytest.mark.ros
-@pytest.mark.skipif(shutil.which('ros2') is None or importlib.util.find_spec('ros2launch')
-                    is None, reason='the ros2 CLI with ros2launch is not installed (no PyPI '
-                                    'wheels; build ros2cli and launch_ros from source)')
+@NEEDS_LAUNCH
+@USES_OVERLAY
 def test_ros2_launch_without_ros2_control_starts_nothing_and_names_every_package(tmp_path):
     needs = [n.package for n in _needs()]
     if not support.unmet(_needs(), support.installed_version):
         pytest.skip('ros2_control is installed here: nothing is missing')
     params = tmp_path / 'marker_params.yaml'              # a mark on table_sim's command line
     shutil.copy(SHARE / 'config/paper.yaml', params)
-    proc = subprocess.run(['ros2', 'launch', PACKAGE, 'ros2_control.launch.py',
-                           f'params_file:={params}'], capture_output=True, text=True,
-                          check=False, timeout=120)
+    proc = overlay().run('launch', PACKAGE, 'ros2_control.launch.py',
+                         f'params_file:={params}', check=False, timeout=120)
     out = proc.stdout + proc.stderr
     assert proc.returncode != 0, out
     for name in needs:

@@ -13,9 +13,11 @@ launch description (with a small reader of the launch API it uses, as ``launch``
 ``launch_ros`` would. Two of them cannot run from a pip install, and the test takes their
 part: robot_state_publisher (C++, not built here) is a small stand-in package that
 publishes its ``robot_description`` parameter, transient local, where the controller
-manager takes the URDF from; the stock ``spawner`` needs ros2cli's ``ros2param``, so
-unless that is importable each spawner's controller is loaded, configured and activated
-through the controller manager's services, as the spawner does.
+manager takes the URDF from; the stock ``spawner`` needs ros2cli's ``ros2param``: it runs
+(``python -m controller_manager.spawner``, its script names the build's interpreter) from
+the tests' overlay of the real ros2 CLI (test/support/ros2cli.py). Where the overlay's
+wheels are not found, each spawner's controller is loaded, configured and activated
+through the controller manager's services instead, as the spawner does.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ import time
 import types
 import xml.etree.ElementTree as ET
 from concurrent.futures import ThreadPoolExecutor
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -41,6 +43,11 @@ import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 from paths import ROOT
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from ros2cli import (
+    overlay,
+    ros2cli_overlay,  # noqa: F401  (the fixture that builds the overlay first)
+    why_not,
+)
 from ros_procs import STARTUP_TIMEOUT, Peer, wait_until
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, Int8
@@ -75,7 +82,8 @@ def find_prefix() -> tuple[Path | None, str]:
 
 
 PREFIX, WHY_NOT = find_prefix()
-pytestmark = pytest.mark.skipif(PREFIX is None, reason=WHY_NOT)
+pytestmark = [pytest.mark.skipif(PREFIX is None, reason=WHY_NOT),
+              pytest.mark.usefixtures('ros2cli_overlay')]
 
 
 # ---------------------------------------------------------------- reading the launch file
@@ -196,6 +204,14 @@ class Node(_Action):
         return []
 
 
+class RegisterEventHandler(_Action):
+    """The exit watches of the launch files: nothing to start (the fixture checks each
+    process's exit itself)."""
+
+    def visit(self, context: _Context) -> list[Any]:
+        return []
+
+
 def _load(path: Path) -> LaunchDescription:
     spec = importlib.util.spec_from_file_location(f'_launch_{path.stem.replace(".", "_")}',
                                                   path)
@@ -208,16 +224,18 @@ def _load(path: Path) -> LaunchDescription:
 def _launch_api():
     """``launch``/``launch_ros`` as the reader above, for the launch file's imports."""
     modules = {
-        'launch': dict(LaunchDescription=LaunchDescription),
-        'launch.actions': dict(DeclareLaunchArgument=DeclareLaunchArgument,
-                               IncludeLaunchDescription=IncludeLaunchDescription,
-                               OpaqueFunction=OpaqueFunction),
-        'launch.launch_description_sources': dict(
-            PythonLaunchDescriptionSource=PythonLaunchDescriptionSource),
-        'launch.substitutions': dict(LaunchConfiguration=LaunchConfiguration),
+        'launch': {'LaunchDescription': LaunchDescription},
+        'launch.actions': {'DeclareLaunchArgument': DeclareLaunchArgument,
+                               'IncludeLaunchDescription': IncludeLaunchDescription,
+                               'OpaqueFunction': OpaqueFunction,
+                               'RegisterEventHandler': RegisterEventHandler},
+        'launch.event_handlers': {'OnProcessExit': _Action, 'OnProcessIO': _Action},
+        'launch.launch_description_sources': {
+            'PythonLaunchDescriptionSource': PythonLaunchDescriptionSource},
+        'launch.substitutions': {'LaunchConfiguration': LaunchConfiguration},
         'launch_ros': {},
-        'launch_ros.actions': dict(Node=Node),
-        'launch_ros.parameter_descriptions': dict(ParameterValue=ParameterValue),
+        'launch_ros.actions': {'Node': Node},
+        'launch_ros.parameter_descriptions': {'ParameterValue': ParameterValue},
     }
     saved = {name: sys.modules.get(name) for name in modules}
     for name, attrs in modules.items():
@@ -318,9 +336,14 @@ class Proc:
 
 
 def start(spec: NodeSpec, env: dict[str, str], workdir: Path) -> Proc:
-    """The process launch_ros would start for ``spec``, in its own process group."""
-    args = [str(executable(env, spec.package, spec.executable)), *spec.arguments,
-            '--ros-args']
+    """The process launch_ros would start for ``spec``, in its own process group; the
+    spawner with the overlay's interpreter, on the overlay's paths."""
+    path = executable(env, spec.package, spec.executable)
+    command = [str(path)]
+    if spec.executable == 'spawner':
+        command = [str(overlay().python), '-m', f'{spec.package}.{spec.executable}']
+        env = overlay().env(base=env)
+    args = [*command, *spec.arguments, '--ros-args']
     if spec.name:
         args += ['-r', f'__node:={spec.name}']
     if spec.namespace:
@@ -383,7 +406,7 @@ print(json.dumps(result))
 def spawn(env: dict[str, str], mode: str, manager: str, names: list[str]) -> dict[str, bool]:
     """What the stock spawner does for ``names``, through the manager's services."""
     done = subprocess.run([sys.executable, '-c', SERVICE_SPAWNER, mode, manager, *names],
-                          env=env, capture_output=True, text=True, timeout=90)
+                          env=env, capture_output=True, text=True, timeout=90, check=False)
     assert done.returncode == 0, done.stderr[-3000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 
@@ -412,14 +435,10 @@ def stop_all(procs: list[Proc]) -> dict[str, int]:
     for p in order:
         if p.popen.poll() is None:
             os.killpg(p.popen.pid, signal.SIGINT)
-            try:
+            with suppress(subprocess.TimeoutExpired):
                 p.popen.wait(timeout=10.0)
-            except subprocess.TimeoutExpired:
-                pass
-        try:
+        with suppress(ProcessLookupError):
             os.killpg(p.popen.pid, signal.SIGKILL)       # a child it left behind
-        except ProcessLookupError:
-            pass
         p.popen.wait()
         codes[p.spec.executable] = p.popen.returncode
     return codes
@@ -481,7 +500,8 @@ class Stack:
                 return
             except AssertionError:
                 if time.monotonic() > deadline:
-                    raise AssertionError(f'the plugin did not send {value} within {timeout} s')
+                    raise AssertionError(f'the plugin did not send {value} within {timeout} s'
+                                         ) from None
 
 
 @pytest.fixture(scope='module')
@@ -500,7 +520,7 @@ def stack(tmp_path_factory):
             os.environ.pop('AMENT_PREFIX_PATH', None)
         else:
             os.environ['AMENT_PREFIX_PATH'] = saved_prefix
-    runs_spawner = importlib.util.find_spec('ros2param') is not None
+    runs_spawner = overlay() is not None
     urdf = (share / 'urdf' / 'screwgear_table.urdf').read_text()
     joints, kinds, params = hardware(urdf)
     peer = Peer('test_ros2_control_real')
@@ -514,17 +534,25 @@ def stack(tmp_path_factory):
         st.bag, st.topic_states = work / 'run', params['joint_states_topic']
         namespace = params['joint_states_topic'].rpartition('/')[0]
         st.path = peer.subscribe(f'{namespace}/active_path', Int8, LATCHED)
+        stock_spawners = []
         for spec in nodes:
-            if spec.executable == 'spawner' and not runs_spawner:
-                st.spawners.append(spawner_args(spec))
+            if spec.executable == 'spawner':
+                if runs_spawner:
+                    stock_spawners.append(spec)
+                else:
+                    st.spawners.append(spawner_args(spec))
                 continue
             procs.append(start(spec, env, work))
-            if spec.executable == 'spawner':
-                assert procs[-1].popen.wait(timeout=90) == 0, procs[-1].output()[-3000:]
             if spec.package == PACKAGE:
                 st.node_js.wait_for(lambda m: True, STARTUP_TIMEOUT, "table_sim's joint_states")
+        # the controllers once the hardware has the node's states (the broadcaster of a
+        # controller activated before would publish the interfaces' initial NaNs)
         st.commands.wait_for(lambda m: True, STARTUP_TIMEOUT, "the plugin's first message")
         # all at once, as launch starts the spawners
+        spawned = [start(spec, env, work) for spec in stock_spawners]
+        procs.extend(spawned)
+        for p in spawned:
+            assert p.popen.wait(timeout=90) == 0, p.output()[-3000:]
         with ThreadPoolExecutor() as pool:
             for done in pool.map(lambda s: spawn(env, 'activate', *s), st.spawners):
                 st.activated.update(done)
@@ -639,12 +667,19 @@ def test_over_the_urdf_limit_a_command_passes_the_manager_and_the_node_refuses_i
 @pytest.mark.ros
 def test_deactivating_the_controller_leaves_zero_drive_and_the_direction(stack):
     """JointGroupEffortController writes 0.0 on deactivation; the plugin keeps sending
-    it: no drive, the direction kept."""
-    if not stack.spawners:
-        pytest.skip('the stock spawner ran: no service path to deactivate with')
-    manager = stack.spawners[0][0]
-    assert spawn(stack.env, 'deactivate', manager, ['effort_controller']) == {
-        'deactivate effort_controller': True}
+    it: no drive, the direction kept. Deactivated as it was activated: by the stock
+    unspawner where the stock spawner ran, else through the manager's services."""
+    if stack.spawners:
+        manager = stack.spawners[0][0]
+        assert spawn(stack.env, 'deactivate', manager, ['effort_controller']) == {
+            'deactivate effort_controller': True}
+    else:
+        manager = next(spawner_args(n)[0] for n in stack.nodes if n.executable == 'spawner')
+        done = subprocess.run([str(overlay().python), '-m', 'controller_manager.unspawner',
+                               'effort_controller', '--controller-manager', manager],
+                              env=overlay().env(base=stack.env), capture_output=True,
+                              text=True, timeout=90, check=False)
+        assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     stack.commands.wait_next(lambda m: m.effort[0] == 0.0, 10, 'the plugin sending 0.0')
     stack.node_js.wait_next(lambda m: m.effort[0] == T_P and m.effort[2] == -T_P, 10,
                             'no drive')
@@ -652,6 +687,22 @@ def test_deactivating_the_controller_leaves_zero_drive_and_the_direction(stack):
     stack.command(30.0, echoed=False)            # nobody listens: the 0.0 stays
     time.sleep(0.5)
     assert all(m.effort[0] == 0.0 for m in stack.commands.snapshot()[-100:])
+
+
+@pytest.mark.ros
+@pytest.mark.skipif(bool(why_not()), reason=why_not() or 'overlay found')
+def test_ros2_launch_refuses_a_missing_params_file_before_it_starts_anything(stack,
+                                                                            tmp_path):
+    """With every package it needs on the paths, the real ``ros2 launch`` gets past the
+    package check and ends on the parameter file, non-zero, nothing started."""
+    missing = tmp_path / 'no_such.yaml'
+    done = subprocess.run([str(overlay().ros2), 'launch', PACKAGE, LAUNCH, 'namespace:=axis_x',
+                           f'params_file:={missing}'], env=overlay().env(base=stack.env),
+                          capture_output=True, text=True, timeout=120, check=False)
+    output = done.stdout + done.stderr
+    assert done.returncode != 0, output
+    assert f'params_file {missing} is not a file; nothing was started' in output, output
+    assert 'process started' not in output and 'not found' not in output, output
 
 
 @pytest.mark.ros
@@ -668,7 +719,7 @@ def test_no_process_outlives_the_stack(stack):
 def values(m: Any) -> dict[tuple[str, str], float]:
     """A JointState's values by (joint, field)."""
     return {(name, kind): value for kind in ('position', 'velocity', 'effort')
-            for name, value in zip(m.name, getattr(m, kind))}
+            for name, value in zip(m.name, getattr(m, kind), strict=False)}
 
 
 #: How many samples apart the two that a broadcaster message mixes may be: the plugin's
