@@ -40,7 +40,14 @@ SAMPLES_PER_PARAMETER = 250
 class IdentifyResult:
     """What a fit found: the fitted values with intervals (:attr:`estimates`), the
     correlation matrix, the measured-against-simulated comparisons, the files written,
-    and what it cost."""
+    and what it cost.
+
+    Examples
+    --------
+    >>> from screwgear_ros import IdentifyResult
+    >>> sorted(f for f in IdentifyResult.__dataclass_fields__)[:3]
+    ['comparisons', 'cost', 'figure']
+    """
 
     values: dict[str, float]
     statistics: Statistics
@@ -70,7 +77,20 @@ class IdentifyResult:
         return [e.name for e in self.statistics.undetermined]
 
     def fit_percent(self, role: str = 'fit', which: str = 'after') -> np.ndarray:
-        """(recordings, joints) fit % of the ``role`` recordings, ``before`` or ``after``."""
+        """The fit % (100·(1 − NRMSE)) of each recording and joint.
+
+        Parameters
+        ----------
+        role : str
+            ``'fit'`` (the recordings fitted to) or ``'validate'``.
+        which : str
+            ``'before'`` (the base file's values) or ``'after'`` (the fitted ones).
+
+        Returns
+        -------
+        ndarray
+            (recordings, joints) fit %.
+        """
         return np.array([c.fit(which) for c in self.comparisons if c.role == role])
 
 

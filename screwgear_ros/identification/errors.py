@@ -11,7 +11,17 @@ from ..errors import ScrewgearError
 
 
 class IdentifyError(ScrewgearError, ValueError):
-    """Input that ``identify`` cannot fit; the message names the problem."""
+    """Input that ``identify`` cannot fit; the message names the problem.
+
+    Examples
+    --------
+    >>> from screwgear_ros import IdentifyError, identify
+    >>> try:
+    ...     identify(['no/such/bag'], 'no/such/base.yaml', ['inertia_table'])
+    ... except IdentifyError as exc:
+    ...     print('no/such' in str(exc))
+    True
+    """
 
 
 class RecordingError(IdentifyError):

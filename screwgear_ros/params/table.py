@@ -277,11 +277,28 @@ class TableParams:
                     'would run backwards against its own rotation')
 
     def replace(self, **changes: Any) -> TableParams:
-        """A validated copy with some parameters changed."""
+        """A validated copy with some parameters changed.
+
+        Parameters
+        ----------
+        **changes
+            Parameters by name.
+
+        Returns
+        -------
+        TableParams
+            The copy; :class:`ParameterError` if a changed value is refused.
+        """
         return replace(self, **changes)
 
     def as_dict(self) -> dict[str, Any]:
-        """Parameter name → value as a ROS parameter (lists, enum strings)."""
+        """Parameter name → value as a ROS parameter (lists, enum strings).
+
+        Returns
+        -------
+        dict
+            What ``ros2 param dump`` would show, by name.
+        """
         return {p.name: plain(getattr(self, p.name)) for p in declared(TableParams)}
 
 
@@ -413,6 +430,13 @@ class SimSettings:
         return round(1.0 / (self.publish_rate * self.dt))
 
     def as_dict(self) -> dict[str, Any]:
+        """Setting name → value as a ROS parameter (lists, enum strings).
+
+        Returns
+        -------
+        dict
+            What ``ros2 param dump`` would show, by name.
+        """
         return {p.name: plain(getattr(self, p.name)) for p in declared(SimSettings)}
 
 

@@ -27,7 +27,16 @@ class Observation:
     (:mod:`screwgear_ros.physics.sensors`; the exact state when they are ideal), and
     ``true_position``, ``true_velocity`` the exact state (~/true_joint_states);
     ``delta``, ``delta_rate`` and ``mesh_force`` are mesh_state's values (mesh 1,
-    mesh 3)."""
+    mesh 3).
+
+    Examples
+    --------
+    >>> from screwgear_ros import Simulation
+    >>> sim = Simulation()
+    >>> first = sim.reset()
+    >>> first.step, len(first.position)
+    (0, 3)
+    """
 
     time: float                                # simulation time, s (step·dt)
     step: int                                  # integration steps since the start
@@ -73,7 +82,15 @@ class Run:
     As on :class:`Observation`, ``position``, ``velocity`` and ``joint_states`` are what
     joint_states carries (measured by the joint sensors; the exact state when they are
     ideal) and ``true_position``, ``true_velocity``, ``true_joint_states`` the exact
-    state (the node's ~/true_joint_states)."""
+    state (the node's ~/true_joint_states).
+
+    Examples
+    --------
+    >>> from screwgear_ros import Simulation
+    >>> run = Simulation().run(lambda observation: 10.0, 0.005)
+    >>> run.position.shape[1], bool((run.time[1:] > run.time[:-1]).all())
+    (3, True)
+    """
 
     params: TableParams
     settings: SimSettings

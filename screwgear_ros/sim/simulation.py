@@ -56,6 +56,27 @@ class Simulation:
     ``Simulation(params, settings)`` from validated values, or
     :meth:`from_yaml` / :meth:`from_values` from what the node takes. :meth:`reset`
     starts a run; :meth:`step` and :meth:`run` drive it.
+
+    Parameters
+    ----------
+    params : TableParams, optional
+        The table's physics; default the paper's.
+    settings : SimSettings, optional
+        Step, publish rate, sensors, …; default the node's.
+
+    Raises
+    ------
+    TypeError
+        ``params`` or ``settings`` of another type (build them by name with
+        :meth:`from_values`).
+
+    Examples
+    --------
+    >>> from screwgear_ros import Simulation
+    >>> sim = Simulation.from_values(publish_rate=500.0)
+    >>> first = sim.reset()
+    >>> sim.step(effort=20.0).step > first.step
+    True
     """
 
     def __init__(self, params: TableParams | None = None,
@@ -72,15 +93,49 @@ class Simulation:
     def from_values(cls, values: Mapping[str, Any] | None = None, /,
                     **overrides: Any) -> Simulation:
         """The node's defaults, then ``values``, then ``overrides``, by parameter name.
-        Raises :class:`~screwgear_ros.params.table.ParameterError` as the node refuses a value."""
+
+        Parameters
+        ----------
+        values : mapping, optional
+            Parameter name → value, as a parameter file holds them.
+        **overrides
+            Parameter name → value, on top of ``values``.
+
+        Returns
+        -------
+        Simulation
+
+        Raises
+        ------
+        ParameterError
+            A value the node refuses, naming it and the rule.
+        """
         return cls(*resolve(values, **overrides))
 
     @classmethod
     def from_yaml(cls, path: str | os.PathLike[str], **overrides: Any) -> Simulation:
         """The node's parameter file ``path`` (``/**:`` or ``table_sim:`` keys with
         ``ros__parameters``), then ``overrides`` by parameter name, the node's defaults
-        for the rest. Raises :class:`ParameterFileError` (unreadable file) or
-        :class:`~screwgear_ros.params.table.ParameterError` (a value the node refuses)."""
+        for the rest.
+
+        Parameters
+        ----------
+        path : str or path-like
+            A ROS 2 parameter file, as ``table_sim --params-file`` takes it.
+        **overrides
+            Parameter name → value, on top of the file's.
+
+        Returns
+        -------
+        Simulation
+
+        Raises
+        ------
+        ParameterFileError
+            The file cannot be read as a parameter file.
+        ParameterError
+            A value the node refuses (naming the file or the keyword argument).
+        """
         values = file_values(path)
         try:
             return cls.from_values(values, **overrides)
@@ -98,7 +153,17 @@ class Simulation:
         self._session = None
 
     def with_values(self, **overrides: Any) -> Simulation:
-        """A new simulation with some parameters changed (validated)."""
+        """A new simulation with some parameters changed (validated).
+
+        Parameters
+        ----------
+        **overrides
+            Parameter name → value.
+
+        Returns
+        -------
+        Simulation
+        """
         return Simulation.from_values({**self.params.as_dict(), **self.settings.as_dict()},
                                       **overrides)
 
@@ -117,8 +182,13 @@ class Simulation:
         return self.settings.steps_per_publish * self.settings.dt
 
     def reset(self) -> Observation:
-        """Start a new run at step 0 at the preload equilibrium, at rest, with no input;
-        its first observation (what the node publishes before its first tick)."""
+        """Start a new run at step 0 at the preload equilibrium, at rest, with no input.
+
+        Returns
+        -------
+        Observation
+            The first observation: what the node publishes before its first tick.
+        """
         self._session = session = Session(self.params, self.settings)
         return observation_of(session.last_outputs, session.plant.fault, session.measured)
 
@@ -132,7 +202,28 @@ class Simulation:
         what it means on the node's topic and is validated the same way, against the
         input and parameters in force: a refused command raises
         :class:`~screwgear_ros.sim.commands.InputRejected` with the node's message, and
-        nothing is submitted or integrated. Returns the tick's observation.
+        nothing is submitted or integrated.
+
+        Parameters
+        ----------
+        effort : float, optional
+            cmd_effort's signed drive torque, N·m.
+        torque : float, optional
+            cmd_torque, N·m.
+        direction : int, optional
+            cmd_direction, +1 or −1.
+        load : float, optional
+            load_torque, N·m at the table.
+
+        Returns
+        -------
+        Observation
+            What the tick published.
+
+        Raises
+        ------
+        InputRejected
+            A command the node refuses (nothing is applied).
         """
         session = self.session
         commands: list[tuple[Input, Any]] = []
@@ -178,6 +269,33 @@ class Simulation:
         as table_sim records demo_controller's ``setpoint`` (before the answer, sent as
         :class:`~screwgear_ros.sim.control.SetpointNotes` says), so ``plot_run`` shows the
         tracking error; it changes nothing else, and an unrecorded run ignores it.
+
+        Parameters
+        ----------
+        controller : callable or None
+            ``controller(observation) -> effort`` (N·m, or None for no command); None
+            runs open loop.
+        duration : float
+            Simulation time, s, rounded to whole ticks.
+        record : str or path-like, optional
+            A new rosbag2 directory to record the run to.
+        events : sequence of Event
+            Session events with their ``step`` set.
+        setpoint : callable, optional
+            t → the table's target angle (rad), recorded for the plots.
+
+        Returns
+        -------
+        Run
+            The samples, sample 0 the start.
+
+        Raises
+        ------
+        InputRejected
+            An answer the node refuses (the run ends there; a recording is kept).
+        ValueError
+            A duration that is not a finite number of seconds >= 0, or an event
+            without its step.
         """
         if isinstance(duration, bool) or not (isinstance(duration, (int, float))
                                               and math.isfinite(duration) and duration >= 0.0):
