@@ -28,7 +28,7 @@ compare the bytes with rosbags' serialization of the same message (rosbags pads 
 zeros too; rclpy leaves padding bytes uninitialized, so only its decoding is compared).
 
 :func:`joint_state_template`, :func:`float64_template` and :func:`clock_template` build
-the three layouts the node publishes every tick; :mod:`screwgear_ros.ros.markers` builds
+the three layouts the node publishes every tick; :mod:`screwgear_ros.view.markers` builds
 the markers' from the rclpy MarkerArray it draws.
 
 Why not ``rosbags``' serializer, which the package depends on anyway: to serialize a

@@ -4,7 +4,7 @@ A session's tick sends the same topics every time (/clock when it is published,
 joint_states, mesh_state, transmission_error, and ~/true_joint_states when the sensors
 are not ideal), each of a fixed layout: :class:`TickEncoder` encodes them with one pack
 of a :class:`~screwgear_ros.bag.cdr.Bundle` of their templates. The node's
-:class:`~screwgear_ros.ros.run_io.RunIO` publishes and records these bytes; the topics'
+:class:`~screwgear_ros.runs.run_io.RunIO` publishes and records these bytes; the topics'
 types come from :mod:`screwgear_ros.interface` (:func:`topic_specs`), so opening a
 recording needs no rclpy either.
 

@@ -14,6 +14,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Int8, String
 
+from ..bag.cdr import Shape
 from ..bag.tick_encoder import MESH_NAMES
 from ..interface import (
     BY_KEY,
@@ -42,6 +43,19 @@ OUTPUT_TYPES = {key: (BY_KEY[key].name, message_class(name))
                 for key, name in OUTPUT_TOPICS.items()}
 #: What the recording holds besides outputs and inputs, under the node's private namespace.
 PRIVATE_TYPES = {key: message_class(name) for key, name in RECORDED_TOPICS.items()}
+
+
+def to_message(shape: Shape) -> Any:
+    """The rclpy message a :class:`~screwgear_ros.bag.cdr.Shape` spells out (every field
+    named by the shape; the message class refuses a field it does not have)."""
+    def value(item: Any) -> Any:
+        if isinstance(item, Shape):
+            return to_message(item)
+        if isinstance(item, list):
+            return [value(v) for v in item]
+        return item
+    return message_class(shape.msgtype)(**{name: value(v)
+                                          for name, (_, v) in shape.fields.items()})
 
 
 def input_message(topic: str, value: Any, time_ns: int = 0) -> object:
@@ -101,4 +115,5 @@ __all__ = [
     'robot_description',
     'setpoint',
     'stamp',
+    'to_message',
 ]

@@ -41,8 +41,8 @@ LIGHT = ('os', 'ament_index_python', 'launch', 'launch_ros', 'screwgear_ros.ros.
 #: Modules that must not be loaded into the `ros2 launch` process by our files (rclpy is
 #: not among them: launch_ros loads it anyway).
 HEAVY = ('numba', 'llvmlite', 'scipy', 'matplotlib', 'screwgear_ros.physics.motion',
-         'screwgear_ros.sim.plant', 'screwgear_ros.sim.session', 'screwgear_ros.ros.urdf',
-         'screwgear_ros.ros.run_io')
+         'screwgear_ros.sim.plant', 'screwgear_ros.sim.session', 'screwgear_ros.view.urdf',
+         'screwgear_ros.runs.run_io')
 HAS_LAUNCH = all(importlib.util.find_spec(m) is not None for m in ('launch', 'launch_ros'))
 NEEDS_LAUNCH = pytest.mark.skipif(
     not HAS_LAUNCH, reason='launch/launch_ros are not installed (no PyPI wheels; build them '
@@ -97,7 +97,7 @@ def test_ros2_control_launch_arguments_and_the_namespace_default():
     spec.loader.exec_module(module)
     arguments = {a.name: a for a in module.generate_launch_description().get_launch_arguments()}
     assert list(arguments) == ['namespace', 'params_file', 'record']
-    from screwgear_ros.ros.urdf import PLANT_NAMESPACE
+    from screwgear_ros.view.urdf import PLANT_NAMESPACE
     assert [t.describe() for t in arguments['namespace'].default_value] == \
         [repr(PLANT_NAMESPACE)]
 
@@ -238,7 +238,7 @@ def test_versions_compare_as_numbers():
 
 def test_the_urdf_is_pointed_at_another_namespace_and_never_at_the_root():
     from screwgear_ros.interface import topic_names
-    from screwgear_ros.ros.urdf import PLANT_NAMESPACE
+    from screwgear_ros.view.urdf import PLANT_NAMESPACE
     shipped = (SHARE / 'urdf/screwgear_table.urdf').read_text(encoding='utf-8')
     assert support.urdf_namespace(shipped) == PLANT_NAMESPACE
     assert support.in_namespace(shipped, PLANT_NAMESPACE.strip('/')) == shipped

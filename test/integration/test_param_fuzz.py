@@ -51,7 +51,7 @@ def _cases():
 def _derived_are_finite(values: dict) -> None:
     """Everything the node derives from a parameter set, computed and finite."""
     from screwgear_ros.physics.packed import pack
-    from screwgear_ros.ros.urdf import robot_description
+    from screwgear_ros.view.urdf import robot_description
     from screwgear_ros.sim.pacing import wall_period
     params, settings = split_parameters(values)
     assert 0.0 < max_stable_dt(params) < math.inf

@@ -295,7 +295,7 @@ def record_a_fault(bag: Path) -> None:
     from diverging import diverging
 
     from screwgear_ros.interface import topic_names
-    from screwgear_ros.ros.run_io import RunIO
+    from screwgear_ros.runs.run_io import RunIO
     from screwgear_ros.sim.session import Session
     params, settings = diverging()
     session = Session(params, settings)

@@ -26,8 +26,8 @@ from screwgear_ros.bag.cdr import (
     template_of,
 )
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.ros.markers import MarkerEncoder, table_markers
-from screwgear_ros.ros.messages import stamp
+from screwgear_ros.ros.messages import to_message
+from screwgear_ros.view.markers import MarkerEncoder, table_markers
 from screwgear_ros.sim.plant import DriveInput, Outputs, Plant
 from screwgear_ros.sim.status import Contact, contact_states
 
@@ -171,7 +171,7 @@ def test_marker_encodings_decode_to_what_table_markers_draws():
         encoder = MarkerEncoder(params, names)
         for out in _reversals(params, 200.0):
             t_ns = rng.randrange(0, 10 ** 13)
-            drawn = serialize_message(table_markers(params, names, out, stamp(t_ns)))
+            drawn = serialize_message(to_message(table_markers(params, names, out, t_ns)))
             assert deserialize_message(encoder.encode(out, t_ns), MarkerArray) == \
                 deserialize_message(drawn, MarkerArray)
             looks.add((out.active_path, *contact_states(params, out)))

@@ -27,7 +27,7 @@ from screwgear_ros.physics.friction import (
     friction_piece,
     sliding_torque,
 )
-from screwgear_ros.ros.session_record import record_session
+from screwgear_ros.runs.session_record import record_session
 from screwgear_ros.runs.check import check_run, format_report
 from screwgear_ros.sim.control import DemoController, DemoGains
 from screwgear_ros.sim.events import Command

@@ -14,7 +14,7 @@ from screwgear_ros.bag.format import typestore
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.interface import topic_names
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.ros.run_io import RunIO
+from screwgear_ros.runs.run_io import RunIO
 from screwgear_ros.runs.replay_in_process import replay_in_process
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
 from screwgear_ros.sim.schedule import Schedule

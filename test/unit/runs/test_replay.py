@@ -23,7 +23,7 @@ from paths import DATA
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.interface import topic_names
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.ros.run_io import RunIO
+from screwgear_ros.runs.run_io import RunIO
 from screwgear_ros.runs.replay_in_process import replay_in_process, schedule_from_scenario
 from screwgear_ros.sim import fast_ticks
 from screwgear_ros.sim.events import Command, ParameterChange, Reset

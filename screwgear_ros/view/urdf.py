@@ -7,7 +7,7 @@ talks to. The node publishes it for itself on ``robot_description``; the shipped
 ``urdf/screwgear_table.urdf`` is :func:`shipped_description` (the defaults, the node in
 namespace :data:`PLANT_NAMESPACE`), regenerated with::
 
-    python -m screwgear_ros.ros.urdf > urdf/screwgear_table.urdf
+    python -m screwgear_ros.view.urdf > urdf/screwgear_table.urdf
 
 Joints are ``continuous`` (URDF's revolute joint without position limits: a rotary
 table turns for ever). Only ``joint_names[COMMANDED_JOINT]`` (pinion 1) has a command
@@ -106,7 +106,7 @@ def robot_description(params: TableParams, settings: SimSettings, commands_topic
     joint_commands and joint_states topics are these (fully resolved) names."""
     gears = wheels(params, settings.joint_names)
     robot = ET.Element('robot', name=ROBOT_NAME)
-    robot.append(ET.Comment(' written by screwgear_ros.ros.urdf: geometry, inertias and '
+    robot.append(ET.Comment(' written by screwgear_ros.view.urdf: geometry, inertias and '
                             'limits from the table parameters '))
     for name, rgba in PALETTE.items():
         if name in ('table', 'pinion', 'mark'):
