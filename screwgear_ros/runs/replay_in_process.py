@@ -48,7 +48,7 @@ class ReplayedOutputs:
     ``tick_samples[j]``). The ticks in between took no event: each ran under the input
     and parameters of the tick before it (:meth:`Session.advance` with ``rows``)."""
 
-    joint_states: np.ndarray        # (n, 9) like RecordedRun.joint_states.values
+    joint_states: np.ndarray        # (n, 9) like RecordedRun.true_joint_states.values
     transmission_error: np.ndarray  # (m,) m
     fault: str | None
     ticks: list[Tick] = field(default_factory=list)
@@ -66,7 +66,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
     the node must have refused).
     """
     start = run.parameters
-    samples = run.joint_states
+    samples = run.true_joint_states
     n = len(samples)
     rows = np.empty((n, ROW))
     m = len(run.transmission_error)

@@ -19,7 +19,7 @@ from std_msgs.msg import Float64
 from visualization_msgs.msg import MarkerArray
 
 from screwgear_ros.bag.cdr import (
-    Bundle,
+    MessageBundle,
     clock_template,
     float64_template,
     joint_state_template,
@@ -78,12 +78,12 @@ def test_joint_state_encodings_decode_to_the_values_in_rclpy_and_match_rosbags()
 
 
 def test_a_bundle_cuts_out_each_message_as_rosbags_serializes_it():
-    """A tick's messages packed by one struct (cdr.Bundle, what RunIO sends) and cut
+    """A tick's messages packed by one struct (cdr.MessageBundle, what RunIO sends) and cut
     apart: each is the bytes rosbags serializes for that message alone."""
     rng = random.Random(11)
     mesh = ['mesh_1', 'mesh_3']
     for names in (NAMES, ['zahnrad_ä', 'ü', 'abcde'], []):
-        bundle = Bundle([clock_template(), joint_state_template(names),
+        bundle = MessageBundle([clock_template(), joint_state_template(names),
                          joint_state_template(mesh), float64_template()])
         for _ in range(100):
             t_ns = rng.randrange(0, 10 ** 13)
