@@ -59,6 +59,7 @@ from ..numerics.warmup import compiled_now, without_blas_probe
 from ..params.sets import split_parameters
 from ..params.table import ParameterError, SimSettings, TableParams
 from ..physics.packed import pack
+from ..runs.run_io import RunIO
 from ..sim.commands import carries_no_command
 from ..sim.events import Command, ParameterChange, Reset, Setpoint
 from ..sim.pacing import AnswerGate, wall_period
@@ -67,7 +68,6 @@ from ..sim.session import Session
 from . import inputs, parameters
 from .messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES
 from .pacing_thread import PacingThread
-from ..runs.run_io import RunIO
 
 #: Exit status of a node whose recording failed (a full disk): it ran, and stopped as
 #: asked, but the bag ends at the fault (the log's ERROR line says where).

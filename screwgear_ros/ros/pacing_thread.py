@@ -20,6 +20,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..interface import ANSWERS
+from ..runs.run_io import RunIO
 from ..sim.events import Command, Reset
 from ..sim.pacing import AnswerGate, FactorMeter, Pacer
 from ..sim.ratelimit import RateLimiter
@@ -32,7 +33,6 @@ from ..sim.status import (
     status_line,
 )
 from . import inputs, messages
-from ..runs.run_io import RunIO
 
 DIAGNOSTICS_PERIOD = 1.0    # s of wall time between /diagnostics
 STATUS_PERIOD = 5.0         # s of wall time between status log lines

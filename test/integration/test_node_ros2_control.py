@@ -43,12 +43,12 @@ from screwgear_ros.bag.reader import read_run
 from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.physics.layout import BASE_LINK, PALETTE, wheels
 from screwgear_ros.physics.packed import pack
-from screwgear_ros.view.markers import DISCS, MARKS, MESHES
-from screwgear_ros.view.urdf import PLANT_NAMESPACE, shipped_description
 from screwgear_ros.runs.replay_in_process import replay_in_process
 from screwgear_ros.sim.commands import JointCommand
 from screwgear_ros.sim.events import Command
 from screwgear_ros.sim.schedule import Schedule
+from screwgear_ros.view.markers import DISCS, MARKS, MESHES
+from screwgear_ros.view.urdf import PLANT_NAMESPACE, shipped_description
 
 NS = PLANT_NAMESPACE                   # where the shipped URDF's ros2_control block looks
 NODE = f'{NS}/table_sim'
@@ -116,16 +116,16 @@ def test_the_marks_turn_as_the_urdf_links_do():
     link's +x, where its mark visual sits, to the direction of the marker's mark."""
     import yourdfpy
 
-    from screwgear_ros.view.markers import table_markers
     from screwgear_ros.ros.messages import stamp
     from screwgear_ros.sim.plant import Plant
+    from screwgear_ros.view.markers import table_markers
     urdf = yourdfpy.URDF.load(ROOT / 'urdf/screwgear_table.urdf',
                               load_meshes=False, build_scene_graph=True)
     rng = np.random.default_rng(7)
     base = Plant(TableParams(), 5e-5).compute_outputs()
     for _ in range(5):
         angles = tuple(float(a) for a in rng.uniform(-20.0, 20.0, 3))
-        urdf.update_cfg(dict(zip(JOINTS, angles)))
+        urdf.update_cfg(dict(zip(JOINTS, angles, strict=True)))
         out = replace(base, position=angles)
         found = by_key(table_markers(TableParams(), JOINTS, out, stamp(0)).markers)
         for wheel in WHEELS:
@@ -137,9 +137,9 @@ def test_the_marks_turn_as_the_urdf_links_do():
 
 
 def test_contact_colours_follow_the_meshes():
-    from screwgear_ros.view.markers import table_markers
     from screwgear_ros.ros.messages import stamp
     from screwgear_ros.sim.plant import DriveInput, Plant
+    from screwgear_ros.view.markers import table_markers
     params = TableParams()
     out = Plant(params, 5e-5).compute_outputs()                     # preload: both on a flank
 

@@ -192,7 +192,8 @@ def test_the_urdf_parses_and_its_joints_are_those_of_joint_states():
     p = TableParams()
     for wheel, radius, inertia in zip(wheels(p, names),
                                       (p.radius_pinion_1, p.radius_table, p.radius_pinion_3),
-                                      (p.inertia_pinion_1, p.inertia_table, p.inertia_pinion_3)):
+                                      (p.inertia_pinion_1, p.inertia_table, p.inertia_pinion_3),
+                                      strict=True):
         joint = urdf.joint_map[wheel.joint]
         assert joint.type == 'continuous' and joint.parent == BASE_LINK   # revolute, no limits
         link = urdf.link_map[joint.child]

@@ -165,7 +165,7 @@ def advance_lockstep_node(ticks: int) -> int:
         for _ in range(ticks):
             answer.publish(Empty())
             last = seen
-            seen = stamp_ns(inbox.wait_for(lambda m: stamp_ns(m) > last, timeout=WAIT,
+            seen = stamp_ns(inbox.wait_for(lambda m, last=last: stamp_ns(m) > last, timeout=WAIT,
                                            what=f'joint_states after {last} ns'))
     return seen
 

@@ -20,6 +20,7 @@ through the controller manager's services, as the spawner does.
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import json
 import math
@@ -208,16 +209,16 @@ def _load(path: Path) -> LaunchDescription:
 def _launch_api():
     """``launch``/``launch_ros`` as the reader above, for the launch file's imports."""
     modules = {
-        'launch': dict(LaunchDescription=LaunchDescription),
-        'launch.actions': dict(DeclareLaunchArgument=DeclareLaunchArgument,
-                               IncludeLaunchDescription=IncludeLaunchDescription,
-                               OpaqueFunction=OpaqueFunction),
-        'launch.launch_description_sources': dict(
-            PythonLaunchDescriptionSource=PythonLaunchDescriptionSource),
-        'launch.substitutions': dict(LaunchConfiguration=LaunchConfiguration),
+        'launch': {'LaunchDescription': LaunchDescription},
+        'launch.actions': {'DeclareLaunchArgument': DeclareLaunchArgument,
+                               'IncludeLaunchDescription': IncludeLaunchDescription,
+                               'OpaqueFunction': OpaqueFunction},
+        'launch.launch_description_sources': {
+            'PythonLaunchDescriptionSource': PythonLaunchDescriptionSource},
+        'launch.substitutions': {'LaunchConfiguration': LaunchConfiguration},
         'launch_ros': {},
-        'launch_ros.actions': dict(Node=Node),
-        'launch_ros.parameter_descriptions': dict(ParameterValue=ParameterValue),
+        'launch_ros.actions': {'Node': Node},
+        'launch_ros.parameter_descriptions': {'ParameterValue': ParameterValue},
     }
     saved = {name: sys.modules.get(name) for name in modules}
     for name, attrs in modules.items():
@@ -383,7 +384,7 @@ print(json.dumps(result))
 def spawn(env: dict[str, str], mode: str, manager: str, names: list[str]) -> dict[str, bool]:
     """What the stock spawner does for ``names``, through the manager's services."""
     done = subprocess.run([sys.executable, '-c', SERVICE_SPAWNER, mode, manager, *names],
-                          env=env, capture_output=True, text=True, timeout=90)
+                          env=env, capture_output=True, text=True, timeout=90, check=False)
     assert done.returncode == 0, done.stderr[-3000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 
@@ -412,14 +413,10 @@ def stop_all(procs: list[Proc]) -> dict[str, int]:
     for p in order:
         if p.popen.poll() is None:
             os.killpg(p.popen.pid, signal.SIGINT)
-            try:
+            with contextlib.suppress(subprocess.TimeoutExpired):
                 p.popen.wait(timeout=10.0)
-            except subprocess.TimeoutExpired:
-                pass
-        try:
+        with contextlib.suppress(ProcessLookupError):
             os.killpg(p.popen.pid, signal.SIGKILL)       # a child it left behind
-        except ProcessLookupError:
-            pass
         p.popen.wait()
         codes[p.spec.executable] = p.popen.returncode
     return codes
@@ -481,7 +478,8 @@ class Stack:
                 return
             except AssertionError:
                 if time.monotonic() > deadline:
-                    raise AssertionError(f'the plugin did not send {value} within {timeout} s')
+                    raise AssertionError(
+                        f'the plugin did not send {value} within {timeout} s') from None
 
 
 @pytest.fixture(scope='module')
@@ -668,7 +666,7 @@ def test_no_process_outlives_the_stack(stack):
 def values(m: Any) -> dict[tuple[str, str], float]:
     """A JointState's values by (joint, field)."""
     return {(name, kind): value for kind in ('position', 'velocity', 'effort')
-            for name, value in zip(m.name, getattr(m, kind))}
+            for name, value in zip(m.name, getattr(m, kind), strict=False)}
 
 
 #: How many samples apart the two that a broadcaster message mixes may be: the plugin's

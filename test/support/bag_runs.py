@@ -73,7 +73,7 @@ def installed(exe: str, *args: object, timeout: float = 300.0) -> subprocess.Com
     path = shutil.which(exe)
     assert path is not None, f'{exe} is not installed in the venv'
     return subprocess.run([path, *map(str, args)], capture_output=True, text=True,
-                          timeout=timeout)
+                          timeout=timeout, check=False)
 
 
 def installed_check_run(*args: object) -> subprocess.CompletedProcess:

@@ -27,9 +27,9 @@ from screwgear_ros.bag.cdr import (
 )
 from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.ros.messages import to_message
-from screwgear_ros.view.markers import MarkerEncoder, table_markers
 from screwgear_ros.sim.plant import DriveInput, Outputs, Plant
 from screwgear_ros.sim.status import Contact, contact_states
+from screwgear_ros.view.markers import MarkerEncoder, table_markers
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 T = STORE.types

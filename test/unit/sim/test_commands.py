@@ -261,8 +261,8 @@ def test_message_and_value_convert_both_ways_for_live_and_recorded_messages():
     """The node's command_value of a live message, the recording's input_message, and the
     bag reader's command_value of the decoded recording all agree."""
     from screwgear_ros.bag.format import typestore
-    from screwgear_ros.ros.messages import input_message
     from screwgear_ros.bag.messages import input_message as recorded
+    from screwgear_ros.ros.messages import input_message
     value = plugin(-12.5)
     msg = input_message('joint_commands', value, 1_500_000_000)
     assert (list(msg.name), list(msg.position), list(msg.velocity), list(msg.effort)) == (
