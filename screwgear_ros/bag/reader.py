@@ -66,7 +66,7 @@ class RecordedRun:
     path: Path
     mcap_path: Path
     parameters: RunParameters               # the first run_parameters: start of the run
-    events: list[tuple[int, Event]]         # (file position, event), in file order
+    events: list[tuple[float, Event]]       # (file position, event), in file order
     #: The exact joint states: values θ(3) rad, ω(3) rad/s, effort(3) N·m. The bag's
     #: ~/true_joint_states when it has them (its sensors were not all ideal), else its
     #: joint_states (which then are exact).
@@ -271,11 +271,11 @@ def _first_parameters(reader: _Decoder, one_by_one: list[_Message],
 
 def _events(reader: _Decoder, one_by_one: list[_Message], first_order: int,
             first: RunParameters
-            ) -> tuple[list[tuple[int, Event]], _Collector, _Collector]:
+            ) -> tuple[list[tuple[float, Event]], _Collector, _Collector]:
     """The inputs, parameter changes and resets with their file order, and the
     active_path and setpoint samples, from the messages decoded one by one."""
     path = reader.path
-    events: list[tuple[int, Event]] = []
+    events: list[tuple[float, Event]] = []
     active_path = _Collector()
     setpoint = _Collector()
     for order, topic, msgtype, log_time, data in one_by_one:
