@@ -106,7 +106,8 @@ def robot_description(params: TableParams, settings: SimSettings, commands_topic
     joint_commands and joint_states topics are these (fully resolved) names."""
     gears = wheels(params, settings.joint_names)
     robot = ET.Element('robot', name=ROBOT_NAME)
-    robot.append(ET.Comment(' written by screwgear_ros.view.urdf: geometry, inertias and '
+    # The module's first path: every recorded robot_description carries this text.
+    robot.append(ET.Comment(' written by screwgear_ros.ros.urdf: geometry, inertias and '
                             'limits from the table parameters '))
     for name, rgba in PALETTE.items():
         if name in ('table', 'pinion', 'mark'):
