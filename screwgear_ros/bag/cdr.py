@@ -29,7 +29,8 @@ zeros too; rclpy leaves padding bytes uninitialized, so only its decoding is com
 
 :func:`joint_state_template`, :func:`float64_template` and :func:`clock_template` build
 the three layouts the node publishes every tick; :mod:`screwgear_ros.view.markers` builds
-the markers' from the rclpy MarkerArray it draws.
+the markers' from the MarkerArray it draws as a :class:`Shape`, and
+:mod:`screwgear_ros.bag.messages` the other messages a run records.
 
 Why not ``rosbags``' serializer, which the package depends on anyway: to serialize a
 tick with it the node would build its messages as objects first, and the two together
