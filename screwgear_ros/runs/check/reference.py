@@ -27,7 +27,7 @@ from ...physics.packed import N_STATE
 from ...sim.events import ParameterChange, Reset
 from ...sim.plant import DriveInput, Plant
 from ...sim.session import ROW, ROW_JOINTS, ROW_TE, row_of
-from ..replay import ReplayedOutputs
+from ..replay_in_process import ReplayedOutputs
 from .tolerance import BLOCK_SECONDS
 
 
