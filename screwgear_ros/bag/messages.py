@@ -1,6 +1,6 @@
 """The CDR bytes of the messages a run records besides its per-tick outputs, with no ROS
 message package: the inputs as recorded, the setpoint, a reset, the run's parameters,
-the active path and the URDF.
+the active path, the URDF and the node's diagnostics.
 
 Each message is spelt out as a :class:`~screwgear_ros.bag.cdr.Shape` (its fields in the
 order of the message definition) and written by :func:`encode`, the serializer of the
@@ -94,6 +94,20 @@ def joint_state(command: JointCommand, time_ns: int = 0) -> bytes:
            for key in ('position', 'velocity', 'effort')}}))
 
 
+def diagnostics(name: str, hardware_id: str, level: int, message: str,
+                values: Sequence[tuple[str, str]], time_ns: int) -> bytes:
+    """diagnostic_msgs/DiagnosticArray with one status, stamped ``time_ns``."""
+    status = Shape('diagnostic_msgs/msg/DiagnosticStatus', {
+        'level': ('octet', bytes([level])), 'name': ('string', name),
+        'message': ('string', message), 'hardware_id': ('string', hardware_id),
+        'values': ('sequence<diagnostic_msgs/KeyValue>', [
+            Shape('diagnostic_msgs/msg/KeyValue', {'key': ('string', k), 'value': ('string', v)})
+            for k, v in values])})
+    return encode(Shape('diagnostic_msgs/msg/DiagnosticArray', {
+        'header': ('std_msgs/Header', header('', time_ns)),
+        'status': ('sequence<diagnostic_msgs/DiagnosticStatus>', [status])}))
+
+
 def input_message(topic: str, value: Any, time_ns: int = 0) -> bytes:
     """The CDR bytes of a command on input ``topic`` whose value
     (:func:`screwgear_ros.sim.commands.command_value`) is ``value``; a JointState is
@@ -120,6 +134,7 @@ def input_message(topic: str, value: Any, time_ns: int = 0) -> bytes:
 
 
 __all__ = [
+    'diagnostics',
     'empty',
     'encode',
     'float64',

@@ -10,10 +10,10 @@ import importlib
 from typing import Any
 
 from builtin_interfaces.msg import Time
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Int8, String
 
+from ..bag import messages as cdr_messages
 from ..bag.cdr import Shape
 from ..bag.tick_encoder import MESH_NAMES
 from ..interface import (
@@ -92,14 +92,10 @@ def robot_description(urdf: str) -> String:
 
 
 def diagnostics(name: str, hardware_id: str, level: int, message: str,
-                values: list[tuple[str, str]], time_ns: int) -> DiagnosticArray:
-    """A DiagnosticArray with the node's one status."""
-    status = DiagnosticStatus(level=bytes([level]), name=name, message=message,
-                              hardware_id=hardware_id,
-                              values=[KeyValue(key=k, value=v) for k, v in values])
-    msg = DiagnosticArray(status=[status])
-    msg.header.stamp = stamp(time_ns)
-    return msg
+                values: list[tuple[str, str]], time_ns: int) -> bytes:
+    """A DiagnosticArray with the node's one status, as CDR bytes: published as they are
+    and recorded by :class:`~screwgear_ros.runs.run_io.RunIO`, which records bytes only."""
+    return cdr_messages.diagnostics(name, hardware_id, level, message, values, time_ns)
 
 
 __all__ = [

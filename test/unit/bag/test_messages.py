@@ -79,3 +79,15 @@ def test_an_unknown_input_is_refused():
         messages.input_message('joint_states', 1.0)
     with pytest.raises(TypeError):
         messages.input_message(Input.JOINT_COMMANDS, [1.0])
+
+
+@pytest.mark.parametrize('values', [[], [('ticks', '12'), ('real-time factor', '0.98')]])
+def test_diagnostics_are_what_rclpy_serializes(values):
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+    status = DiagnosticStatus(level=bytes([1]), name='/table_sim: simulation', message='ok',
+                              hardware_id='screwgear_ros/table_sim',
+                              values=[KeyValue(key=k, value=v) for k, v in values])
+    msg = DiagnosticArray(status=[status])
+    msg.header.stamp = stamp(1_234_567_890)
+    _same(messages.diagnostics('/table_sim: simulation', 'screwgear_ros/table_sim', 1, 'ok',
+                               values, 1_234_567_890), msg)
