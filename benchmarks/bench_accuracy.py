@@ -42,7 +42,7 @@ def demo(seconds: float) -> None:
     observation = sim.reset()
     session = sim.session
     n = sim.settings.steps_per_publish
-    ticks = int(round(seconds / sim.tick_period))
+    ticks = round(seconds / sim.tick_period)
     efforts, table, segments, reversals, fastest = [], [observation.position[1]], [], 0, 0.0
     start = time.perf_counter()
     for i in range(ticks):
@@ -75,7 +75,7 @@ def drive_run(values: dict, torque: float, dt: float, seconds: float) -> np.ndar
     sim = Simulation.from_values(values, dt=dt, command_timeout=0.0)
     sim.reset()
     sim.step(effort=torque)
-    ticks = int(round(seconds / sim.tick_period))
+    ticks = round(seconds / sim.tick_period)
     rows = [(o.position[1], o.velocity[0], o.velocity[1])
             for o in (sim.step() for _ in range(ticks - 1))]
     return np.array(rows)

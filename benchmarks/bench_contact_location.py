@@ -54,7 +54,7 @@ def main() -> None:
                         help='simulated seconds per round (default %(default)s)')
     parser.add_argument('--rounds', type=int, default=15)
     args = parser.parse_args()
-    ticks = int(round(args.seconds / (TICK * DT)))
+    ticks = round(args.seconds / (TICK * DT))
     print(f'Session.tick, {TICK}-step ticks at dt = {DT * 1e6:g} µs, best of {args.rounds} '
           f'alternating rounds of {args.seconds:g} s simulated, reversals every '
           f'{REVERSAL_TICKS * TICK * DT:g} s')

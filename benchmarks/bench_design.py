@@ -32,7 +32,7 @@ def anchor(simulated: float, settings: SimSettings) -> float:
                                  publish_rate=1.0 / settings.dt, command_timeout=0.0)
     sim.reset()
     session = sim.session
-    ticks = int(round(simulated / settings.dt))
+    ticks = round(simulated / settings.dt)
     started = time.perf_counter()
     for _ in range(ticks):
         session.tick()

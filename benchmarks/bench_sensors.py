@@ -75,11 +75,11 @@ def main() -> int:
     print(f'closed loop, {args.ticks} ticks, {args.pairs} pairs (median, range)')
     print(f'  sensors ideal        {spread(plain)} µs/tick')
     print(f'  every sensor on      {spread(sensed)} µs/tick')
-    print(f'  sensors add          {spread([b - a for a, b in zip(plain, sensed)])} µs/tick')
-    print(f'  ratio on / ideal     {spread([b / a for a, b in zip(plain, sensed)])}')
+    print(f'  sensors add          {spread([b - a for a, b in zip(plain, sensed, strict=True)])} µs/tick')
+    print(f'  ratio on / ideal     {spread([b / a for a, b in zip(plain, sensed, strict=True)])}')
     print(f'  realistic preset     {spread(everything)} µs/tick (friction, sensors, current '
           'loop)')
-    print(f'  ratio preset / ideal {spread([b / a for a, b in zip(plain, everything)])}')
+    print(f'  ratio preset / ideal {spread([b / a for a, b in zip(plain, everything, strict=True)])}')
     return 0
 
 

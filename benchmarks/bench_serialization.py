@@ -6,10 +6,10 @@ own message stream: prints one table, in one run, on this machine.
 The stream is what table_sim records every tick (clock, joint_states, mesh_state,
 transmission_error), its values taken from a recorded run (default: the checked-in
 ``steady_drive`` bag), tiled in time to ``TICKS`` ticks, and encoded the node's way
-(:class:`screwgear_ros.bag.cdr.Bundle` of the templates :class:`RunIO` uses). Three
+(:class:`screwgear_ros.bag.cdr.MessageBundle` of the templates :class:`RunIO` uses). Three
 comparisons, each beside its anchor from the same run:
 
-* serializer: ``Bundle.encode`` (one ``struct.pack`` a tick) against ``rosbags``'
+* serializer: ``MessageBundle.encode`` (one ``struct.pack`` a tick) against ``rosbags``'
   ``serialize_cdr`` of the same messages, built as ``rosbags`` message objects (what the
   node would have to do with it); the payloads are compared byte for byte;
 * writer: :class:`screwgear_ros.bag.mcap_writer.McapWriter`, the way the recorder's
@@ -90,9 +90,9 @@ def stream(bag: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, l
             list(run.parameters.settings.joint_names))
 
 
-def encode_bundle(bundle: cdr.Bundle, t: np.ndarray, js: np.ndarray, mesh: np.ndarray,
+def encode_bundle(bundle: cdr.MessageBundle, t: np.ndarray, js: np.ndarray, mesh: np.ndarray,
                   te: np.ndarray) -> list[list[bytes]]:
-    """The node's way: one Bundle.encode a tick, from the plant's float values."""
+    """The node's way: one MessageBundle.encode a tick, from the plant's float values."""
     out = []
     for k in range(len(t)):
         j, m = js[k].tolist(), mesh[k].tolist()
@@ -205,7 +205,7 @@ def main() -> None:
     templates = {'clock': cdr.clock_template(), 'joint_states': cdr.joint_state_template(names),
                  'mesh_state': cdr.joint_state_template(MESH_NAMES),
                  'transmission_error': cdr.float64_template()}
-    bundle = cdr.Bundle([templates[key] for key in KEYS])
+    bundle = cdr.MessageBundle([templates[key] for key in KEYS])
     store = typestore()
     ours_s, ours = best(lambda: encode_bundle(bundle, t, js, mesh, te))
     lib_s, lib = best(lambda: encode_rosbags(store, names, t, js, mesh, te))

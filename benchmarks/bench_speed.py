@@ -259,7 +259,7 @@ class Figure:
         # Repeats are paired (the load of a shared machine drifts between them): the
         # comparison is the median of the per-repeat comparisons.
         paired = len(self.values) == len(self.anchors) > 1
-        pairs = zip(self.values, self.anchors) if paired else [(self.value, self.anchor)]
+        pairs = zip(self.values, self.anchors, strict=True) if paired else [(self.value, self.anchor)]
         self.result = float(np.median([self._compare(v, a) for v, a in pairs]))
         self.judge()
 
@@ -314,7 +314,7 @@ def print_table(rows: list[Figure]) -> None:
     cells = [head] + [r.cells() for r in rows]
     widths = [max(len(c[i]) for c in cells) for i in range(len(head))]
     for k, c in enumerate(cells):
-        print('  '.join(x.ljust(w) for x, w in zip(c, widths)).rstrip())
+        print('  '.join(x.ljust(w) for x, w in zip(c, widths, strict=True)).rstrip())
         if k == 0:
             print('  '.join('-' * w for w in widths))
 
@@ -481,7 +481,7 @@ def main() -> int:
             t = time.monotonic()
             warm = subprocess.run([sys.executable, '-P', '-m', 'screwgear_ros.cli.warmup'],
                                   env={**os.environ, 'NUMBA_CACHE_DIR': cache},
-                                  capture_output=True, text=True, cwd=cache)
+                                  capture_output=True, text=True, cwd=cache, check=False)
             warmup_s = time.monotonic() - t
             print(f'  warmup into a fresh cache: {warmup_s:.1f} s ({warm.stdout.strip()})',
                   flush=True)
@@ -528,7 +528,7 @@ def main() -> int:
     if args.check and check.exists():
         try:
             result = subprocess.run([sys.executable, str(check), *args.check_args.split()],
-                                    capture_output=True, text=True, timeout=900)
+                                    capture_output=True, text=True, timeout=900, check=False)
         except subprocess.TimeoutExpired as timeout:
             result = subprocess.CompletedProcess(timeout.cmd, -1, str(timeout.stdout or ''),
                                                  'bench_check.py: no result within 900 s')

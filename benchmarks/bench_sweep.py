@@ -22,6 +22,7 @@ the table says the load average before and after. Compare ratios, run twice.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import multiprocessing
 import os
 import statistics
@@ -67,10 +68,8 @@ def _tree_cpu() -> float:
     me = psutil.Process()
     total = sum(me.cpu_times()[:2])
     for child in me.children(recursive=True):
-        try:
+        with contextlib.suppress(psutil.Error):       # a child that ended meanwhile
             total += sum(child.cpu_times()[:2])
-        except psutil.Error:
-            pass
     return total
 
 

@@ -26,7 +26,7 @@ def _claim_domain_id() -> int:
     start = os.getpid() % 100
     for k in range(100):
         domain = 1 + (start + k) % 100
-        lock = open(f'/tmp/screwgear_ros_domain_{domain}.lock', 'w')
+        lock = open(f'/tmp/screwgear_ros_domain_{domain}.lock', 'w')  # noqa: SIM115 - held for the session
         try:
             fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:

@@ -8,7 +8,7 @@ varying fields go (the stamps and blocks of doubles). Encoding is then one
 ``struct.pack`` of the whole message, the template's unchanging bytes included (no
 message objects, no rclpy serializer), and the same bytes are published (rclpy
 publishes ``bytes`` as a serialized message) and handed to the recorder. A
-:class:`Bundle` packs several templates, a tick's messages, with one call and cuts them
+:class:`MessageBundle` packs several templates, a tick's messages, with one call and cuts them
 apart.
 
 :func:`template_of` writes the template of a prototype message, walking its fields in
@@ -28,12 +28,13 @@ compare the bytes with rosbags' serialization of the same message (rosbags pads 
 zeros too; rclpy leaves padding bytes uninitialized, so only its decoding is compared).
 
 :func:`joint_state_template`, :func:`float64_template` and :func:`clock_template` build
-the three layouts the node publishes every tick; :mod:`screwgear_ros.ros.markers` builds
-the markers' from the rclpy MarkerArray it draws.
+the three layouts the node publishes every tick; :mod:`screwgear_ros.view.markers` builds
+the markers' from the MarkerArray it draws as a :class:`Shape`, and
+:mod:`screwgear_ros.bag.messages` the other messages a run records.
 
 Why not ``rosbags``' serializer, which the package depends on anyway: to serialize a
 tick with it the node would build its messages as objects first, and the two together
-cost several times one pack of a bundle, on the pacing thread, every tick
+cost several times one pack of a message bundle, on the pacing thread, every tick
 (``benchmarks/bench_serialization.py`` measures both on a recorded run's ticks and checks
 that their bytes are identical).
 """
@@ -221,7 +222,7 @@ class Template(_Packed):
         return self._pack(time_ns, blocks)
 
 
-class Bundle(_Packed):
+class MessageBundle(_Packed):
     """Several templates side by side, encoded by one ``struct.pack`` and then cut
     apart: the messages a tick publishes (one pack instead of one per message: each
     pack call has a fixed cost, paid every tick). ``templates`` keep their own layouts; each encoding is byte for
@@ -248,6 +249,17 @@ class Bundle(_Packed):
         the blocks of the first template, then of the second, and so on."""
         data = self._pack(time_ns, blocks)
         return [data[start:end] for start, end in self._bounds]
+
+
+def __getattr__(name: str) -> Any:
+    """:class:`MessageBundle` under its old name, for one release (the name is also the
+    sweeps' :class:`screwgear_ros.sweep.model.Bundle`)."""
+    if name == 'Bundle':
+        import warnings
+        warnings.warn('screwgear_ros.bag.cdr.Bundle is now screwgear_ros.bag.cdr.MessageBundle; '
+                      'the old name goes in the next release', DeprecationWarning, stacklevel=2)
+        return MessageBundle
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 def type_name(msg: Any) -> str:
@@ -319,8 +331,8 @@ def clock_template() -> Template:
 
 
 __all__ = [
-    'Bundle',
     'Field',
+    'MessageBundle',
     'Shape',
     'Template',
     'clock_template',

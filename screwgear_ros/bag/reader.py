@@ -55,16 +55,22 @@ class Signal:
 
 @dataclass
 class RecordedRun:
-    """One run read from a bag. Events and outputs carry their position in the file."""
+    """One run read from a bag. Events and outputs carry their position in the file.
+
+    As on :class:`screwgear_ros.sim.samples.Run`, :attr:`joint_states`, :attr:`position`
+    and :attr:`velocity` are what the joint_states topic carries (measured by the joint
+    sensors) and :attr:`true_joint_states`, :attr:`true_position`, :attr:`true_velocity`
+    the exact state; they are the same samples when the sensors are ideal.
+    """
 
     path: Path
     mcap_path: Path
     parameters: RunParameters               # the first run_parameters: start of the run
-    events: list[tuple[int, Event]]         # (file position, event), in file order
+    events: list[tuple[float, Event]]       # (file position, event), in file order
     #: The exact joint states: values θ(3) rad, ω(3) rad/s, effort(3) N·m. The bag's
     #: ~/true_joint_states when it has them (its sensors were not all ideal), else its
     #: joint_states (which then are exact).
-    joint_states: Signal
+    true_joint_states: Signal
     transmission_error: Signal              # values: δ of the active path (1), m
     mesh_state: Signal                      # values: δ1, δ3 m, δ̇1, δ̇3 m/s, F1, F3 N
     active_path: Signal                     # values: 1 or 3
@@ -82,8 +88,36 @@ class RecordedRun:
     #: recorded, never an event; empty in a bag from before the topic, or without one)
     setpoint: Signal = field(default_factory=lambda: _Collector().signal())
     #: The recorded joint_states when the bag also holds ~/true_joint_states: what the
-    #: sensors measured of :attr:`joint_states` (None: joint_states are the exact ones).
+    #: sensors measured of :attr:`true_joint_states` (None: joint_states are the exact
+    #: ones).
     measured: Signal | None = None
+
+    @property
+    def joint_states(self) -> Signal:
+        """The joint_states as recorded: θ and ω measured by the joint sensors (the exact
+        :attr:`true_joint_states` when they are ideal), as on
+        :class:`screwgear_ros.sim.samples.Run`."""
+        return self.true_joint_states if self.measured is None else self.measured
+
+    @property
+    def position(self) -> np.ndarray:
+        """(n, 3): θ of the three joints as joint_states carries it (measured), rad."""
+        return self.joint_states.values[:, 0:3]
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """(n, 3): ω of the three joints as joint_states carries it (measured), rad/s."""
+        return self.joint_states.values[:, 3:6]
+
+    @property
+    def true_position(self) -> np.ndarray:
+        """(n, 3): the exact θ of the three joints (~/true_joint_states), rad."""
+        return self.true_joint_states.values[:, 0:3]
+
+    @property
+    def true_velocity(self) -> np.ndarray:
+        """(n, 3): the exact ω of the three joints (~/true_joint_states), rad/s."""
+        return self.true_joint_states.values[:, 3:6]
 
     @property
     def dt(self) -> float:
@@ -93,7 +127,7 @@ class RecordedRun:
     @property
     def end_step(self) -> int:
         """The last step with a recorded output (or the start)."""
-        ends = [int(s.steps[-1]) for s in (self.joint_states, self.transmission_error)
+        ends = [int(s.steps[-1]) for s in (self.true_joint_states, self.transmission_error)
                 if len(s)]
         return max(ends, default=self.parameters.start_step)
 
@@ -237,11 +271,11 @@ def _first_parameters(reader: _Decoder, one_by_one: list[_Message],
 
 def _events(reader: _Decoder, one_by_one: list[_Message], first_order: int,
             first: RunParameters
-            ) -> tuple[list[tuple[int, Event]], _Collector, _Collector]:
+            ) -> tuple[list[tuple[float, Event]], _Collector, _Collector]:
     """The inputs, parameter changes and resets with their file order, and the
     active_path and setpoint samples, from the messages decoded one by one."""
     path = reader.path
-    events: list[tuple[int, Event]] = []
+    events: list[tuple[float, Event]] = []
     active_path = _Collector()
     setpoint = _Collector()
     for order, topic, msgtype, log_time, data in one_by_one:

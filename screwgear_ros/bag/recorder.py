@@ -82,7 +82,7 @@ class RunRecorder:
 
     A message handed over as ``bytes`` is its CDR and is written as it is (the node's
     outputs and markers, serialized once); any other goes through ``serialize(msg) ->
-    bytes`` (the node passes :func:`screwgear_ros.ros.run_io.serialize`) on the writer
+    bytes`` (the node passes :func:`screwgear_ros.runs.run_io.serialize`) on the writer
     thread, so a message handed to :meth:`write` or :meth:`write_group` belongs to the
     recorder from then on and must not be modified afterwards.
 

@@ -3,8 +3,8 @@
 A session's tick sends the same topics every time (/clock when it is published,
 joint_states, mesh_state, transmission_error, and ~/true_joint_states when the sensors
 are not ideal), each of a fixed layout: :class:`TickEncoder` encodes them with one pack
-of a :class:`~screwgear_ros.bag.cdr.Bundle` of their templates. The node's
-:class:`~screwgear_ros.ros.run_io.RunIO` publishes and records these bytes; the topics'
+of a :class:`~screwgear_ros.bag.cdr.MessageBundle` of their templates. The node's
+:class:`~screwgear_ros.runs.run_io.RunIO` publishes and records these bytes; the topics'
 types come from :mod:`screwgear_ros.interface` (:func:`topic_specs`), so opening a
 recording needs no rclpy either.
 
@@ -79,7 +79,7 @@ class TickEncoder:
                      'mesh_state': lambda: cdr.joint_state_template(MESH_NAMES),
                      'transmission_error': cdr.float64_template,
                      'true_joint_states': lambda: cdr.joint_state_template(self.joint_names)}
-        self.bundle = cdr.Bundle([templates[key]() for key in self.keys])
+        self.bundle = cdr.MessageBundle([templates[key]() for key in self.keys])
 
     def encode(self, out: Outputs, measured: Outputs | None = None) -> list[bytes]:
         """Each per-tick topic's message of ``out``, in :attr:`keys`' order: joint_states

@@ -3,6 +3,8 @@ plot_run): a bag they cannot read, recorded parameters the model refuses, anythi
 
 from __future__ import annotations
 
+from typing import cast
+
 from ..bag.errors import BagError
 from ..physics.equilibrium import EquilibriumNotFound
 from . import Errors, Failures, Message
@@ -13,7 +15,7 @@ def bag_failures(tool: str, verb: str, bag: str,
     """:class:`Failures` for ``tool`` that cannot ``verb`` the run at ``bag``, with the
     tool's own ``ladder`` tried after an unreadable bag (errors of neither kind)."""
     return Failures(tool, {
-        BagError: lambda exc: exc.report(verb, bag),
+        BagError: lambda exc: cast(BagError, exc).report(verb, bag),
         **(ladder or {}),
         (EquilibriumNotFound, ValueError):      # ParameterError is a ValueError
             'cannot {verb} {bag}: the recorded parameters cannot be simulated: {exc}',

@@ -1,6 +1,6 @@
 """demo_controller: a PID position loop on the table angle, closed around table_sim.
 
-The node is :class:`screwgear_ros.ros.demo_controller.DemoController`; this module runs
+The node is :class:`screwgear_ros.ros.demo_controller.DemoControllerNode`; this module runs
 it until SIGINT or SIGTERM, then sends a zero effort, leaving the table unforced.
 """
 
@@ -21,7 +21,7 @@ def main(args: list[str] | None = None) -> int:
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = None
     try:
-        node = _node.DemoController()
+        node = _node.DemoControllerNode()
         spin_until(node, stop)
         node.stop_driving()              # leave the table unforced
         return 0
@@ -35,9 +35,9 @@ def __getattr__(name: str) -> object:
     """The node class under its old path, for one release."""
     if name == 'DemoController':
         warnings.warn('screwgear_ros.cli.demo_controller.DemoController moved to '
-                      'screwgear_ros.ros.demo_controller.DemoController', DeprecationWarning,
+                      'screwgear_ros.ros.demo_controller.DemoControllerNode', DeprecationWarning,
                       stacklevel=2)
-        return _node.DemoController
+        return _node.DemoControllerNode
     raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 

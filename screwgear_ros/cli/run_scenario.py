@@ -65,7 +65,7 @@ def main(argv: list[str] | None = None) -> int:
             wall = time.perf_counter() - started
             metrics = run_metrics(run, scenario.setpoint,
                                   scenario.setpoint.joint if scenario.setpoint else 'table')
-            if plot is not None:
+            if plot is not None and record is not None:     # a plot is drawn from a bag
                 from ..bag.reader import read_run
                 plotting.save(plotting.run_figure(read_run(record)), plot)
     if failures.code is not None:

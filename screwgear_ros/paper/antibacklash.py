@@ -28,6 +28,7 @@ from .common import COLORS, HOLDS, VAGUE, Section, Verdict, plt, save_figure, ta
 from .reversals import (
     ARCSEC,
     REALISTIC_STE,
+    PhaseScan,
     ReversalMetrics,
     ReversalTrace,
     forward_harmonics,
@@ -81,10 +82,11 @@ def compute(quick: bool = False) -> AntiBacklashStudy:
         speeds, fast, tol = np.array([0.1, speed, 1.0]), np.array([2.0, 4.0]), 2.0
     # Quick: a few instants, one bisected; the full run resolves the mesh modes.
     options = {'phases': 4, 'bisected': 1} if quick else {}
-    scans = [[None] * len(torques) for _ in speeds]
+    found: dict[tuple[int, int], PhaseScan] = {}
     jobs = [(i, j) for i in range(len(speeds)) for j in range(len(torques))]
     for i, j in tqdm(jobs, desc='minimum preload chart', leave=False):
-        scans[i][j] = scan_preload(base, torques[j], speeds[i], tolerance=tol, **options)
+        found[i, j] = scan_preload(base, torques[j], speeds[i], tolerance=tol, **options)
+    scans = [[found[i, j] for j in range(len(torques))] for i in range(len(speeds))]
     chart = np.array([[scan.minimum_preload for scan in row] for row in scans])
     harmonics = [forward_harmonics(base, PAPER_DRIVE_TORQUE, w) for w in speeds]
     fast_chart = np.array([minimum_preload(base, PAPER_DRIVE_TORQUE, w, tolerance=20.0)

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from ..params.table import PAPER_PINION_SPEED, TableParams
+from ..params.table import PAPER_PINION_SPEED, MeshFormulation, TableParams
 from ..physics.equilibrium import equilibrium_state
 from ..sim import energy
 from .common import COLORS, FAILS, HOLDS, Section, Verdict, fmt, plt, save_figure, table
@@ -30,7 +30,7 @@ FORMULATIONS = ('paper', 'energy_consistent')
 def coasting(form: str, dt: float, duration: float, **changes) -> energy.EnergyAudit:
     """The free run: rest state under the preload, every body turning at the paper's speed
     (24 r/min at the pinions), nothing driving or braking but the mesh damping."""
-    p = TableParams(mesh_formulation=form, **changes)
+    p = TableParams(mesh_formulation=MeshFormulation(form), **changes)
     y = equilibrium_state(p)
     y[3:] = (PAPER_PINION_SPEED, paper_table_speed(p), PAPER_PINION_SPEED)
     return energy.run(p, dt, duration, initial_state=y)
@@ -50,7 +50,7 @@ class EnergyStudy:
 def compute(quick: bool = False) -> EnergyStudy:
     duration = 0.5 if quick else 3.0
     dts = (80e-6, 40e-6) if quick else (80e-6, 40e-6, 20e-6)
-    relative = {form: [] for form in FORMULATIONS}
+    relative: dict[str, list[float]] = {form: [] for form in FORMULATIONS}
     runs = {}
     jobs = [(form, dt) for form in FORMULATIONS for dt in dts]
     for form, dt in tqdm(jobs, desc='energy audits', leave=False):

@@ -258,7 +258,7 @@ def forward_harmonics(params: TableParams, torque: float, table_speed: float,
     n = round(periods * period / DT)
     session = _settled(p, torque, n_settle)
     delta: list[float] = []
-    session.advance(n, monitor=lambda tick: delta.append(tick.outputs.delta[0]),
+    session.advance(n, monitor=lambda _: delta.append(session.last_outputs.delta[0]),
                     events=[ParameterChange(p, SimSettings(dt=DT, publish_rate=1.0 / DT),
                                             step=n_settle)])
     spectrum = np.fft.rfft(np.asarray(delta) - np.mean(delta)) * 2 / n

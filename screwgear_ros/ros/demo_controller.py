@@ -32,6 +32,8 @@ that zero answers the pending tick, which then runs unforced, and the node waits
 
 from __future__ import annotations
 
+import warnings
+
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
@@ -43,7 +45,7 @@ from ..sim.control import TABLE_JOINT, DemoGains, DemoLaw, SetpointNotes
 LOG_PERIOD = 0.5   # s of simulation time between log lines
 
 
-class DemoController(Node):
+class DemoControllerNode(Node):
     """The demo PID node: one ``cmd_effort`` answer per new ``joint_states`` stamp.
 
     Its parameters are the fields of :class:`~screwgear_ros.sim.control.DemoGains`;
@@ -118,4 +120,15 @@ def _ros_default(value: object) -> object:
     return list(value) if isinstance(value, tuple) else value
 
 
-__all__ = ['LOG_PERIOD', 'DemoController']
+def __getattr__(name: str) -> object:
+    """The node class under its old name, for one release (the name is the control
+    law's: :class:`screwgear_ros.sim.control.DemoController`)."""
+    if name == 'DemoController':
+        warnings.warn('screwgear_ros.ros.demo_controller.DemoController is now '
+                      'screwgear_ros.ros.demo_controller.DemoControllerNode; the old name goes '
+                      'in the next release', DeprecationWarning, stacklevel=2)
+        return DemoControllerNode
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+
+
+__all__ = ['LOG_PERIOD', 'DemoControllerNode']

@@ -10,10 +10,11 @@ import importlib
 from typing import Any
 
 from builtin_interfaces.msg import Time
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Int8, String
 
+from ..bag import messages as cdr_messages
+from ..bag.cdr import Shape
 from ..bag.tick_encoder import MESH_NAMES
 from ..interface import (
     BY_KEY,
@@ -42,6 +43,19 @@ OUTPUT_TYPES = {key: (BY_KEY[key].name, message_class(name))
                 for key, name in OUTPUT_TOPICS.items()}
 #: What the recording holds besides outputs and inputs, under the node's private namespace.
 PRIVATE_TYPES = {key: message_class(name) for key, name in RECORDED_TOPICS.items()}
+
+
+def to_message(shape: Shape) -> Any:
+    """The rclpy message a :class:`~screwgear_ros.bag.cdr.Shape` spells out (every field
+    named by the shape; the message class refuses a field it does not have)."""
+    def value(item: Any) -> Any:
+        if isinstance(item, Shape):
+            return to_message(item)
+        if isinstance(item, list):
+            return [value(v) for v in item]
+        return item
+    return message_class(shape.msgtype)(**{name: value(v)
+                                          for name, (_, v) in shape.fields.items()})
 
 
 def input_message(topic: str, value: Any, time_ns: int = 0) -> object:
@@ -78,14 +92,10 @@ def robot_description(urdf: str) -> String:
 
 
 def diagnostics(name: str, hardware_id: str, level: int, message: str,
-                values: list[tuple[str, str]], time_ns: int) -> DiagnosticArray:
-    """A DiagnosticArray with the node's one status."""
-    status = DiagnosticStatus(level=bytes([level]), name=name, message=message,
-                              hardware_id=hardware_id,
-                              values=[KeyValue(key=k, value=v) for k, v in values])
-    msg = DiagnosticArray(status=[status])
-    msg.header.stamp = stamp(time_ns)
-    return msg
+                values: list[tuple[str, str]], time_ns: int) -> bytes:
+    """A DiagnosticArray with the node's one status, as CDR bytes: published as they are
+    and recorded by :class:`~screwgear_ros.runs.run_io.RunIO`, which records bytes only."""
+    return cdr_messages.diagnostics(name, hardware_id, level, message, values, time_ns)
 
 
 __all__ = [
@@ -101,4 +111,5 @@ __all__ = [
     'robot_description',
     'setpoint',
     'stamp',
+    'to_message',
 ]

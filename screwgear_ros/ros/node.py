@@ -7,7 +7,7 @@ A thin shell over :class:`screwgear_ros.sim.session.Session` (``shared/spec/inte
   step of its next tick and validates commands then;
 * a dedicated pacing thread (:class:`screwgear_ros.ros.pacing_thread.PacingThread`) ticks
   the session, sleeps to each tick's absolute deadline and hands the tick to
-  :class:`screwgear_ros.ros.run_io.RunIO`, which publishes and records;
+  :class:`screwgear_ros.runs.run_io.RunIO`, which publishes and records;
 * with ``lockstep`` the pacing thread starts tick k+1 only once the controller has
   answered tick k's ``joint_states`` (a ``cmd_effort`` or ``joint_commands``, or
   ``~/tick`` from a tool): :class:`screwgear_ros.sim.pacing.AnswerGate`; while anything
@@ -58,6 +58,7 @@ from ..interface import (
 from ..numerics.kernels import compiled_now, without_blas_probe
 from ..params.table import ParameterError, SimSettings, TableParams
 from ..physics.packed import pack
+from ..runs.run_io import RunIO
 from ..sim.commands import carries_no_command
 from ..sim.events import Command, ParameterChange, Reset, Setpoint
 from ..sim.pacing import AnswerGate, wall_period
@@ -67,7 +68,6 @@ from ..sim.session import Session
 from . import inputs, parameters
 from .messages import INFO_TYPES, INPUT_TYPES, OUTPUT_TYPES
 from .pacing_thread import PacingThread
-from .run_io import RunIO
 
 #: Exit status of a node whose recording failed (a full disk): it ran, and stopped as
 #: asked, but the bag ends at the fault (the log's ERROR line says where).

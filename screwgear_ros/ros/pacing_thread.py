@@ -1,7 +1,7 @@
 """table_sim's pacing thread: it ticks the session, paces the ticks and hands them out.
 
 One compiled call per tick (:meth:`Session.tick`), a sleep to the tick's absolute
-deadline (:class:`screwgear_ros.sim.pacing.Pacer`), then :class:`~screwgear_ros.ros.run_io.RunIO`
+deadline (:class:`screwgear_ros.sim.pacing.Pacer`), then :class:`~screwgear_ros.runs.run_io.RunIO`
 publishes and records the tick. With ``lockstep`` the thread starts tick k+1 only once
 the controller has answered tick k's ``joint_states`` (:class:`~screwgear_ros.sim.pacing.AnswerGate`),
 re-sending it while it waits. It logs what a person should know about a tick and
@@ -20,6 +20,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..interface import ANSWERS
+from ..runs.run_io import RunIO
 from ..sim.events import Command, Reset
 from ..sim.pacing import AnswerGate, FactorMeter, Pacer
 from ..sim.ratelimit import RateLimiter
@@ -32,7 +33,6 @@ from ..sim.status import (
     status_line,
 )
 from . import inputs, messages
-from .run_io import RunIO
 
 DIAGNOSTICS_PERIOD = 1.0    # s of wall time between /diagnostics
 STATUS_PERIOD = 5.0         # s of wall time between status log lines

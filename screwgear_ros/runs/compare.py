@@ -155,8 +155,8 @@ def shift_event(run: RecordedRun, index: int, steps: int) -> RecordedRun:
     _moved_order, moved = run.events[index]
     assert moved.step is not None      # a recorded event carries its step
     target = moved.step + steps
-    out_steps = np.concatenate([run.joint_states.steps, run.transmission_error.steps])
-    out_order = np.concatenate([run.joint_states.order, run.transmission_error.order])
+    out_steps = np.concatenate([run.true_joint_states.steps, run.transmission_error.steps])
+    out_order = np.concatenate([run.true_joint_states.order, run.transmission_error.order])
     before = out_order[out_steps <= target]
     order = (float(before.max()) if len(before) else -1.0) + 0.5
     events = [(float(o), e) for o, e in run.events]
@@ -185,21 +185,21 @@ def compare_runs(original: RecordedRun, new: RecordedRun) -> Comparison:
     names = signal_names(original)
     labels = [name for name, _ in names]
     replayed = replay_in_process(new)
-    first = _first_difference(new.joint_states.steps, new.joint_states.values,
+    first = _first_difference(new.true_joint_states.steps, new.true_joint_states.values,
                               replayed.joint_states, labels[:9])
     te = _first_difference(new.transmission_error.steps, new.transmission_error.values,
                            replayed.transmission_error[:, None], labels[9:])
     if te is not None and (first is None or te.step < first.step):
         first = te
-    result = Comparison(timings, ticks, max(delays, default=0) / ticks, len(new.joint_states),
+    result = Comparison(timings, ticks, max(delays, default=0) / ticks, len(new.true_joint_states),
                         first, [describe(e) for e in extra],
                         _start_differences(original, new))
-    _, a_js, b_js = np.intersect1d(original.joint_states.steps, new.joint_states.steps,
+    _, a_js, b_js = np.intersect1d(original.true_joint_states.steps, new.true_joint_states.steps,
                                    return_indices=True)
     _, a_te, b_te = np.intersect1d(original.transmission_error.steps,
                                    new.transmission_error.steps, return_indices=True)
     result.common = len(a_js)
-    columns = [(original.joint_states, new.joint_states, a_js, b_js, c, names[c])
+    columns = [(original.true_joint_states, new.true_joint_states, a_js, b_js, c, names[c])
                for c in range(9)]
     columns.append((original.transmission_error, new.transmission_error, a_te, b_te, 0,
                     names[9]))
@@ -290,7 +290,7 @@ def exact_comparison(original: RecordedRun, new: RecordedRun) -> ExactComparison
     never :attr:`~ExactComparison.ok`."""
     timings = match_events(original, new)
     names = [name for name, _ in signal_names(original)]
-    columns = [(original.joint_states, new.joint_states, names[:9]),
+    columns = [(original.true_joint_states, new.true_joint_states, names[:9]),
                (original.transmission_error, new.transmission_error, names[9:])]
     if original.measured is not None:       # and what the sensors measured of them
         columns.append((original.measured, new.measured or Signal(

@@ -55,7 +55,7 @@ def plan_from_run(run: RecordedRun) -> LockstepPlan:
     with the tick that applied each. Raises ValueError where a lockstep replay cannot
     reproduce the run: a recording that lost ticks (a real-time recorder whose queue was
     full drops whole ticks), which leaves no way to count them."""
-    samples = run.joint_states
+    samples = run.true_joint_states
     kept = replayed_events(run)
     if len(samples) == 0:
         return LockstepPlan([], 0)
@@ -70,7 +70,7 @@ def plan_from_run(run: RecordedRun) -> LockstepPlan:
 def lost_tick(run: RecordedRun, plan: LockstepPlan) -> str | None:
     """Where consecutive joint_states samples are neither one tick apart nor at one step
     (a faulted plant's time stands still), or None."""
-    steps = run.joint_states.steps
+    steps = run.true_joint_states.steps
     if len(steps) < 2:
         return None
     per_tick = np.full(len(steps) - 1, run.parameters.settings.steps_per_publish,

@@ -128,12 +128,12 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
     sample, or when its events do not replay as the node applied them (the drawn inputs
     would be guesses).
     """
-    if len(run.joint_states) < 2:
-        raise NoData(f'{run.path}: no data to plot: {len(run.joint_states)} '
+    if len(run.true_joint_states) < 2:
+        raise NoData(f'{run.path}: no data to plot: {len(run.true_joint_states)} '
                        'joint_states sample(s), a run needs two to be drawn over time'
                        + (f' ({run.truncated})' if run.truncated else ''))
     if zoom is not None:
-        t = run.joint_states.steps * run.dt
+        t = run.true_joint_states.steps * run.dt
         if not np.any((t >= zoom[0]) & (t <= zoom[1])):
             raise NoData(f'{run.path}: no data to plot in --zoom '
                            f'{zoom[0]:g}:{zoom[1]:g} s: the run has samples from '
@@ -142,7 +142,7 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
     marks = run_marks(run, ticks)
     params = run.parameters.params
     conventional = params.mode is Mode.CONVENTIONAL
-    js = run.joint_states
+    js = run.true_joint_states
     t = js.steps * run.dt
     t_end = max(run.end_step * run.dt, float(t[-1]))
 

@@ -114,7 +114,7 @@ def tracking_error(run: RecordedRun) -> tuple[np.ndarray, np.ndarray]:
     """(times s, setpoint − θ2 rad) at every joint_states sample from the first recorded
     setpoint on: the setpoint recorded at a sample's step is the one the controller
     computed from that sample, so it is paired with it (a zero-order hold after)."""
-    sp, js = run.setpoint, run.joint_states
+    sp, js = run.setpoint, run.true_joint_states
     if not len(sp):
         return np.empty(0), np.empty(0)
     index = np.searchsorted(sp.steps, js.steps, side='right') - 1

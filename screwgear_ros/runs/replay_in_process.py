@@ -19,7 +19,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -31,8 +31,10 @@ from ..sim.scenario import load_scenario as read_scenario
 from ..sim.schedule import Schedule, ros_values
 from ..sim.session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
 
+_E = TypeVar('_E', bound=Event)
 
-def _refined(event: Event, refine: int) -> Event:
+
+def _refined(event: _E, refine: int) -> _E:
     """``event`` for a session at dt/refine: steps and the settings' dt scaled."""
     if isinstance(event, ParameterChange):
         event = replace(event, settings=replace(event.settings,
@@ -48,7 +50,7 @@ class ReplayedOutputs:
     ``tick_samples[j]``). The ticks in between took no event: each ran under the input
     and parameters of the tick before it (:meth:`Session.advance` with ``rows``)."""
 
-    joint_states: np.ndarray        # (n, 9) like RecordedRun.joint_states.values
+    joint_states: np.ndarray        # (n, 9) like RecordedRun.true_joint_states.values
     transmission_error: np.ndarray  # (m,) m
     fault: str | None
     ticks: list[Tick] = field(default_factory=list)
@@ -66,7 +68,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
     the node must have refused).
     """
     start = run.parameters
-    samples = run.joint_states
+    samples = run.true_joint_states
     n = len(samples)
     rows = np.empty((n, ROW))
     m = len(run.transmission_error)
@@ -126,7 +128,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
     return replayed
 
 
-def replayed_events(run: RecordedRun) -> list[tuple[int, Event]]:
+def replayed_events(run: RecordedRun) -> list[tuple[float, Event]]:
     """The recorded (file position, event)s a replay plays: parameter changes that change
     nothing a replay sets (a real_time_factor change) are left out."""
     before = ros_values(run.parameters.params, run.parameters.settings)

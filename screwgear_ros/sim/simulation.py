@@ -317,7 +317,7 @@ class Simulation:
         rejected: list[tuple[int, str]] = []
         try:
             if record is not None:
-                from ..ros.session_record import SessionRecording  # rclpy messages: to record
+                from ..runs.session_record import SessionRecording  # the bag writer: to record
                 recording = SessionRecording(record, session)
             closed_loop(session, controller, first, ticks, observed, command, columns,
                         sorted(events, key=lambda e: e.step or 0), recording, rejected,

@@ -130,7 +130,7 @@ def test_a_run_through_the_mesh_resonance_is_refused_with_the_reason(tmp_path: P
     params = TableParams(table_damping=0.0, drive_no_load_speed=0.0)
     settings = SimSettings(dt=dt, publish_rate=200.0, command_timeout=0.0)
     schedule = Schedule(params, settings, [Command('cmd_torque', 10.0, 0)],
-                        end_step=int(round(10.0 / dt)))
+                        end_step=round(10.0 / dt))
     record_session(tmp_path / 'resonance', schedule)
     result = check_run(tmp_path / 'resonance')
     assert result.returncode == 2, result.stdout + result.stderr

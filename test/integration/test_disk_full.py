@@ -51,7 +51,7 @@ class SmallDisk:
 class DiskFile(io.RawIOBase):
     def __init__(self, disk: SmallDisk, path: Path) -> None:
         self._disk = disk
-        self._file = open(path, 'xb', buffering=0)
+        self._file = open(path, 'xb', buffering=0)  # noqa: SIM115 - closed by close()
 
     def writable(self) -> bool:
         return True
@@ -184,7 +184,7 @@ def tmpfs(tmp_path: Path):
     mount = tmp_path / 'disk'
     mount.mkdir()
     result = subprocess.run(['mount', '-t', 'tmpfs', '-o', 'size=4m', 'tmpfs', str(mount)],
-                            capture_output=True, text=True)
+                            capture_output=True, text=True, check=False)
     if result.returncode != 0:
         pytest.skip(f'cannot mount a tmpfs here: {result.stderr.strip() or result.returncode}')
     try:

@@ -45,8 +45,8 @@ LIGHT = ('os', 'ament_index_python', 'launch', 'launch_ros', 'screwgear_ros.ros.
 #: Modules that must not be loaded into the `ros2 launch` process by our files (rclpy is
 #: not among them: launch_ros loads it anyway).
 HEAVY = ('numba', 'llvmlite', 'scipy', 'matplotlib', 'screwgear_ros.physics.motion',
-         'screwgear_ros.sim.plant', 'screwgear_ros.sim.session', 'screwgear_ros.ros.urdf',
-         'screwgear_ros.ros.run_io')
+         'screwgear_ros.sim.plant', 'screwgear_ros.sim.session', 'screwgear_ros.view.urdf',
+         'screwgear_ros.runs.run_io')
 NEEDS_LAUNCH, USES_OVERLAY = NEEDS_OVERLAY
 
 
@@ -113,7 +113,7 @@ def test_ros2_control_launch_arguments_and_the_namespace_default():
             'print({a.name: [t.describe() for t in a.default_value] for a in arguments})\n')
     arguments = ast.literal_eval(_run(code, in_overlay=True))
     assert list(arguments) == ['namespace', 'params_file', 'record']
-    from screwgear_ros.ros.urdf import PLANT_NAMESPACE
+    from screwgear_ros.view.urdf import PLANT_NAMESPACE
     assert arguments['namespace'] == [repr(PLANT_NAMESPACE)]
 
 
@@ -253,7 +253,7 @@ def test_versions_compare_as_numbers():
 
 def test_the_urdf_is_pointed_at_another_namespace_and_never_at_the_root():
     from screwgear_ros.interface import topic_names
-    from screwgear_ros.ros.urdf import PLANT_NAMESPACE
+    from screwgear_ros.view.urdf import PLANT_NAMESPACE
     shipped = (SHARE / 'urdf/screwgear_table.urdf').read_text(encoding='utf-8')
     assert support.urdf_namespace(shipped) == PLANT_NAMESPACE
     assert support.in_namespace(shipped, PLANT_NAMESPACE.strip('/')) == shipped

@@ -26,12 +26,12 @@ def _tool(name: str) -> str:
 
 def test_ruff_check_is_clean():
     result = subprocess.run([_tool('ruff'), 'check', '--no-cache', '.'], cwd=ROOT,
-                            capture_output=True, text=True, timeout=300)
+                            capture_output=True, text=True, timeout=300, check=False)
     assert result.returncode == 0, result.stdout + result.stderr
 
 
 def test_mypy_is_clean_on_the_package():
     # The source tree's package, so that what is checked is what the commit holds.
     result = subprocess.run([_tool('mypy'), '--no-incremental'], cwd=ROOT,
-                            capture_output=True, text=True, timeout=900)
+                            capture_output=True, text=True, timeout=900, check=False)
     assert result.returncode == 0, result.stdout[-6000:] + result.stderr

@@ -317,7 +317,7 @@ def test_describe_shows_each_parameters_declared_range(table):
     response = table.peer.call(DescribeParameters, NODE + '/describe_parameters',
                                DescribeParameters.Request(names=[p.name for p in PARAMETERS]))
     ranged = 0
-    for p, d in zip(PARAMETERS, response.descriptors):
+    for p, d in zip(PARAMETERS, response.descriptors, strict=True):
         assert d.name == p.name and d.description and d.read_only == p.declaration.read_only
         if p.declaration.low is not None and p.kind in (Kind.FLOAT, Kind.INTEGER):
             ranged += 1

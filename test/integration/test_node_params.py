@@ -8,6 +8,7 @@ for a double) and a parameter file that gives two STE amplitudes and no phases.
 
 from __future__ import annotations
 
+import itertools
 import time
 
 import pytest
@@ -97,7 +98,7 @@ def test_a_pace_set_back_takes_effect_at_once_not_at_the_old_deadline(node):
              for _ in range(10)]
     waited = time.monotonic() - set_back
     assert waited < 20.0 and max(back) < 10.0, (waited, back)
-    gaps = {stamp_ns(b) - stamp_ns(a) for a, b in zip(fresh, fresh[1:])}
+    gaps = {stamp_ns(b) - stamp_ns(a) for a, b in itertools.pairwise(fresh)}
     assert 1_000_000 in gaps
     assert proc.alive()
 

@@ -42,13 +42,13 @@ from visualization_msgs.msg import Marker, MarkerArray
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.physics.packed import pack
-from screwgear_ros.ros.layout import BASE_LINK, PALETTE, wheels
-from screwgear_ros.ros.markers import DISCS, MARKS, MESHES
-from screwgear_ros.ros.urdf import PLANT_NAMESPACE, shipped_description
 from screwgear_ros.runs.replay_in_process import replay_in_process
 from screwgear_ros.sim.commands import JointCommand
 from screwgear_ros.sim.events import Command
 from screwgear_ros.sim.schedule import Schedule
+from screwgear_ros.view.layout import BASE_LINK, PALETTE, wheels
+from screwgear_ros.view.markers import DISCS, MARKS, MESHES
+from screwgear_ros.view.urdf import PLANT_NAMESPACE, shipped_description
 
 NS = PLANT_NAMESPACE                   # where the shipped URDF's ros2_control block looks
 NODE = f'{NS}/table_sim'
@@ -116,16 +116,16 @@ def test_the_marks_turn_as_the_urdf_links_do():
     link's +x, where its mark visual sits, to the direction of the marker's mark."""
     import yourdfpy
 
-    from screwgear_ros.ros.markers import table_markers
     from screwgear_ros.ros.messages import stamp
     from screwgear_ros.sim.plant import Plant
+    from screwgear_ros.view.markers import table_markers
     urdf = yourdfpy.URDF.load(ROOT / 'urdf/screwgear_table.urdf',
                               load_meshes=False, build_scene_graph=True)
     rng = np.random.default_rng(7)
     base = Plant(TableParams(), 5e-5).compute_outputs()
     for _ in range(5):
         angles = tuple(float(a) for a in rng.uniform(-20.0, 20.0, 3))
-        urdf.update_cfg(dict(zip(JOINTS, angles)))
+        urdf.update_cfg(dict(zip(JOINTS, angles, strict=True)))
         out = replace(base, position=angles)
         found = by_key(table_markers(TableParams(), JOINTS, out, stamp(0)).markers)
         for wheel in WHEELS:
@@ -137,9 +137,9 @@ def test_the_marks_turn_as_the_urdf_links_do():
 
 
 def test_contact_colours_follow_the_meshes():
-    from screwgear_ros.ros.markers import table_markers
     from screwgear_ros.ros.messages import stamp
     from screwgear_ros.sim.plant import DriveInput, Plant
+    from screwgear_ros.view.markers import table_markers
     params = TableParams()
     out = Plant(params, 5e-5).compute_outputs()                     # preload: both on a flank
 
@@ -166,7 +166,7 @@ def test_markers_are_throttled_by_wall_time_not_by_ticks(tmp_path, monkeypatch, 
     tick; both are recorded with the URDF, which the bag reader ignores."""
     from rosbags.rosbag2 import Reader
 
-    from screwgear_ros.ros import run_io
+    from screwgear_ros.runs import run_io
     schedule = Schedule(TableParams(), SimSettings(), [
         Command('joint_commands', JointCommand(tuple(JOINTS), effort=(30.0,)), 200)],
         end_step=2_000)
@@ -190,7 +190,7 @@ def test_recorded_markers_follow_a_change_of_the_tables_geometry(tmp_path, monke
     from rosbags.rosbag2 import Reader
     from rosbags.typesys import Stores, get_typestore
 
-    from screwgear_ros.ros import run_io
+    from screwgear_ros.runs import run_io
     from screwgear_ros.sim.events import ParameterChange
     before = TableParams()
     after = before.replace(radius_table=1.5 * before.radius_table)

@@ -174,9 +174,9 @@ def _installed_urdf() -> Path:
 
 
 def test_the_shipped_urdf_is_what_the_node_describes_for_the_defaults():
-    """One declaration: urdf/screwgear_table.urdf is screwgear_ros.ros.urdf's output
-    (regenerate: python -m screwgear_ros.ros.urdf > urdf/screwgear_table.urdf)."""
-    from screwgear_ros.ros.urdf import shipped_description
+    """One declaration: urdf/screwgear_table.urdf is screwgear_ros.view.urdf's output
+    (regenerate: python -m screwgear_ros.view.urdf > urdf/screwgear_table.urdf)."""
+    from screwgear_ros.view.urdf import shipped_description
     assert _installed_urdf().read_text(encoding='utf-8') == shipped_description()
 
 
@@ -184,7 +184,7 @@ def test_the_urdf_parses_and_its_joints_are_those_of_joint_states():
     import yourdfpy
 
     from screwgear_ros.params.table import SimSettings, TableParams
-    from screwgear_ros.ros.layout import BASE_LINK, wheels
+    from screwgear_ros.view.layout import BASE_LINK, wheels
     urdf = yourdfpy.URDF.load(_installed_urdf(), load_meshes=False, build_scene_graph=True)
     assert urdf.validate()
     names = list(SimSettings().joint_names)             # what joint_states names
@@ -192,7 +192,8 @@ def test_the_urdf_parses_and_its_joints_are_those_of_joint_states():
     p = TableParams()
     for wheel, radius, inertia in zip(wheels(p, names),
                                       (p.radius_pinion_1, p.radius_table, p.radius_pinion_3),
-                                      (p.inertia_pinion_1, p.inertia_table, p.inertia_pinion_3)):
+                                      (p.inertia_pinion_1, p.inertia_table, p.inertia_pinion_3),
+                                      strict=True):
         joint = urdf.joint_map[wheel.joint]
         assert joint.type == 'continuous' and joint.parent == BASE_LINK   # revolute, no limits
         link = urdf.link_map[joint.child]
@@ -209,7 +210,7 @@ def test_the_urdf_parses_and_its_joints_are_those_of_joint_states():
 
 def test_the_ros2_control_block_names_the_stock_plugin_and_this_nodes_topics():
     from screwgear_ros.interface import topic_names
-    from screwgear_ros.ros.urdf import PLANT_NAMESPACE
+    from screwgear_ros.view.urdf import PLANT_NAMESPACE
     block = ET.parse(_installed_urdf()).getroot().find('ros2_control')
     assert block.get('type') == 'system'
     hardware = block.find('hardware')

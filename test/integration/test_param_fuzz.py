@@ -51,8 +51,8 @@ def _cases():
 def _derived_are_finite(values: dict) -> None:
     """Everything the node derives from a parameter set, computed and finite."""
     from screwgear_ros.physics.packed import pack
-    from screwgear_ros.ros.urdf import robot_description
     from screwgear_ros.sim.pacing import wall_period
+    from screwgear_ros.view.urdf import robot_description
     params, settings = split_parameters(values)
     assert 0.0 < max_stable_dt(params) < math.inf
     for x in (equivalent_mass(params), natural_frequency(params)):
@@ -171,11 +171,11 @@ def test_an_extreme_at_start_exits_2_with_the_reason_and_no_traceback(tmp_path):
     huge = start_process('table_sim', params={'ste_phases': [0.0] * HUGE},
                          workdir=tmp_path / 'huge')
     # the starts share the cores: each may take as long as all of them on one core
-    started = [*zip(cases, procs), (('ste_phases', 'huge'), huge)]
+    started = [*zip(cases, procs, strict=True), (('ste_phases', 'huge'), huge)]
     timeout = STARTUP_TIMEOUT * max(1.0, len(started) / (os.cpu_count() or 1))
     try:
         for (name, value), proc in started:
-            wait_until(lambda: not proc.alive(), timeout, f'table_sim to refuse {name}')
+            wait_until(lambda proc=proc: not proc.alive(), timeout, f'table_sim to refuse {name}')
             stderr = proc.output()[1]
             assert proc.popen.returncode == 2, (name, value, stderr[-2000:])
             assert 'cannot start' in stderr and name in stderr, (name, value, stderr[-2000:])

@@ -139,7 +139,7 @@ def test_mcap_ros2_decodes_every_message_from_the_embedded_schemas(tmp_path: Pat
     assert len(decoded) == len(messages)
     # File order is write order, also for equal log times.
     assert [(d[0], d[1]) for d in decoded] == [(m[0], m[1]) for m in messages]
-    for (topic, _, encoding, channel, obj), (_, _, original) in zip(decoded, messages):
+    for (topic, _, encoding, channel, obj), (_, _, original) in zip(decoded, messages, strict=True):
         assert encoding == 'ros2msg' and channel.message_encoding == 'cdr'
         assert plain(original, obj) == plain(original, original), topic
     assert summary is not None and summary.statistics.message_count == len(messages)
@@ -334,7 +334,7 @@ def test_runs_of_ticks_read_back_like_single_messages(tmp_path: Path) -> None:
                 serialize_message(Float64(data=k * 0.25)),
                 serialize_message(Float64(data=-k * 0.25))]
         recorder.write_group(group, t, tick)
-        handed.extend(zip(group.topics, [t] * 4, tick))
+        handed.extend(zip(group.topics, [t] * 4, tick, strict=True))
     release.set()
     recorder.close()
     assert (recorder.written, recorder.dropped, recorder.error) == (len(handed), 0, None)

@@ -165,7 +165,7 @@ def advance_lockstep_node(ticks: int) -> int:
         for _ in range(ticks):
             answer.publish(Empty())
             last = seen
-            seen = stamp_ns(inbox.wait_for(lambda m: stamp_ns(m) > last, timeout=WAIT,
+            seen = stamp_ns(inbox.wait_for(lambda m, last=last: stamp_ns(m) > last, timeout=WAIT,
                                            what=f'joint_states after {last} ns'))
     return seen
 
@@ -268,7 +268,7 @@ def test_the_free_running_comparison_fails_what_timing_does_not_explain(name: st
     moved = compare_runs(run, late)
     assert not moved.ok and moved.first_difference is not None, format_comparison(moved)
     assert moved.timings[0].delay == run.parameters.settings.steps_per_publish
-    empty = dataclasses.replace(run, joint_states=_none_of(run.joint_states),
+    empty = dataclasses.replace(run, true_joint_states=_none_of(run.true_joint_states),
                                 transmission_error=_none_of(run.transmission_error))
     nothing = compare_runs(run, empty)
     assert nothing.nothing_compared is not None and not nothing.ok
@@ -295,7 +295,7 @@ def record_a_fault(bag: Path) -> None:
     from diverging import diverging
 
     from screwgear_ros.interface import topic_names
-    from screwgear_ros.ros.run_io import RunIO
+    from screwgear_ros.runs.run_io import RunIO
     from screwgear_ros.sim.session import Session
     params, settings = diverging()
     session = Session(params, settings)
@@ -384,7 +384,7 @@ def test_the_plan_counts_ticks_and_refuses_a_recording_that_lost_one() -> None:
     assert all(tick == event.step // ticks + 1 for tick, event in plan.events)
     steps = run.joint_states.steps.copy()
     steps[10:] += ticks                  # one tick missing after sample 9
-    lost = dataclasses.replace(run, joint_states=dataclasses.replace(run.joint_states,
-                                                                      steps=steps))
+    lost = dataclasses.replace(run, true_joint_states=dataclasses.replace(
+        run.true_joint_states, steps=steps))
     with pytest.raises(ValueError, match='lost ticks'):
         plan_from_run(lost)

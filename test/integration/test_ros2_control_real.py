@@ -22,6 +22,7 @@ through the controller manager's services instead, as the spawner does.
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import json
 import math
@@ -33,7 +34,7 @@ import time
 import types
 import xml.etree.ElementTree as ET
 from concurrent.futures import ThreadPoolExecutor
-from contextlib import contextmanager, suppress
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -435,9 +436,9 @@ def stop_all(procs: list[Proc]) -> dict[str, int]:
     for p in order:
         if p.popen.poll() is None:
             os.killpg(p.popen.pid, signal.SIGINT)
-            with suppress(subprocess.TimeoutExpired):
+            with contextlib.suppress(subprocess.TimeoutExpired):
                 p.popen.wait(timeout=10.0)
-        with suppress(ProcessLookupError):
+        with contextlib.suppress(ProcessLookupError):
             os.killpg(p.popen.pid, signal.SIGKILL)       # a child it left behind
         p.popen.wait()
         codes[p.spec.executable] = p.popen.returncode
@@ -500,8 +501,8 @@ class Stack:
                 return
             except AssertionError:
                 if time.monotonic() > deadline:
-                    raise AssertionError(f'the plugin did not send {value} within {timeout} s'
-                                         ) from None
+                    raise AssertionError(
+                        f'the plugin did not send {value} within {timeout} s') from None
 
 
 @pytest.fixture(scope='module')

@@ -154,20 +154,20 @@ BAD = {
     'unknown_parameter': ('grid:\n  backlash_gap: [0.0]\n', 'backlash_gap', 'not a parameter'),
     'refused_value': ('grid:\n  preload_torque: [100.0, -5.0]\n', 'preload_torque',
                       'refused by table_sim'),
-    'drawn_value_refused': ('monte_carlo:\n  count: 40\n  seed: 1\n  parameters:\n'
-                            '    backlash: {normal: [1.0e-5, 2.0e-5]}\n', 'backlash',
+    'drawn_value_refused': (('monte_carlo:\n  count: 40\n  seed: 1\n  parameters:\n'
+                            '    backlash: {normal: [1.0e-5, 2.0e-5]}\n'), 'backlash',
                             'refused by table_sim'),
     'rk4_stability': ('grid:\n  mesh_stiffness_mean: [1.0e+7, 1.0e+12]\n',
                       'mesh_stiffness_mean', 'RK4 is unstable'),
-    'node_only_setting': ('grid:\n  record: [a, b]\n', 'record', 'no meaning for an '
-                          'in-process run'),
+    'node_only_setting': ('grid:\n  record: [a, b]\n', 'record', ('no meaning for an '
+                          'in-process run')),
     'number_read_as_text': ('grid:\n  backlash: [0.0, 1e-5]\n', 'backlash',
                             'YAML reads 1e-5 as text'),
     'unknown_metric': ('grid:\n  backlash: [0.0]\n', 'max_wobble', 'unknown metric'),
-    'bad_distribution': ('monte_carlo:\n  count: 3\n  parameters:\n'
-                         '    backlash: {gaussian: [1.0, 2.0]}\n', 'gaussian', 'uniform'),
-    'uniform_backwards': ('monte_carlo:\n  count: 3\n  parameters:\n'
-                          '    backlash: {uniform: [1.0e-4, 0.0]}\n', 'uniform',
+    'bad_distribution': (('monte_carlo:\n  count: 3\n  parameters:\n'
+                         '    backlash: {gaussian: [1.0, 2.0]}\n'), 'gaussian', 'uniform'),
+    'uniform_backwards': (('monte_carlo:\n  count: 3\n  parameters:\n'
+                          '    backlash: {uniform: [1.0e-4, 0.0]}\n'), 'uniform',
                           'low must be below high'),
 }
 
@@ -206,7 +206,7 @@ def make(setpoint, behaviour):
 def test_faulting_failing_and_overrunning_runs_are_rows(tmp_path):
     # a parametric resonance of the mesh stiffness (test_node_fault.py) diverges
     # at twice the natural frequency; without the pumping (k_a = 0) it stays at rest
-    unstable = dict(mode='conventional', backlash=0.0, mesh_phase='time', mesh_damping=0.0)
+    unstable = {'mode': 'conventional', 'backlash': 0.0, 'mesh_phase': 'time', 'mesh_damping': 0.0}
     omega_0 = natural_frequency(TableParams(**unstable))
     unstable['mesh_frequency'] = 2.0 * omega_0
     scenario = ('parameters: {' + ', '.join(f'{k}: {v!r}' for k, v in unstable.items())
@@ -234,7 +234,7 @@ def test_faulting_failing_and_overrunning_runs_are_rows(tmp_path):
         table = _table(path.parent / 'out')
         assert table['status'] == [status, status], table
         assert all(reason in r for r in table['reason'])
-        assert all(v != v for v in table['max_abs_te_m'])            # NaN: no metrics
+        assert all(math.isnan(v) for v in table['max_abs_te_m'])     # NaN: no metrics
         if behaviour == 'sleep':     # 2 s of simulation at 20 ms a tick: stopped, not run
             assert time.monotonic() - started < 60.0
 
@@ -266,13 +266,13 @@ def test_one_worker_imports_no_dask_and_the_package_imports_without_it(tmp_path)
             'print(rc, sorted(m for m in sys.modules if m.split(".")[0] in '
             '("dask", "distributed")))\n')
     proc = subprocess.run([sys.executable, '-P', '-c', code], capture_output=True, text=True,
-                          timeout=300)
+                          timeout=300, check=False)
     assert proc.stdout.splitlines()[-1] == '0 []', proc.stdout + proc.stderr
     code = ('import sys\nsys.modules["dask"] = sys.modules["distributed"] = '
             'sys.modules["pyarrow"] = None\nimport screwgear_ros, screwgear_ros.sweep, '
             'screwgear_ros.cli.sweep\nprint("imported")\n')
     proc = subprocess.run([sys.executable, '-P', '-c', code], capture_output=True, text=True,
-                          timeout=300)
+                          timeout=300, check=False)
     assert proc.stdout.strip() == 'imported', proc.stderr
 
 
@@ -344,11 +344,11 @@ def test_without_dask_or_pyarrow_the_sweep_says_what_to_install(tmp_path):
             'print("rc", main(sys.argv[1:]))\n')
     common = [sys.executable, '-P', '-c', code, str(path), '--no-plot']
     many = subprocess.run([*common, '--out', str(tmp_path / 'many'), '--workers', '2'],
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=300, check=False)
     assert many.stdout.splitlines()[-1] == 'rc 2' and 'Traceback' not in many.stderr
     assert "pip install 'screwgear_ros[sweep]'" in many.stderr and '--workers 1' in many.stderr
     one = subprocess.run([*common, '--out', str(tmp_path / 'one'), '--workers', '1'],
-                         capture_output=True, text=True, timeout=300)
+                         capture_output=True, text=True, timeout=300, check=False)
     assert one.stdout.splitlines()[-1] == 'rc 0', one.stderr
     assert 'results.parquet needs pyarrow' in one.stderr
     assert (tmp_path / 'one' / 'results.csv').is_file()

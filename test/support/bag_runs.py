@@ -1,8 +1,8 @@
 """In-process recorded runs: the node's own session and RunIO, with no DDS and no node.
 
-:func:`record_session` (from :mod:`screwgear_ros.ros.session_record`) plays a
+:func:`record_session` (from :mod:`screwgear_ros.runs.session_record`) plays a
 :class:`~screwgear_ros.sim.schedule.Schedule` into a :class:`~screwgear_ros.sim.session.Session`
-and records it with the node's :class:`~screwgear_ros.ros.run_io.RunIO` (publishers none),
+and records it with the node's :class:`~screwgear_ros.runs.run_io.RunIO` (publishers none),
 so a bag is written exactly as table_sim writes it, tick by tick, as fast as the machine goes.
 :func:`copy_bag` rewrites a bag message by message (to corrupt one on purpose); :data:`BAGS`
 names the runs checked in under :data:`paths.DATA`.
@@ -22,7 +22,7 @@ from mcap.stream_reader import StreamReader
 
 from screwgear_ros.bag import RunRecorder, TopicSpec
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.ros.session_record import record_session
+from screwgear_ros.runs.session_record import record_session
 from screwgear_ros.sim.events import Command
 from screwgear_ros.sim.session import Session
 
@@ -73,7 +73,7 @@ def installed(exe: str, *args: object, timeout: float = 300.0) -> subprocess.Com
     path = shutil.which(exe)
     assert path is not None, f'{exe} is not installed in the venv'
     return subprocess.run([path, *map(str, args)], capture_output=True, text=True,
-                          timeout=timeout)
+                          timeout=timeout, check=False)
 
 
 def installed_check_run(*args: object) -> subprocess.CompletedProcess:

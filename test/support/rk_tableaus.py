@@ -68,7 +68,7 @@ class Tableau:
         return len(self.b)
 
     def _times_a(self, v: Sequence[Fraction]) -> list[Fraction]:
-        return [sum((a * x for a, x in zip(row, v)), Fraction(0)) for row in self.a]
+        return [sum((a * x for a, x in zip(row, v, strict=False)), Fraction(0)) for row in self.a]
 
     def order_conditions(self) -> dict[str, Fraction]:
         """Residuals of the conditions for orders 1–4 (one per rooted tree), keyed
@@ -76,7 +76,7 @@ class Tableau:
         b, c = self.b, self.c
 
         def dot(v: Sequence[Fraction]) -> Fraction:
-            return sum((x * y for x, y in zip(b, v)), Fraction(0))
+            return sum((x * y for x, y in zip(b, v, strict=False)), Fraction(0))
 
         ac = self._times_a(c)
         return {
@@ -85,7 +85,7 @@ class Tableau:
             '3: Σbc² = 1/3': dot([x * x for x in c]) - Fraction(1, 3),
             '3: Σb·Ac = 1/6': dot(ac) - Fraction(1, 6),
             '4: Σbc³ = 1/4': dot([x ** 3 for x in c]) - Fraction(1, 4),
-            '4: Σbc·Ac = 1/8': dot([x * y for x, y in zip(c, ac)]) - Fraction(1, 8),
+            '4: Σbc·Ac = 1/8': dot([x * y for x, y in zip(c, ac, strict=False)]) - Fraction(1, 8),
             '4: Σb·Ac² = 1/12': dot(self._times_a([x * x for x in c])) - Fraction(1, 12),
             '4: Σb·AAc = 1/24': dot(self._times_a(ac)) - Fraction(1, 24),
         }
@@ -96,7 +96,7 @@ class Tableau:
         v = [Fraction(1)] * self.stages
         gammas = [Fraction(1)]
         for _ in range(self.stages):
-            gammas.append(sum((x * y for x, y in zip(self.b, v)), Fraction(0)))
+            gammas.append(sum((x * y for x, y in zip(self.b, v, strict=False)), Fraction(0)))
             v = self._times_a(v)
         return tuple(gammas)
 

@@ -23,7 +23,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Self
 
 import yaml
 
@@ -80,11 +80,11 @@ class RosProcess:
             self.popen.wait()
             self._close_files()
             raise AssertionError(f'{self.command[0]} ignored signal {sig} for {timeout} s; '
-                                 'killed')
+                                 'killed') from None
         self._close_files()
         return code, time.monotonic() - t0
 
-    def __enter__(self) -> RosProcess:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -129,8 +129,8 @@ def start_process(exe: str, ros_args: Sequence[str] = (),
         command += ['--params-file', str(write_params_file(workdir / 'params.yaml', params))]
     child_env = {**os.environ, 'PYTHONUNBUFFERED': '1', 'RCUTILS_COLORIZED_OUTPUT': '0',
                  **(env or {})}
-    out = open(workdir / 'stdout.txt', 'w')
-    err = open(workdir / 'stderr.txt', 'w')
+    out = open(workdir / 'stdout.txt', 'w')  # noqa: SIM115 - the process's, closed with it
+    err = open(workdir / 'stderr.txt', 'w')  # noqa: SIM115 - the process's, closed with it
     popen = subprocess.Popen(command, stdout=out, stderr=err, env=child_env, cwd=workdir)
     return RosProcess(popen, workdir, command, [out, err])
 
@@ -224,7 +224,7 @@ class Peer:
                                         name=f'{name} spin')
         self._thread.start()
 
-    def __enter__(self) -> Peer:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -293,7 +293,7 @@ class Peer:
         client = self._param_client(node_name, timeout)
         future = client.get_parameters(names)
         wait_until(future.done, timeout, f'get_parameters on {node_name}')
-        return {n: parameter_value_to_python(v) for n, v in zip(names, future.result().values)}
+        return {n: parameter_value_to_python(v) for n, v in zip(names, future.result().values, strict=True)}
 
     def _param_client(self, node_name: str, timeout: float) -> Any:
         from rclpy.parameter_client import AsyncParameterClient

@@ -19,15 +19,6 @@ import screwgear_ros
 PACKAGE = 'screwgear_ros'
 ROOT = Path(screwgear_ros.__file__).parent
 SHELL = (f'{PACKAGE}.ros', f'{PACKAGE}.cli')
-#: Where the core reaches into the ROS shell on purpose, each only inside the function
-#: that needs it (so importing the core never loads ROS), with the reason.
-LAZY_SHELL_EDGES = {
-    (f'{PACKAGE}.sim.simulation', f'{PACKAGE}.ros.session_record'):
-        "Simulation.run(record=...) writes the node's own messages: rclpy's message "
-        'packages, loaded only when a run is recorded',
-}
-
-
 def _ros_package(top: str) -> bool:
     """A top-level import that is part of ROS 2 itself (rclpy, rosidl, a message
     package), not a pure-Python reader of its formats such as rosbags or mcap."""
@@ -107,11 +98,11 @@ def _reach(start: str, cut: set[tuple[str, str]]) -> set[str]:
 
 
 def test_the_walk_sees_the_package_and_its_lazy_imports():
-    assert {f'{PACKAGE}.params.table', f'{PACKAGE}.ros.run_io', f'{PACKAGE}.bag.reader'} <= set(
+    assert {f'{PACKAGE}.params.table', f'{PACKAGE}.runs.run_io', f'{PACKAGE}.bag.reader'} <= set(
         MODULES)
-    assert (f'{PACKAGE}.ros.session_record', True) in IMPORTS[f'{PACKAGE}.sim.simulation']
+    assert (f'{PACKAGE}.runs.session_record', True) in IMPORTS[f'{PACKAGE}.sim.simulation']
     assert ('rclpy', False) in [(t.split('.')[0], lazy) for t, lazy in
-                                IMPORTS[f'{PACKAGE}.ros.run_io']]
+                                IMPORTS[f'{PACKAGE}.ros.node']]
 
 
 def test_no_module_import_cycle():
@@ -121,24 +112,17 @@ def test_no_module_import_cycle():
 
 @pytest.mark.parametrize('name', sorted(n for n in MODULES if n.startswith((f'{PACKAGE}.runs', f'{PACKAGE}.bag'))))
 def test_runs_never_reach_the_ros_shell_or_the_tools(name):
-    reached = sorted(n for n in _reach(name, set(LAZY_SHELL_EDGES)) if _in_shell(n))
+    reached = sorted(n for n in _reach(name, set()) if _in_shell(n))
     assert not reached, f'{name} imports (through the package) {reached}'
 
 
 @pytest.mark.parametrize('name', sorted(n for n in MODULES if not _in_shell(n)))
 def test_the_core_imports_no_ros(name):
-    reached = {name, *_reach(name, set(LAZY_SHELL_EDGES))}
+    reached = {name, *_reach(name, set())}
     found = sorted({f'{n} imports {t}' for n in reached for t, _ in IMPORTS[n]
                     if t not in MODULES and _ros_package(t)}
                    | {f'{n} is part of the ROS shell' for n in reached if _in_shell(n)})
     assert not found, '\n'.join(found)
-
-
-@pytest.mark.parametrize('edge', sorted(LAZY_SHELL_EDGES))
-def test_the_cores_way_into_the_shell_is_lazy_and_still_needed(edge):
-    importer, target = edge
-    kinds = {lazy for t, lazy in IMPORTS[importer] if t == target}
-    assert kinds == {True}, f'{importer} must import {target} only inside a function'
 
 
 def test_no_issue_numbers_in_the_package():

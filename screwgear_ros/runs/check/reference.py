@@ -27,7 +27,7 @@ from ...physics.packed import N_STATE
 from ...sim.events import ParameterChange, Reset
 from ...sim.plant import DriveInput, Plant
 from ...sim.session import ROW, ROW_JOINTS, ROW_TE, row_of
-from ..replay import ReplayedOutputs
+from ..replay_in_process import ReplayedOutputs
 from .tolerance import BLOCK_SECONDS
 
 
@@ -73,7 +73,7 @@ def reference_outputs(run: RecordedRun, replayed: ReplayedOutputs,
     the reference solver's relative tolerance (its absolute one scales with it).
     """
     c = _contexts(run, replayed)
-    pieces, steps = c.pieces, run.joint_states.steps
+    pieces, steps = c.pieces, run.true_joint_states.steps
     # The reference solution at every sample step, piece by piece, in blocks.
     total = sum(len(p.segments) for p in pieces)
     offsets = np.cumsum([0] + [len(p.segments) for p in pieces])
@@ -98,7 +98,7 @@ def _observe(run: RecordedRun, c: _Contexts, states: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray]:
     """Output rows (n, ROW) and mesh_state rows (n, 6) of ``states`` (n, 6) at the
     joint_states samples, through the plant's own output code."""
-    steps = run.joint_states.steps
+    steps = run.true_joint_states.steps
     rows = np.empty((len(steps), ROW))
     mesh = np.empty((len(steps), 6))
     plants: dict[int, Plant] = {}
@@ -122,7 +122,7 @@ def _contexts(run: RecordedRun, replayed: ReplayedOutputs) -> _Contexts:
     start = run.parameters
     params: TableParams = start.params
     drive = DriveInput()
-    steps = run.joint_states.steps
+    steps = run.true_joint_states.steps
     pieces = [_Piece(start.start_step, np.array(start.initial_state, dtype=np.float64),
                      [Segment(start.start_step, drive, params)])]
     # Pass 1: pieces, segments, and the context (piece, input, parameters) of each tick.

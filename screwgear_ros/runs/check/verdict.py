@@ -97,7 +97,7 @@ def require_samples(run: RecordedRun) -> None:
     (joint_states, transmission_error, mesh_state after the start of the run, and the
     active_path of the start): a check that compared fewer would judge nothing."""
     start = run.parameters.start_step
-    missing = [name for name, signal in (('joint_states', run.joint_states),
+    missing = [name for name, signal in (('joint_states', run.true_joint_states),
                                          ('transmission_error', run.transmission_error),
                                          ('mesh_state', run.mesh_state))
                if not np.any(signal.steps > start)]
@@ -116,7 +116,7 @@ def require_samples(run: RecordedRun) -> None:
         raise InvalidBag(f'{run.path}: its joint sensors are not ideal '
                        '(run_parameters), but it holds no true_joint_states: the exact state '
                        'was not recorded, so the physics cannot be judged')
-    if not np.array_equal(run.mesh_state.steps, run.joint_states.steps[:len(run.mesh_state)]):
+    if not np.array_equal(run.mesh_state.steps, run.true_joint_states.steps[:len(run.mesh_state)]):
         raise InvalidBag(f'{run.path}: mesh_state and joint_states samples are not '
                        'published at the same steps')
 
@@ -155,7 +155,7 @@ def sensor_rows(run: RecordedRun) -> np.ndarray:
     each recorded reset and reconfigured by each recorded parameter change at the sample
     of the tick that applied it (the first sample recorded after it), as the node's
     session does."""
-    exact = run.joint_states
+    exact = run.true_joint_states
     chain = SensorChain(run.parameters.settings.sensors, run.dt)
     events = [(order, e) for order, e in run.events if isinstance(e, (Reset, ParameterChange))]
     takes = np.searchsorted(exact.order, [order for order, _ in events], side='right').tolist()
@@ -182,7 +182,7 @@ def sensor_mismatch(run: RecordedRun) -> tuple[int, str | None]:
     if measured is None:
         return 0, None
     topic = run.names.get('joint_states', 'joint_states')
-    exact = run.joint_states
+    exact = run.true_joint_states
     n = min(len(exact), len(measured))
     if len(exact) != len(measured) and not run.truncated:
         return n, (f'{topic} has {len(measured)} samples, true_joint_states '
@@ -223,8 +223,8 @@ def check_run(run: RecordedRun, progress: Callable[[float], None] | None = None,
         fine_js, fine_te = fine_replay.result()
     finally:
         fine_replay.close()
-    recorded = run.joint_states.values
-    times_js = run.joint_states.steps * run.dt
+    recorded = run.true_joint_states.values
+    times_js = run.true_joint_states.steps * run.dt
     times_te = run.transmission_error.steps * run.dt
     report = CheckReport(
         str(run.path), run.dt,

@@ -19,17 +19,17 @@ from std_msgs.msg import Float64
 from visualization_msgs.msg import MarkerArray
 
 from screwgear_ros.bag.cdr import (
-    Bundle,
+    MessageBundle,
     clock_template,
     float64_template,
     joint_state_template,
     template_of,
 )
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.ros.markers import MarkerEncoder, table_markers
-from screwgear_ros.ros.messages import stamp
+from screwgear_ros.ros.messages import to_message
 from screwgear_ros.sim.plant import DriveInput, Outputs, Plant
 from screwgear_ros.sim.status import Contact, contact_states
+from screwgear_ros.view.markers import MarkerEncoder, table_markers
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 T = STORE.types
@@ -78,12 +78,12 @@ def test_joint_state_encodings_decode_to_the_values_in_rclpy_and_match_rosbags()
 
 
 def test_a_bundle_cuts_out_each_message_as_rosbags_serializes_it():
-    """A tick's messages packed by one struct (cdr.Bundle, what RunIO sends) and cut
+    """A tick's messages packed by one struct (cdr.MessageBundle, what RunIO sends) and cut
     apart: each is the bytes rosbags serializes for that message alone."""
     rng = random.Random(11)
     mesh = ['mesh_1', 'mesh_3']
     for names in (NAMES, ['zahnrad_ä', 'ü', 'abcde'], []):
-        bundle = Bundle([clock_template(), joint_state_template(names),
+        bundle = MessageBundle([clock_template(), joint_state_template(names),
                          joint_state_template(mesh), float64_template()])
         for _ in range(100):
             t_ns = rng.randrange(0, 10 ** 13)
@@ -171,7 +171,7 @@ def test_marker_encodings_decode_to_what_table_markers_draws():
         encoder = MarkerEncoder(params, names)
         for out in _reversals(params, 200.0):
             t_ns = rng.randrange(0, 10 ** 13)
-            drawn = serialize_message(table_markers(params, names, out, stamp(t_ns)))
+            drawn = serialize_message(to_message(table_markers(params, names, out, t_ns)))
             assert deserialize_message(encoder.encode(out, t_ns), MarkerArray) == \
                 deserialize_message(drawn, MarkerArray)
             looks.add((out.active_path, *contact_states(params, out)))

@@ -27,8 +27,8 @@ def _ladder(**context: object) -> Failures:
     (Refused('bad'), 'tool: cannot use in.yaml: bad', EXIT_ERROR),     # before its base
     (ValueError('odd'), 'tool: ValueError in in.yaml: odd', 7),
     (KeyError('k'), "tool: KeyError in in.yaml: 'k'", 7),
-    (OSError(errno.ENOSPC, 'No space left on device'), 'tool: cannot write: No space left '
-     'on device', EXIT_ERROR),
+    (OSError(errno.ENOSPC, 'No space left on device'), ('tool: cannot write: No space left '
+     'on device'), EXIT_ERROR),
     (ZeroDivisionError('x'), 'tool: ZeroDivisionError: x', EXIT_ERROR),  # unexpected
 ])
 def test_the_first_matching_rung_says_the_line_and_keeps_the_code(capsys, error, line, code):

@@ -42,15 +42,15 @@ MAX_STEP = 20e-6
 
 SCENARIOS = {
     # the flank of mesh 1 lifts off, crosses the gap, bounces on the reverse flank
-    'conventional': dict(mode='conventional'),
+    'conventional': {'mode': 'conventional'},
     # the same with the forces from the mesh potential (f(δ) kinks at the gap edge too)
-    'conventional energy-consistent': dict(mode='conventional',
-                                           mesh_formulation='energy_consistent'),
+    'conventional energy-consistent': {'mode': 'conventional',
+                                           'mesh_formulation': 'energy_consistent'},
     # too little preload: the reversal opens the meshes of the anti-backlash gear
-    'anti-backlash, 200 N·m preload': dict(preload_torque=200.0),
+    'anti-backlash, 200 N·m preload': {'preload_torque': 200.0},
     # a weaker drive: the bounces after the reversal cross the drive line's corner
     # (400 N·m meets T_s·(1 − ω/ω_nl) at 8.4 rad/s), a kink of the drive torque
-    'conventional, drive line corner': dict(mode='conventional', drive_stall_torque=600.0),
+    'conventional, drive line corner': {'mode': 'conventional', 'drive_stall_torque': 600.0},
 }
 
 
@@ -60,10 +60,10 @@ def _params(name: str) -> TableParams:
 
 def _session_run(p: TableParams, dt: float, locate: bool) -> tuple[np.ndarray, np.ndarray, int]:
     """(initial state, states at every SAMPLE, contact changes located)."""
-    stride = int(round(SAMPLE / dt))
+    stride = round(SAMPLE / dt)
     settings = SimSettings(dt=dt, publish_rate=1.0 / (stride * dt), contact_location=locate,
                            command_timeout=0.0)
-    return reversal_run(p, settings, TORQUE, int(round(REVERSAL / dt)), int(round(END / dt)))
+    return reversal_run(p, settings, TORQUE, round(REVERSAL / dt), round(END / dt))
 
 
 # ------------------------------------------------------------------ the reference
@@ -155,7 +155,7 @@ def reference(p: TableParams, y0: np.ndarray, rtol: float = 1e-12,
               atol: float = 1e-14) -> tuple[np.ndarray, int]:
     """States at every SAMPLE, and how many contact changes the run has (module docstring)."""
     m = pack(p)
-    times = np.arange(1, int(round(END / SAMPLE)) + 1) * SAMPLE
+    times = np.arange(1, round(END / SAMPLE) + 1) * SAMPLE
     out = np.empty((len(times), 6))
     y, t, changes = np.array(y0, dtype=np.float64), 0.0, 0
 
@@ -168,7 +168,7 @@ def reference(p: TableParams, y0: np.ndarray, rtol: float = 1e-12,
         return (*contact_branches(tt, tuple(yy), m),
                 drive_piece(TORQUE, active_speed(yy[3], yy[5], direction, m.p), m.p))
 
-    for start, stop, direction in ((0.0, REVERSAL, 1.0), (REVERSAL, END, -1.0)):
+    for _start, stop, direction in ((0.0, REVERSAL, 1.0), (REVERSAL, END, -1.0)):
         branches = pieces_at(t, y, direction)
         while t < stop:
             args = held(direction, branches)
@@ -282,11 +282,11 @@ def test_fixed_step_path_is_the_textbook_rk4():
     y0, fixed, _ = _session_run(p, dt, False)
     y = y0.copy()
     out = []
-    reversal = int(round(REVERSAL / dt))
-    for k in range(int(round(0.32 / dt))):
+    reversal = round(REVERSAL / dt)
+    for k in range(round(0.32 / dt)):
         direction = 1.0 if k < reversal else -1.0
 
-        def f(t, state):
+        def f(t, state, direction=direction):
             return rhs_vector(t, state, m, Drive(TORQUE, direction, 0.0))
         t, h = k * dt, 0.5 * dt
         k1 = f(t, y)
@@ -294,7 +294,7 @@ def test_fixed_step_path_is_the_textbook_rk4():
         k3 = f(t + h, y + h * k2)
         k4 = f(t + dt, y + dt * k3)
         y = y + dt / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
-        if (k + 1) % int(round(SAMPLE / dt)) == 0:
+        if (k + 1) % round(SAMPLE / dt) == 0:
             out.append(y.copy())
     assert np.array_equal(np.array(out), fixed[:len(out)])
 

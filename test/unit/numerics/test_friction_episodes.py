@@ -11,6 +11,7 @@ whose events are roots of them, bracketed between the closed-form extrema.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -83,7 +84,7 @@ class _Exact:
     def _first(self, f, a: float, b: float, breaks: list[float]) -> float | None:
         """The first t in (a, b] where f turns > 0 (f monotone between ``breaks``)."""
         points = [a] + [x for x in breaks if a < x < b] + [b]
-        for lo, hi in zip(points[:-1], points[1:]):
+        for lo, hi in itertools.pairwise(points):
             if f(hi) > 0.0:
                 return brentq(f, lo, hi, xtol=1e-16, rtol=1e-15) if f(lo) < 0.0 else lo
         return None
@@ -116,7 +117,8 @@ class _Exact:
                 continue
             sense, th0, w0 = self.piece, self.th, self.w
             extrema = self._solutions((sense * COULOMB - command) / self.ripple, t, end)
-            cross = self._first(lambda s: -sense * self.slip(t, th0, w0, sense, command, s)[1],
+            cross = self._first(lambda s, t=t, th0=th0, w0=w0, sense=sense:
+                                -sense * self.slip(t, th0, w0, sense, command, s)[1],
                                 t, end, extrema)
             if cross is None:
                 self.th, self.w = self.slip(t, th0, w0, sense, command, end)

@@ -103,7 +103,7 @@ def test_rk4_convergence_order_on_the_3dof_model():
     for dt in (200e-6, 100e-6, 50e-6):
         y = y0.copy()
         out = np.empty((n, 6))
-        trajectory(y, 0, dt, int(round(sample / dt)), out, m, Drive(torque, 1.0, 0.0))
+        trajectory(y, 0, dt, round(sample / dt), out, m, Drive(torque, 1.0, 0.0))
         runs.append(out)
     err = [np.max(np.abs(r - ref), axis=0) for r in runs]
     order_ref = [np.log2(err[i] / err[i + 1]) for i in range(2)]

@@ -84,7 +84,7 @@ def test_numba_nrt_option():
 
     try:
         without = llvm(_nrt=False)
-    except Exception as error:
+    except Exception as error:  # noqa: BLE001 - any failure says the private API moved
         pytest.fail(broken("the compile option '_nrt'", 'numba', error))
     assert 'NRT_incref' in llvm(), 'the control kernel counts no reference: check is void'
     assert 'NRT_incref' not in without, broken("the compile option '_nrt'", 'numba',

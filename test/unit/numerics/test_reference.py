@@ -74,10 +74,10 @@ def test_reference_segments_switch_input_at_their_step():
 
 
 @pytest.mark.parametrize('case', [
-    dict(table_damping=PAPER_TABLE_DAMPING),
-    dict(table_damping=PAPER_TABLE_DAMPING, mesh_formulation='energy_consistent'),
-    dict(mode='conventional', preload_torque=0.0),          # backlash impacts
-    dict(mesh_phase='time', table_damping=30.0, drive_no_load_speed=0.0),
+    {'table_damping': PAPER_TABLE_DAMPING},
+    {'table_damping': PAPER_TABLE_DAMPING, 'mesh_formulation': 'energy_consistent'},
+    {'mode': 'conventional', 'preload_torque': 0.0},          # backlash impacts
+    {'mesh_phase': 'time', 'table_damping': 30.0, 'drive_no_load_speed': 0.0},
 ], ids=['paper', 'energy_consistent', 'conventional', 'time_phase_ideal_drive'])
 def test_compiled_dop853_agrees_with_scipy_on_the_same_segments(case):
     """Two implementations of DOP853 on the same segments (a reversal and a load step,
@@ -110,7 +110,7 @@ def test_compiled_dop853_agrees_with_scipy_on_the_same_segments(case):
     segs = [Segment(0, DriveInput(400.0, 1, 0.0), p), Segment(2000, DriveInput(400.0, -1, 0.0), p),
             Segment(3000, DriveInput(400.0, -1, -150.0), p)]
     samples = np.arange(0, 4001, 20)
-    fine = dict(rtol=RTOL / 100, atol=ATOL / 100)
+    fine = {'rtol': RTOL / 100, 'atol': ATOL / 100}
     ours = solve(y0, segs, dt, samples)
     scipy = solve(y0, segs, dt, samples, method='scipy')
     error = (np.abs(ours - solve(y0, segs, dt, samples, **fine))
@@ -146,7 +146,7 @@ def test_reference_gives_each_input_exactly_its_ticks_late_in_a_run(method):
     directions = np.where(np.arange(ticks) < ticks // 2, 1, -1)   # and a reversal
     loads = rng.uniform(-50.0, 50.0, ticks)
     segs = [Segment(first + i * n, DriveInput(float(t), int(d), float(load)), p)
-            for i, (t, d, load) in enumerate(zip(torques, directions, loads))]
+            for i, (t, d, load) in enumerate(zip(torques, directions, loads, strict=True))]
     # anti_backlash: T1 = T_p (+ the drive if d = +1), T3 = −T_p (− the drive if d = −1)
     t1 = p.preload_torque + np.where(directions > 0, torques, 0.0)
     t3 = -p.preload_torque - np.where(directions < 0, torques, 0.0)
@@ -192,7 +192,7 @@ def _deltas(p: TableParams, y: np.ndarray) -> np.ndarray:
     for col, (theta, r, z) in enumerate(((0, p.radius_pinion_1, p.teeth_pinion_1),
                                          (2, p.radius_pinion_3, p.teeth_pinion_3))):
         eps = sum(a * np.sin((n + 1) * z * y[:, theta] + ph)
-                  for n, (a, ph) in enumerate(zip(p.ste_amplitudes, p.ste_phases)))
+                  for n, (a, ph) in enumerate(zip(p.ste_amplitudes, p.ste_phases, strict=False)))
         out[:, col] = r * y[:, theta] - p.radius_table * y[:, 1] - eps
     return out
 

@@ -55,7 +55,7 @@ def test_rk4_tableau_has_order_four_and_its_stability_polynomial():
     assert np.allclose(rk.amplification(z), expected, rtol=1e-15)
     assert RK4.weights() == ((1, 2, 2, 1), 6)
     # the midpoint rule is second order and not third
-    assert [int(k[0]) for k, r in MIDPOINT.order_conditions().items() if r != 0][0] == 3
+    assert next(int(k[0]) for k, r in MIDPOINT.order_conditions().items() if r != 0) == 3
 
 
 def test_tableaus_that_break_their_claims_are_refused():

@@ -33,7 +33,7 @@ def _three_dof_in_x(p: TableParams, torque: float, x0: float, v0: float, dt: flo
     eps0 = float(np.sum(amp * np.sin(ph)))
     deps0 = float(np.sum(amp * n * we * np.cos(ph)))
     y = np.array([(LENGTH * x0 + eps0) / r1, 0.0, 0.0, (LENGTH * w0 * v0 + deps0) / r1, 0.0, 0.0])
-    count = int(round(t_end / (stride * dt)))
+    count = round(t_end / (stride * dt))
     out = np.empty((count, 6))
     trajectory(y, 0, dt, stride, out, m, Drive(torque, 1.0, torque * r2 / r1))
     t = (np.arange(count) + 1) * stride * dt
@@ -53,10 +53,10 @@ REDUCTION_CASES = {
     'paper': {},
     # two STE harmonics (the n² factor), phases, torque fluctuation on pinion 1,
     # thermal derating and preload stiffness (κ ≠ 1), stiffness phase
-    'rich': dict(ste_amplitudes=(1.5384e-3, 3e-4), ste_phases=(0.3, -1.0),
-                 torque_fluctuation_amplitude=100.0, torque_fluctuation_frequency=500.0,
-                 preload_stiffness=1e6, thermal_coefficient=1e-3, temperature_rise=20.0,
-                 mesh_stiffness_phase=0.5),
+    'rich': {'ste_amplitudes': (1.5384e-3, 3e-4), 'ste_phases': (0.3, -1.0),
+                 'torque_fluctuation_amplitude': 100.0, 'torque_fluctuation_frequency': 500.0,
+                 'preload_stiffness': 1e6, 'thermal_coefficient': 1e-3, 'temperature_rise': 20.0,
+                 'mesh_stiffness_phase': 0.5},
 }
 
 

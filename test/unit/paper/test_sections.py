@@ -78,7 +78,7 @@ def test_settling_time_scales_as_one_over_zeta_and_steady_amplitude_does_not() -
 def test_harmonic_distortion_grows_with_stiffness_fluctuation() -> None:
     s = stiffness.compute(quick=True)
     assert np.all(np.diff(s.thd) > 0) and np.all(np.diff(s.amplitude) > 0)
-    for ka, thd in zip(s.kas[1:], s.thd[1:]):
+    for ka, thd in zip(s.kas[1:], s.thd[1:], strict=True):
         assert thd == pytest.approx(measures.quasi_static_thd(ka), rel=0.02)
     # k_a' = 0: a linear oscillator under fa·Ω²·sin Ωτ, exact steady amplitude.
     exact = 1538.4 * OMEGA ** 2 / math.hypot(1 - OMEGA ** 2, 2 * 0.05 * OMEGA)
@@ -90,7 +90,7 @@ def test_harmonic_distortion_grows_with_stiffness_fluctuation() -> None:
 
 def test_performance_index_examples() -> None:
     p = index.compute(quick=True)
-    (z1, k1, printed1, p1_8, p1_7, km1), (z2, k2, printed2, p2_8, p2_7, km2) = p.examples
+    (_z1, _k1, _printed1, p1_8, p1_7, km1), (_z2, _k2, _printed2, p2_8, p2_7, km2) = p.examples
     assert p1_7 == pytest.approx(3162.28, rel=1e-5) and p1_8 == pytest.approx(1e4)
     assert p2_8 == pytest.approx(2500.0) and p2_7 == pytest.approx(790.569, rel=1e-5)
     assert km1 == pytest.approx(1e7, rel=1e-3) and km2 == pytest.approx(2e7, rel=1e-3)
@@ -130,7 +130,7 @@ def test_temperature_and_preload_stiffness() -> None:
     t = thermal.compute(quick=True)
     p = TableParams()
     m_e = equivalent_mass(p)
-    for case, dt in zip(t.temperature, thermal.TEMPERATURE_RISES):
+    for case, dt in zip(t.temperature, thermal.TEMPERATURE_RISES, strict=True):
         k_eff = 1e7 * (1 - 1e-4 * dt)
         assert case.k_eff == pytest.approx(k_eff)
         assert case.ka_rel == pytest.approx(1e6 / k_eff)

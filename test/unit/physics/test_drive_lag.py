@@ -145,7 +145,7 @@ def test_a_recorded_run_with_a_lag_checks_against_the_reference(tmp_path) -> Non
     params = TableParams(drive_time_constant=tau, cogging_amplitude=2.0, cogging_order=6,
                          table_damping=3000.0)
     settings = SimSettings(dt=dt, publish_rate=1000.0, command_timeout=0.0)
-    at = lambda seconds: int(round(seconds / dt))
+    at = lambda seconds: round(seconds / dt)
     schedule = Schedule(params, settings, [
         Command('cmd_torque', 300.0, at(0.1)), Command('cmd_direction', -1, at(0.4)),
         Command('cmd_torque', 0.0, at(0.7))], end_step=at(0.9))

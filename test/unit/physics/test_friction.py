@@ -27,8 +27,8 @@ from screwgear_ros.physics.friction import (
     friction_piece,
     sliding_torque,
 )
-from screwgear_ros.ros.session_record import record_session
 from screwgear_ros.runs.check import check_run, format_report
+from screwgear_ros.runs.session_record import record_session
 from screwgear_ros.sim.control import DemoController, DemoGains
 from screwgear_ros.sim.events import Command
 from screwgear_ros.sim.plant import Plant
@@ -97,7 +97,7 @@ def test_pieces():
 def test_accelerations_on_each_piece():
     inertia = 0.7
     rng = np.random.default_rng(5)
-    for torque, speed in zip(rng.normal(0.0, 10.0, 100), rng.normal(0.0, 0.1, 100)):
+    for torque, speed in zip(rng.normal(0.0, 10.0, 100), rng.normal(0.0, 0.1, 100), strict=True):
         # no friction: exactly τ/I, the expression of the model without friction
         assert friction_on(FrictionPiece.NONE, speed, torque, inertia, COULOMB, STATIC,
                            STRIBECK) == (torque / inertia, 0.0)
@@ -165,7 +165,7 @@ def test_breakaway_under_a_slow_torque_ramp(mode):
     dt = 50e-6
     plant = Plant(p, dt)
     y0 = plant.state.copy()
-    rows = _steps(plant, int(round(RAMP_TIME / dt)))
+    rows = _steps(plant, round(RAMP_TIME / dt))
     moved = np.flatnonzero(rows[:, 1] != y0[1])
     assert moved.size, 'the table never broke away'
     first = moved[0]                        # the first step that ends with the table moved
@@ -208,7 +208,7 @@ def test_coasting_to_a_stop_under_coulomb_friction(body):
     y0[3 + index] = omega0
     stop = inertia * omega0 / coulomb
     plant = Plant(p, dt, initial_state=y0)
-    rows = _steps(plant, int(round(1.5 * stop / dt)))
+    rows = _steps(plant, round(1.5 * stop / dt))
     t = np.arange(1, len(rows) + 1) * dt
     speed, angle = rows[:, 3 + index], rows[:, index]
     stopped = np.flatnonzero(speed == 0.0)
@@ -232,20 +232,20 @@ def test_coasting_to_a_stop_under_coulomb_friction(body):
 #: 2 Hz on pinion 1 (zero command, the ideal source's fluctuation): the table (up to
 #: 448 N·m reaching it, τ_S2 = 200 N·m) sticks and breaks away twice a period, the pinions
 #: stick and slip on their own bearings against the preload.
-STICK_SLIP = dict(table_coulomb_torque=150.0, table_static_torque=200.0,
-                  table_stribeck_speed=0.01, pinion_coulomb_torque=1.0,
-                  pinion_static_torque=1.5, pinion_stribeck_speed=0.05, pinion_damping=0.5,
-                  table_damping=50.0, drive_no_load_speed=0.0, ste_amplitudes=(20e-6,),
-                  ste_phases=(0.0,), torque_fluctuation_amplitude=60.0,
-                  torque_fluctuation_frequency=4.0 * math.pi)
+STICK_SLIP = {'table_coulomb_torque': 150.0, 'table_static_torque': 200.0,
+                  'table_stribeck_speed': 0.01, 'pinion_coulomb_torque': 1.0,
+                  'pinion_static_torque': 1.5, 'pinion_stribeck_speed': 0.05, 'pinion_damping': 0.5,
+                  'table_damping': 50.0, 'drive_no_load_speed': 0.0, 'ste_amplitudes': (20e-6,),
+                  'ste_phases': (0.0,), 'torque_fluctuation_amplitude': 60.0,
+                  'torque_fluctuation_frequency': 4.0 * math.pi}
 STICK_SLIP_END, STICK_SLIP_SAMPLE = 1.0, 1e-3     # s
 
 
 def _stick_slip_run(dt: float, locate: bool) -> tuple[np.ndarray, int]:
     """(states every STICK_SLIP_SAMPLE, changes located) of the stick-slip run."""
     plant = Plant(TableParams(**STICK_SLIP), dt, contact_location=locate)
-    stride = int(round(STICK_SLIP_SAMPLE / dt))
-    ticks = int(round(STICK_SLIP_END / STICK_SLIP_SAMPLE))
+    stride = round(STICK_SLIP_SAMPLE / dt)
+    ticks = round(STICK_SLIP_END / STICK_SLIP_SAMPLE)
     rows = np.empty((ticks, OBSERVED))
     assert plant.advance_ticks(ticks, stride, rows) == ticks and plant.fault is None
     return rows[:, :6].copy(), plant.contact_changes
@@ -291,7 +291,7 @@ def test_a_recorded_run_with_friction_checks_against_the_reference(tmp_path):
     dt = 50e-6
     params = TableParams(**{**STICK_SLIP, 'drive_no_load_speed': 8.0 * math.pi})
     settings = SimSettings(dt=dt, publish_rate=1000.0, command_timeout=0.0)
-    at = lambda seconds: int(round(seconds / dt))
+    at = lambda seconds: round(seconds / dt)
     schedule = Schedule(params, settings, [
         Command('cmd_torque', 30.0, at(0.2)), Command('cmd_direction', -1, at(0.6)),
         Command('cmd_torque', 0.0, at(1.0))], end_step=at(1.4))

@@ -58,7 +58,7 @@ def test_contact_force_never_pulls():
     assert mesh_force(b + 1e-6, -1.0, K, C, b) == 0.0
     assert mesh_force(-b - 1e-6, +1.0, K, C, b) == 0.0
     rng = np.random.default_rng(7)
-    for delta, rate in zip(rng.uniform(-1e-3, 1e-3, 2000), rng.uniform(-5.0, 5.0, 2000)):
+    for delta, rate in zip(rng.uniform(-1e-3, 1e-3, 2000), rng.uniform(-5.0, 5.0, 2000), strict=True):
         f = mesh_force(delta, rate, K, C, b)
         if delta > b:
             assert f >= 0.0
@@ -87,7 +87,7 @@ def test_ste_and_its_derivative_against_finite_differences():
     for phi in np.linspace(-4.0, 4.0, 33):
         eps, deps = static_transmission_error(phi, amp, phase)
         assert eps == pytest.approx(sum(a * math.sin((n + 1) * phi + ph)
-                                        for n, (a, ph) in enumerate(zip(amp, phase))),
+                                        for n, (a, ph) in enumerate(zip(amp, phase, strict=False))),
                                     abs=1e-18)
         fd = (static_transmission_error(phi + h, amp, phase)[0]
               - static_transmission_error(phi - h, amp, phase)[0]) / (2 * h)
@@ -237,7 +237,7 @@ def _potential(p: TableParams, theta: float, theta2: float, radius: float) -> fl
     """½·K(φ)·f(δ)² of one mesh in `angle` phase, written out from model.md §2."""
     phi = 24 * theta
     eps = sum(a * math.sin((n + 1) * phi + ph)
-              for n, (a, ph) in enumerate(zip(p.ste_amplitudes, p.ste_phases)))
+              for n, (a, ph) in enumerate(zip(p.ste_amplitudes, p.ste_phases, strict=False)))
     delta = radius * theta - 0.582 * theta2 - eps
     b = p.backlash
     f = 0.0 if abs(delta) <= b else delta - math.copysign(b, delta)

@@ -38,11 +38,11 @@ from screwgear_ros.sim.simulation import Simulation
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 COUNTS = (4096, 1 << 20, 1000)          # a power of two, a 20-bit encoder, a round number
-NOISY = dict(encoder_counts_pinion_1=COUNTS[0], encoder_counts_table=COUNTS[1],
-             encoder_counts_pinion_3=COUNTS[2], position_noise_table=2e-6,
-             velocity_noise_pinion_1=1e-3, velocity_noise_table=3e-4,
-             measurement_delay_pinion_3=2, velocity_filter_cutoff_table=150.0,
-             sensor_seed=1234)
+NOISY = {'encoder_counts_pinion_1': COUNTS[0], 'encoder_counts_table': COUNTS[1],
+             'encoder_counts_pinion_3': COUNTS[2], 'position_noise_table': 2e-6,
+             'velocity_noise_pinion_1': 1e-3, 'velocity_noise_table': 3e-4,
+             'measurement_delay_pinion_3': 2, 'velocity_filter_cutoff_table': 150.0,
+             'sensor_seed': 1234}
 
 
 def drive(observation) -> float:
@@ -112,7 +112,7 @@ def test_noise_has_the_declared_sigma_is_normal_and_a_function_of_seed_step_join
         assert (*position, *velocity) == tuple(out[i])
     other = SensorChain(SensorConfig(config.joints, seed=100), 50e-6)
     position, velocity = other.measure_values(int(steps[5]), zero, zero)
-    assert all(x != y for x, y in zip((*position, *velocity), out[5]))
+    assert all(x != y for x, y in zip((*position, *velocity), out[5], strict=False))
 
 
 @pytest.mark.parametrize('k', [1, 3])
@@ -179,7 +179,7 @@ def test_the_same_seed_gives_a_bit_identical_bag(tmp_path):
         Simulation.from_values(NOISY, sensor_seed=seed).run(drive, 0.1, record=tmp_path / name)
     a, b, c = (_records(tmp_path / name) for name in 'abc')
     assert a == b and len(a) > 400
-    differ = {topic for (topic, _, x), (_, _, y) in zip(a, c) if x != y}
+    differ = {topic for (topic, _, x), (_, _, y) in zip(a, c, strict=False) if x != y}
     # another seed: other measurements, the same physics (run_parameters names the seed)
     assert differ == {'/joint_states', '/table_sim/run_parameters'}
 

@@ -82,5 +82,5 @@ def test_the_parallel_replay_gives_the_serial_report(conventional: Path) -> None
     for r in (run, read_run(conventional)):
         serial, parallel = check_run(r, parallel=False), check_run(r, parallel=True)
         assert serial == parallel
-        for a, b in zip(serial.signals, parallel.signals):
+        for a, b in zip(serial.signals, parallel.signals, strict=True):
             assert np.array_equal(a.errors, b.errors)

@@ -249,7 +249,7 @@ def _oscillating_run(path: Path) -> None:
     dt = settings.dt
 
     def at(t: float) -> int:
-        return int(round(t / dt))
+        return round(t / dt)
     events = [Command('cmd_effort', [400.0 * math.copysign(1.0, (1.0 if (t % 2.0) < 1.0
                                                                  else -0.5)
                                                                 - 0.3 * math.sin(t))], at(t))

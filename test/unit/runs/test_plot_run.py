@@ -137,7 +137,7 @@ def test_a_truncated_bag_is_plotted_only_when_asked(tmp_path: Path) -> None:
 def test_ros2_run_launcher_execs_plot_run() -> None:
     launcher = PREFIX / 'lib' / 'screwgear_ros' / 'plot_run'
     result = subprocess.run([str(launcher), '--help'], capture_output=True, text=True,
-                            timeout=120)
+                            timeout=120, check=False)
     assert result.returncode == 0, result.stderr
     assert result.stdout.startswith('usage: plot_run')
 
@@ -200,7 +200,7 @@ def test_commanded_torque_changes_sign_at_the_reversals(figures, name: str) -> N
     assert y[0] == 0.0 and x[-1] == pytest.approx(run.end_step * run.dt)
     # the same instants are marked on the active path, on the path driven after them
     marks = with_gid(axes_by_label(fig)[Panel.PATH], Mark.REVERSAL)
-    points = sorted((float(t), float(p)) for m in marks for t, p in zip(*m.get_data()))
+    points = sorted((float(t), float(p)) for m in marks for t, p in zip(*m.get_data(), strict=True))
     assert [t for t, _ in points] == pytest.approx(reversals)
     paths = [3.0, 1.0, 3.0] if name == 'reversals_anti_backlash' else [1.0, 1.0, 1.0]
     assert [p for _, p in points] == paths
@@ -208,7 +208,7 @@ def test_commanded_torque_changes_sign_at_the_reversals(figures, name: str) -> N
 
 def test_commanded_torque_and_load_are_the_folded_commands(figures) -> None:
     """cmd_effort reverses by its sign; the reset keeps the input; load steps ±."""
-    run, fig = figures['load_steps_parameter_changes']
+    _run, fig = figures['load_steps_parameter_changes']
     ax = axes_by_label(fig)[Panel.DRIVE]
     drive, = with_gid(ax, Mark.DRIVE_TORQUE)
     load, = with_gid(ax, Mark.LOAD_TORQUE)

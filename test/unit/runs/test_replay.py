@@ -23,8 +23,8 @@ from paths import DATA
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.interface import topic_names
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.ros.run_io import RunIO
 from screwgear_ros.runs.replay_in_process import replay_in_process, schedule_from_scenario
+from screwgear_ros.runs.run_io import RunIO
 from screwgear_ros.sim import fast_ticks
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
 from screwgear_ros.sim.fast_ticks import QUIET_TICKS_PER_CALL
@@ -95,7 +95,7 @@ def test_command_timeout_comes_due_between_commands(divisor: int) -> None:
     the tick grid; tick_quietly stops before it and tick() applies it."""
     dt = 50e-6 / divisor
     settings = SimSettings(dt=dt, publish_rate=200.0, command_timeout=0.3013)
-    steps = int(round(1.0 / dt))
+    steps = round(1.0 / dt)
     events = [Command('cmd_torque', 300.0, 0), Command('load_torque', 100.0, steps),
               Command('cmd_direction', -1, int(1.7 * steps)), Command('cmd_torque', 200.0, 2 * steps)]
     schedule = Schedule(TableParams(table_damping=8867.0), settings, events)

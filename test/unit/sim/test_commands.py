@@ -261,20 +261,21 @@ def test_message_and_value_convert_both_ways_for_live_and_recorded_messages():
     """The node's command_value of a live message, the recording's input_message, and the
     bag reader's command_value of the decoded recording all agree."""
     from screwgear_ros.bag.format import typestore
+    from screwgear_ros.bag.messages import input_message as recorded
     from screwgear_ros.ros.messages import input_message
-    from screwgear_ros.ros.run_io import serialize
     value = plugin(-12.5)
     msg = input_message('joint_commands', value, 1_500_000_000)
     assert (list(msg.name), list(msg.position), list(msg.velocity), list(msg.effort)) == (
         list(JOINTS), [], [], [-12.5])
     assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (1, 500_000_000)
     assert command_value('joint_commands', msg) == value
-    decoded = typestore().deserialize_cdr(serialize(msg), 'sensor_msgs/msg/JointState')
+    decoded = typestore().deserialize_cdr(recorded('joint_commands', value, 1_500_000_000),
+                                         'sensor_msgs/msg/JointState')
     assert command_value('joint_commands', decoded) == value
     effort = input_message('cmd_effort', [4.0])
     assert command_value('cmd_effort', effort) == [4.0]
     assert command_value('cmd_effort', typestore().deserialize_cdr(
-        serialize(effort), 'std_msgs/msg/Float64MultiArray')) == [4.0]
+        recorded('cmd_effort', [4.0]), 'std_msgs/msg/Float64MultiArray')) == [4.0]
 
 
 def test_a_plain_float_effort_folds_exactly_as_any_other_number_of_its_value():

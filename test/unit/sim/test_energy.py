@@ -162,8 +162,8 @@ def _steady(p: TableParams, torque: float, seconds: float = 2.5,
     settings = SimSettings(command_timeout=0.0)
     session = Session(p, settings)
     session.submit(Command('cmd_torque', torque))
-    ticks = int(round(seconds * settings.publish_rate))
-    last = int(round(mean_over * settings.publish_rate))
+    ticks = round(seconds * settings.publish_rate)
+    last = round(mean_over * settings.publish_rate)
     time, theta, table = [], [], []
     for _ in range(ticks):
         out = session.tick().outputs

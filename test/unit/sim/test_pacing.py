@@ -204,7 +204,8 @@ def test_a_change_wakes_the_pacer_however_far_its_deadline_is() -> None:
         pacer = Pacer(1.0, 0.01)
         stop, wake = threading.Event(), threading.Event()
         result: list[bool] = []
-        waiter = threading.Thread(target=lambda: result.append(pacer.wait(stop, wake)))
+        waiter = threading.Thread(target=lambda result=result, pacer=pacer, stop=stop, wake=wake:
+                                  result.append(pacer.wait(stop, wake)))
         waiter.start()
         time.sleep(0.05)
         assert waiter.is_alive()                      # asleep until its deadline

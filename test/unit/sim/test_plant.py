@@ -157,8 +157,8 @@ def test_one_call_ticks_equal_advance_then_outputs_and_the_model_itself():
     for mode in ('anti_backlash', 'conventional'):
         p = TableParams(mode=mode, table_damping=8867.0)
         fused, split = Plant(p, DT), Plant(p, DT)
-        for k, drive in enumerate([DriveInput(400.0, 1, 0.0), DriveInput(400.0, -1, 20.0),
-                                   DriveInput(0.0, 1, 0.0)]):
+        for drive in [DriveInput(400.0, 1, 0.0), DriveInput(400.0, -1, 20.0),
+                      DriveInput(0.0, 1, 0.0)]:
             fused.set_input(drive)
             split.set_input(drive)
             for _ in range(40):

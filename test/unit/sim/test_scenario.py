@@ -75,28 +75,28 @@ BROKEN = {
     'unknown key': ('duration: 1.0\nactoins: []\n', 2, "unknown scenario key 'actoins'"),
     'unknown parameter': ('duration: 1.0\nparameters:\n  backlash: 1.0e-5\n  baklash: 2\n',
                           4, "'baklash'"),
-    'bad parameter value': ('parameters: {publish_rate: 200.0}\nduration: 1.0\nactions:\n'
-                            '  - {time: 0.5, parameters: {mesh_damping: -3.0}}\n', 4,
+    'bad parameter value': (('parameters: {publish_rate: 200.0}\nduration: 1.0\nactions:\n'
+                            '  - {time: 0.5, parameters: {mesh_damping: -3.0}}\n'), 4,
                             _node_refusal(mesh_damping=-3.0)),
-    'action after duration': ('duration: 1.0\nactions:\n  - {time: 0.2, cmd_torque: 10.0}\n'
-                              '  - {time: 1.5, cmd_torque: 20.0}\n', 4, 'after the end'),
+    'action after duration': (('duration: 1.0\nactions:\n  - {time: 0.2, cmd_torque: 10.0}\n'
+                              '  - {time: 1.5, cmd_torque: 20.0}\n'), 4, 'after the end'),
     'wrong type': ('duration: 1.0\nactions:\n  - {time: 0.2, cmd_torque: fast}\n', 3,
                    'takes a number'),
     'duration a string': ('duration: long\n', 1, 'duration must be a finite number'),
     'refused command': ('duration: 1.0\nactions:\n  - {time: 0.2, cmd_torque: 900.0}\n', 3,
                         'max_torque'),
-    'two actions in one': ('duration: 1.0\nactions:\n  - {time: 0.2, cmd_torque: 1.0, '
-                           'reset: true}\n', 3, 'exactly one'),
+    'two actions in one': (('duration: 1.0\nactions:\n  - {time: 0.2, cmd_torque: 1.0, '
+                           'reset: true}\n'), 3, 'exactly one'),
     'unknown action': ('duration: 1.0\nactions:\n  - {time: 0.2, cmd_speed: 1.0}\n', 3,
                        "unknown action 'cmd_speed'"),
-    'unknown demo gain': ('duration: 1.0\ncontroller:\n  use: demo\n  parameters:\n'
-                          '    kp: 1.0\n    kq: 2.0\n', 6, "'kq'"),
+    'unknown demo gain': (('duration: 1.0\ncontroller:\n  use: demo\n  parameters:\n'
+                          '    kp: 1.0\n    kq: 2.0\n'), 6, "'kq'"),
     'controller not found': ('duration: 1.0\ncontroller: {use: "no_such_module:make"}\n', 2,
                              'cannot be loaded'),
     'setpoint profile': ('duration: 1.0\nsetpoint: {profile: zigzag}\n', 2,
                          "unknown setpoint profile 'zigzag'"),
-    'setpoint points': ('duration: 1.0\nsetpoint:\n  profile: steps\n  points: [[0.0, 1.0], '
-                        '[0.0, 2.0]]\n', 4, 'must increase'),
+    'setpoint points': (('duration: 1.0\nsetpoint:\n  profile: steps\n  points: [[0.0, 1.0], '
+                        '[0.0, 2.0]]\n'), 4, 'must increase'),
     'not yaml': ('duration: 1.0\nactions: [\n', 3, 'not valid YAML'),
     'missing duration': ('parameters: {}\n', 1, 'needs a duration'),
 }
@@ -215,7 +215,7 @@ def test_an_in_process_run_refuses_a_publish_rate_change(tmp_path):
 
 def test_the_old_names_answer_for_one_release() -> None:
     import screwgear_ros.runs.replay_in_process as replay
-    import screwgear_ros.sim.scenario as scenario
+    from screwgear_ros.sim import scenario
     with pytest.warns(DeprecationWarning, match='SetpointProfile'):
         assert scenario.Setpoint is SetpointProfile
     with pytest.warns(DeprecationWarning, match='schedule_from_scenario'):

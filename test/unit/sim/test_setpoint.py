@@ -14,6 +14,7 @@ bag without (read from the figure's axes and lines, not its pixels).
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -96,7 +97,7 @@ def test_the_demo_controllers_setpoint_reaches_the_bag(demo_bag):
     jumps = [round(k * DWELL * 1e9) for k in range(1, int(end * 1e-9 // DWELL) + 1)
              if k * DWELL * 1e9 <= end - 2 * TICK_NS]
     assert len(jumps) >= 2 and len(jumps) + 1 <= len(changes) <= len(jumps) + 2, changes
-    assert all(0 <= t - j <= TICK_NS for t, j in zip(changes[1:], jumps)), (changes, jumps)
+    assert all(0 <= t - j <= TICK_NS for t, j in zip(changes[1:], jumps, strict=False)), (changes, jumps)
     assert len(setpoints) <= len(changes) + end // SETPOINT_REPEAT + 1
     # what it is for: the recorded setpoint minus the recorded angle is the tracking
     # error, under a tenth of the step at the end of each dwell (the loop settles in
@@ -198,7 +199,7 @@ def test_an_in_process_scenario_records_its_setpoint_and_it_changes_nothing(tmp_
     for jump, _, after in profile.steps(scenario.duration):
         assert (round(jump * 1e9), after) in [(t, m.data) for t, m in setpoints]
     values = [m.data for _, m in setpoints]
-    changes = sum(a != b for a, b in zip(values, values[1:]))
+    changes = sum(a != b for a, b in itertools.pairwise(values))
     assert changes == len(profile.steps(scenario.duration))
     # the same run with no setpoint: the same bits, and no setpoint in its bag
     simulation = scenario.simulation()

@@ -28,7 +28,7 @@ DT = 50e-6
 
 
 def outputs(delta=(1e-4, -1e-4), velocity=(0.0, 0.0, 0.0), time=1.0, path=1) -> Outputs:
-    step = int(round(time / DT))
+    step = round(time / DT)
     return Outputs(time=time, time_ns=sim_time_ns(step, DT), step=step, position=(0.0, 0.0, 0.0),
                    velocity=velocity, effort=(0.0, 0.0, 0.0), delta=delta,
                    delta_rate=(0.0, 0.0), mesh_force=(0.0, 0.0), active_path=path)

@@ -1,8 +1,8 @@
 """The machine seen from above: where the table and the pinions are, how they turn, and
 how big a picture of them is. No ROS.
 
-One declaration of the plan view, used by the URDF (:mod:`screwgear_ros.ros.urdf`) and
-by the node's markers (:mod:`screwgear_ros.ros.markers`), so the model and the markers
+One declaration of the plan view, used by the URDF (:mod:`screwgear_ros.view.urdf`) and
+by the node's markers (:mod:`screwgear_ros.view.markers`), so the model and the markers
 always agree.
 
 Frame :data:`BASE_LINK`: z up, origin on the table's axis, the discs' mid-plane at

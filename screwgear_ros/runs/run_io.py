@@ -5,8 +5,11 @@
 same bytes to the topic's publisher (rclpy publishes ``bytes`` as a serialized
 message) and to the recorder (which then only queues them); it records every event a
 tick applied at the step it took effect at (the bag contract of docs/recording.md).
-The node gives it rclpy publishers; tests give it none and get the node's own
-recording of an in-process session, with no DDS.
+The node gives it rclpy publishers (anything with ``publish(bytes)`` and
+``get_subscription_count()``); an in-process recording
+(:mod:`screwgear_ros.runs.session_record`) gives it none and gets the node's own
+recording of a session, with no DDS. Every message is CDR bytes written here
+(:mod:`screwgear_ros.bag.messages`, the templates), so nothing here imports rclpy.
 
 A tick's topic that no subscription has matched is not published to: DDS would deliver
 its message to nobody, and no later subscriber could get it (they are volatile: a reader
@@ -23,7 +26,7 @@ it) and ``table_markers`` at most every ``MARKER_PERIOD`` s of wall time (about 
 whatever the simulation rate), and only when they are recorded or somebody subscribes
 (lockstep's wait re-sends them to a viewer that came meanwhile), so the tick's own cost
 stays small; they too are CDR bytes, from a template per look
-(:class:`~screwgear_ros.ros.markers.MarkerEncoder`).
+(:class:`~screwgear_ros.view.markers.MarkerEncoder`).
 
 Threads: :meth:`submit_change` and its :meth:`prepare` run on the node's executor
 thread (they render a parameter change's run_parameters YAML and URDF before the change
@@ -40,24 +43,19 @@ import time
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from rclpy.serialization import serialize_message
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Empty, String
-
-from ..bag.cdr import type_name
+from ..bag import messages
 from ..bag.tick_encoder import TickEncoder, topic_specs
 from ..params.table import SimSettings, TableParams
 from ..sim import run_file as run_parameters
 from ..sim.events import Command, ParameterChange, Setpoint
 from ..sim.plant import Outputs
 from ..sim.session import Session, Tick
-from . import messages
-from .markers import MarkerEncoder
-from .urdf import robot_description
+from ..view.markers import MarkerEncoder
+from ..view.urdf import robot_description
 
 if TYPE_CHECKING:
     from ..bag.recorder import RunRecorder, TopicGroup, TopicSpec
-# screwgear_ros.runs (the MCAP writer, rosbags' typestore) is imported where a recording
+# The recorder (the MCAP writer) is imported where a recording
 # needs it, not at the node's start: a node that does not record never loads it.
 
 #: Wall time between two table_markers, s (about 30 Hz).
@@ -67,27 +65,15 @@ LISTENER_RECOUNT = 1.0
 
 
 def serialize(msg: Any) -> bytes:
-    """CDR of ``msg`` as the recorder writes it (on its writer thread; the outputs and
-    markers RunIO serialized once reach the recorder as bytes and skip this).
+    """The recorder's serializer of a message handed over as an object: RunIO hands over
+    nothing but CDR bytes, so it is never called.
 
-    rmw_fastrtps (Jazzy) returns a serialized message as long as its size estimate,
-    which for a JointState with an empty array (a joint_commands message: no position
-    or velocity command) leaves 8 bytes of junk at the end; rosbags refuses more than
-    3 and DDS ignores them. Such a message is cut to its CDR length.
+    Raises
+    ------
+    TypeError
+        Always: ``msg`` is not CDR bytes.
     """
-    data = serialize_message(msg)
-    if isinstance(msg, JointState) and not (len(msg.position) and len(msg.velocity)
-                                            and len(msg.effort)):
-        from ..bag.format import typestore
-        store = typestore()
-        msgdef = store.get_msgdef(_JOINT_STATE)
-        decode = msgdef.deserialize_cdr_le if data[1] else msgdef.deserialize_cdr_be
-        _, end = decode(memoryview(data)[4:], 0, msgdef.cls, store)
-        data = data[:4 + end]
-    return data
-
-
-_JOINT_STATE = type_name(JointState)
+    raise TypeError(f'RunIO records CDR bytes, not {type(msg).__name__}')
 
 
 class RunIO:
@@ -194,9 +180,9 @@ class RunIO:
                 self.record(event.topic, t_ns, messages.input_message(event.topic,
                                                                       event.value, t_ns))
             elif isinstance(event, Setpoint):
-                self.record('setpoint', t_ns, messages.setpoint(event.value))
+                self.record('setpoint', t_ns, messages.float64(event.value))
             else:
-                self.record('reset', t_ns, Empty())
+                self.record('reset', t_ns, messages.empty())
         if tick.outputs.active_path != self._path:
             self._publish_path(tick.outputs.active_path, t_ns)
         self.publish_outputs(tick.outputs, lossless, tick.measured)
@@ -244,7 +230,7 @@ class RunIO:
 
     def _publish_path(self, path: int, t_ns: int) -> None:
         self._path = path
-        self.send('active_path', t_ns, messages.active_path(path))
+        self.send('active_path', t_ns, messages.int8(path))
 
     def _parameters(self, session: Session, t_ns: int, params: TableParams,
                     settings: SimSettings) -> None:
@@ -252,10 +238,10 @@ class RunIO:
         a tick its own, in order); publish and record their URDF if it changed."""
         text, urdf = self._texts(session, params, settings)
         if self.recorder is not None:
-            self.record('run_parameters', t_ns, String(data=text))
+            self.record('run_parameters', t_ns, messages.string(text))
         if urdf and urdf != self.description:
             self.description = urdf
-            self.send('robot_description', t_ns, messages.robot_description(urdf))
+            self.send('robot_description', t_ns, messages.string(urdf))
 
     def _markers(self, session: Session, now: float) -> None:
         """table_markers of the last outputs (``now``: time.monotonic()), once

@@ -1,13 +1,15 @@
-"""In-process recorded runs: the node's own session and RunIO, with no DDS and no node.
+"""In-process recorded runs: the node's own session and RunIO, with no DDS, no node and
+no rclpy.
 
 :class:`SessionRecording` records a :class:`~screwgear_ros.sim.session.Session` that the
-caller ticks, with the node's :class:`~screwgear_ros.ros.run_io.RunIO` (publishers none),
+caller ticks, with the node's :class:`~screwgear_ros.runs.run_io.RunIO` (publishers none),
 so a bag is written exactly as table_sim writes it, tick by tick, as fast as the machine
 goes and dropping nothing (the recorder makes a tick wait for room rather than drop
 it). :func:`record_session` plays a :class:`~screwgear_ros.sim.schedule.Schedule` into a
-fresh session that way. RunIO encodes the node's messages, so recording needs rclpy's
-message packages: this module belongs to the ROS shell, and the core's
-:class:`~screwgear_ros.sim.simulation.Simulation` imports it only when asked to record.
+fresh session that way. RunIO writes the node's messages as CDR bytes itself, so
+recording needs no ROS message package; the core's
+:class:`~screwgear_ros.sim.simulation.Simulation` imports this module only when asked to
+record (it loads the bag writer).
 """
 
 from __future__ import annotations
@@ -47,8 +49,18 @@ class SessionRecording:
         node's executor does (RunIO.submit_change)."""
         self.io.submit_change(self.session, change)
 
-    def tick(self, tick: Tick) -> None:
-        """Record what the session's last tick did and made."""
+    def tick(self, tick: Tick | None) -> None:
+        """Record what the session's last tick did and made (a full tick: a recorded
+        advance never takes the fast path that makes no Tick).
+
+        Raises
+        ------
+        ValueError
+            If ``tick`` is None.
+        """
+        if tick is None:
+            raise ValueError('a recording needs every tick in full: advance with '
+                             'every_tick=True when a controller answers')
         self.io.tick(self.session, tick)
 
     def close(self) -> RunRecorder:
@@ -72,13 +84,9 @@ def record_session(path: str | os.PathLike[str], schedule: Schedule, namespace: 
     (for its counters)."""
     session = Session(schedule.params, schedule.settings)
     with SessionRecording(path, session, namespace, **recorder_options) as recording:
-        while session.step < schedule.end_step:
-            for event in schedule.due(session.step):
-                if prepare and isinstance(event, ParameterChange):
-                    recording.submit_change(event)
-                else:
-                    session.submit(event)
-            recording.tick(session.tick())
+        session.advance(until=schedule.end_step, events=schedule.events,
+                        changes=recording.submit_change if prepare else None,
+                        monitor=recording.tick)
     return recording.recorder
 
 

@@ -14,8 +14,8 @@ from screwgear_ros.bag.format import typestore
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.interface import topic_names
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.ros.run_io import RunIO
 from screwgear_ros.runs.replay_in_process import replay_in_process
+from screwgear_ros.runs.run_io import RunIO
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
 from screwgear_ros.sim.schedule import Schedule
 from screwgear_ros.sim.session import Session
@@ -123,9 +123,9 @@ def test_a_subscriber_that_comes_mid_run_gets_every_tick_from_its_match_on():
                 'transmission_error': sink.subscribe(topics['transmission_error'], Float64,
                                                      transform=lambda m: m.data)}
             for k in keys:
-                wait_until(lambda: publishers[k].get_subscription_count() > 0, 10.0,
+                wait_until(lambda k=k: publishers[k].get_subscription_count() > 0, 10.0,
                            f'the subscriber matching {topics[k]}')
-                wait_until(lambda: sink.node.count_publishers(topics[k]) > 0, 10.0,
+                wait_until(lambda k=k: sink.node.count_publishers(topics[k]) > 0, 10.0,
                            f'the publisher of {topics[k]} seen by the subscriber')
             expected: dict[str, list] = {k: [] for k in keys}
             for n in range(1, 31):
@@ -137,7 +137,7 @@ def test_a_subscriber_that_comes_mid_run_gets_every_tick_from_its_match_on():
                 expected['mesh_state'].append((t_ns, out.delta))
                 expected['transmission_error'].append(out.transmission_error)
                 for k in keys:
-                    wait_until(lambda: len(inboxes[k].snapshot()) >= n, 10.0,
+                    wait_until(lambda k=k, n=n: len(inboxes[k].snapshot()) >= n, 10.0,
                                f'message {n} on {topics[k]}')
             for k in keys:
                 assert inboxes[k].snapshot() == expected[k], k

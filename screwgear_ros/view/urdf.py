@@ -2,12 +2,12 @@
 hardware interface. Plain text; imports no rclpy.
 
 :func:`robot_description` writes it from the parameters (geometry, inertias, limits:
-:mod:`screwgear_ros.ros.layout`) and the two topics of the node the hardware interface
+:mod:`screwgear_ros.view.layout`) and the two topics of the node the hardware interface
 talks to. The node publishes it for itself on ``robot_description``; the shipped
 ``urdf/screwgear_table.urdf`` is :func:`shipped_description` (the defaults, the node in
 namespace :data:`PLANT_NAMESPACE`), regenerated with::
 
-    python -m screwgear_ros.ros.urdf > urdf/screwgear_table.urdf
+    python -m screwgear_ros.view.urdf > urdf/screwgear_table.urdf
 
 Joints are ``continuous`` (URDF's revolute joint without position limits: a rotary
 table turns for ever). Only ``joint_names[COMMANDED_JOINT]`` (pinion 1) has a command
@@ -106,6 +106,7 @@ def robot_description(params: TableParams, settings: SimSettings, commands_topic
     joint_commands and joint_states topics are these (fully resolved) names."""
     gears = wheels(params, settings.joint_names)
     robot = ET.Element('robot', name=ROBOT_NAME)
+    # The module's first path: every recorded robot_description carries this text.
     robot.append(ET.Comment(' written by screwgear_ros.ros.urdf: geometry, inertias and '
                             'limits from the table parameters '))
     for name, rgba in PALETTE.items():
