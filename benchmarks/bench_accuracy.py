@@ -26,11 +26,11 @@ import time
 
 import numpy as np
 
+from screwgear_ros.inprocess.simulation import Simulation
 from screwgear_ros.numerics.reference import Segment, solve
 from screwgear_ros.physics.equilibrium import equilibrium_state
 from screwgear_ros.runs.check import TABLE_ENCODER_BITS, TABLE_ENCODER_COUNT
 from screwgear_ros.sim.control import DemoController
-from screwgear_ros.sim.simulation import Simulation
 
 COUNT = TABLE_ENCODER_COUNT
 

@@ -20,8 +20,8 @@ import time
 import numpy as np
 
 from screwgear_ros.design.frequency import measure
+from screwgear_ros.inprocess.simulation import Simulation
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.sim.simulation import Simulation
 
 GOAL = 60.0     # s, the issue's
 

@@ -35,8 +35,8 @@ def main() -> None:
     parser.add_argument('--max-evaluations', type=int, default=30)
     args = parser.parse_args()
     import screwgear_ros
-    from screwgear_ros.sim.scenario import load_scenario
-    from screwgear_ros.sim.simulation import Simulation, file_values
+    from screwgear_ros.inprocess.scenario import load_scenario
+    from screwgear_ros.inprocess.simulation import Simulation, file_values
 
     scenario = dataclasses.replace(load_scenario(EXCITATION), duration=args.duration)
     truth = Simulation.from_values({**dict(scenario.values), **file_values(PRESET)}, **TRUTH)

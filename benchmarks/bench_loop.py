@@ -92,7 +92,7 @@ def lockstep(window: float) -> float:
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
-    from screwgear_ros.sim.simulation import Observation
+    from screwgear_ros.inprocess.simulation import Observation
     sim = start_process('table_sim', params={**VALUES, 'lockstep': True,
                                              'real_time_factor': 0.0})
     rclpy.init()

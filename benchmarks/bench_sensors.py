@@ -24,8 +24,8 @@ from pathlib import Path
 
 import yaml
 
+from screwgear_ros.inprocess.simulation import Simulation
 from screwgear_ros.sim.parameter_file import document_values
-from screwgear_ros.sim.simulation import Simulation
 
 PRESET = Path(__file__).resolve().parents[1] / 'config' / 'realistic.yaml'
 

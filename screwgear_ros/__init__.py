@@ -2,7 +2,7 @@
 
 The physics core (params, model, integrator, reference, normalized, plant) imports no
 ROS; the node and command-line tools in this package drive it. The Python API
-(``screwgear_ros.Simulation``, :mod:`screwgear_ros.sim.simulation`) runs the node's own
+(``screwgear_ros.Simulation``, :mod:`screwgear_ros.inprocess.simulation`) runs the node's own
 simulation loop in-process, without ROS; its names are imported on first use, so that
 ``import screwgear_ros`` alone loads neither ROS nor the compiled model.
 """
@@ -16,11 +16,13 @@ __version__ = '0.1.0'
 
 #: Public names and the module that defines each.
 _API = {
-    'Simulation': 'sim.simulation', 'Observation': 'sim.simulation', 'Run': 'sim.simulation',
+    'Simulation': 'inprocess.simulation', 'Observation': 'inprocess.simulation',
+    'Run': 'inprocess.simulation',
     'InputRejected': 'sim.commands', 'ParameterError': 'params.table',
     'TableParams': 'params.table', 'SimSettings': 'params.table',
-    'Scenario': 'sim.scenario', 'load_scenario': 'sim.scenario', 'ScenarioError': 'sim.scenario',
-    'run_metrics': 'sim.metrics', 'Metrics': 'sim.metrics',
+    'Scenario': 'inprocess.scenario', 'load_scenario': 'inprocess.scenario',
+    'ScenarioError': 'inprocess.scenario',
+    'run_metrics': 'inprocess.metrics', 'Metrics': 'inprocess.metrics',
     'DemoController': 'sim.control',
     'identify': 'identification', 'IdentifyResult': 'identification',
     'IdentifyError': 'identification',

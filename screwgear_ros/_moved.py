@@ -1,7 +1,7 @@
 """Old import paths of modules that moved into sub-packages, kept for one release.
 
 ``import screwgear_ros.simulation`` still works and gives the very module
-``screwgear_ros.sim.simulation`` (the same object, so ``isinstance`` and pickling hold),
+``screwgear_ros.inprocess.simulation`` (the same object, so ``isinstance`` and pickling hold),
 with a :class:`DeprecationWarning` naming the new path. The finder is installed by the
 package's ``__init__`` and answers only for the names below.
 """
@@ -31,7 +31,7 @@ MOVED: dict[str, str] = {
     'integrator': 'numerics.integrator',
     'jit': 'physics.jit',
     'layout': 'view.layout',
-    'metrics': 'sim.metrics',
+    'metrics': 'inprocess.metrics',
     'model': 'physics.model',
     'normalized': 'paper.normalized',
     'pacing': 'sim.pacing',
@@ -65,19 +65,19 @@ MOVED: dict[str, str] = {
     'runs.bagread': 'bag.reader',
     'runs.mcap_writer': 'bag.mcap_writer',
     'runs.recorder': 'bag.recorder',
-    'runs.replay': 'runs.replay_in_process',
+    'runs.replay': 'inprocess.replay_compat',
     'runs.replay_plan': 'runs.lockstep_plan',
     'ros.markers': 'view.markers',
     'ros.replaying': 'ros.node_replay',
     'ros.run_io': 'runs.run_io',
     'ros.session_record': 'runs.session_record',
     'ros.urdf': 'view.urdf',
-    'scenario': 'sim.scenario',
+    'scenario': 'inprocess.scenario',
     'schedule': 'sim.schedule',
     'sensors': 'physics.sensors',
     'session': 'sim.session',
     'simtime': 'sim.simtime',
-    'simulation': 'sim.simulation',
+    'simulation': 'inprocess.simulation',
     'stability': 'numerics.stability',
     'status': 'sim.status',
     'warmup': 'cli.warmup',

@@ -57,7 +57,7 @@ class Signal:
 class RecordedRun:
     """One run read from a bag. Events and outputs carry their position in the file.
 
-    As on :class:`screwgear_ros.sim.samples.Run`, :attr:`joint_states`, :attr:`position`
+    As on :class:`screwgear_ros.inprocess.samples.Run`, :attr:`joint_states`, :attr:`position`
     and :attr:`velocity` are what the joint_states topic carries (measured by the joint
     sensors) and :attr:`true_joint_states`, :attr:`true_position`, :attr:`true_velocity`
     the exact state; they are the same samples when the sensors are ideal.
@@ -96,7 +96,7 @@ class RecordedRun:
     def joint_states(self) -> Signal:
         """The joint_states as recorded: θ and ω measured by the joint sensors (the exact
         :attr:`true_joint_states` when they are ideal), as on
-        :class:`screwgear_ros.sim.samples.Run`."""
+        :class:`screwgear_ros.inprocess.samples.Run`."""
         return self.true_joint_states if self.measured is None else self.measured
 
     @property

@@ -30,8 +30,8 @@ from ..design.closed_loop import make_controller, measure_loop
 from ..design.errors import DesignError, UsageError
 from ..design.frequency import Input, Method, measure
 from ..design.linear_model import OUTPUTS
+from ..inprocess.simulation import ParameterFileError, file_values, resolve
 from ..params.table import ParameterError
-from ..sim.simulation import ParameterFileError, file_values, resolve
 from . import EXIT_OK, Failures, interruptible
 from .linearize import format_modes
 

@@ -23,8 +23,8 @@ from pathlib import Path
 from ..design.errors import DesignError, UsageError
 from ..design.linear_model import LinearModel
 from ..design.linearize import linearize
+from ..inprocess.simulation import ParameterFileError, file_values, resolve
 from ..params.table import ParameterError
-from ..sim.simulation import ParameterFileError, file_values, resolve
 from . import EXIT_OK, Failures, interruptible
 
 

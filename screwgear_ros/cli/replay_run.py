@@ -66,6 +66,7 @@ from rclpy.utilities import remove_ros_args
 
 from ..bag.errors import BagError
 from ..bag.reader import RecordedRun, read_run
+from ..inprocess.scenario import schedule_from_scenario
 from ..ros.node_replay import (
     CHILD_CLOSE,
     CHILD_GRACE,
@@ -80,7 +81,7 @@ from ..ros.replay_client import Interrupted, ReplayClient, ReplayError
 from ..ros.shutdown import STOP_SIGNALS, stop_on_signals
 from ..runs.compare import compare_runs, exact_comparison, format_comparison, format_exact
 from ..runs.lockstep_plan import LockstepPlan, plan_from_run, plan_from_schedule
-from ..runs.replay_in_process import schedule_from_run, schedule_from_scenario
+from ..runs.replay_in_process import schedule_from_run
 from ..sim.schedule import Schedule, differences
 from . import EXIT_ERROR, EXIT_OK
 

@@ -2,7 +2,7 @@
 
 Runs the scenario file (docs/scenarios.md) through the node's own simulation loop in
 this process, with no ROS graph and as fast as the machine goes, and prints the run's
-metrics (:mod:`screwgear_ros.sim.metrics`). ``--record BAG`` records the run exactly as
+metrics (:mod:`screwgear_ros.inprocess.metrics`). ``--record BAG`` records the run exactly as
 table_sim would (``check_run``, ``replay_run`` and ``plot_run`` take it); ``--plot PNG``
 draws it as plot_run does.
 
@@ -21,9 +21,9 @@ import tempfile
 import time
 from pathlib import Path
 
+from ..inprocess.metrics import format_metrics, run_metrics
+from ..inprocess.scenario import ScenarioError, load_scenario
 from ..sim.commands import InputRejected
-from ..sim.metrics import format_metrics, run_metrics
-from ..sim.scenario import ScenarioError, load_scenario
 from . import EXIT_OK, Failures, interruptible
 
 #: The model diverged (the metrics say when).

@@ -1,7 +1,7 @@
 """The loop of a controller around the table, measured by simulation: loop gain, sensitivity,
 closed-loop response, and the gain and phase margins read off the measured loop gain.
 
-One run of the node's own loop in-process (:class:`~screwgear_ros.sim.simulation.Simulation`
+One run of the node's own loop in-process (:class:`~screwgear_ros.inprocess.simulation.Simulation`
 at the node's tick rate; the controller answers each observation with an effort that takes
 effect at the next tick, as in lockstep). A sine d is added to the controller's effort c at
 the plant input: u = c + d. Around a bias load that the controller holds (so the effort
@@ -29,8 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..inprocess.simulation import Observation, Simulation
 from ..params.table import SimSettings, TableParams
-from ..sim.simulation import Observation, Simulation
 from .errors import MeasurementRefused, UnknownOutput, UsageError
 from .frequency import INPUT_UNIT, Input, Measurement, Method, _fit, default_bias
 from .linear_model import OUTPUTS
@@ -241,7 +241,7 @@ def make_controller(use: str, simulation_settings: SimSettings, target: float = 
     """``demo`` (the demo PID holding the table at ``target`` rad) or ``module:callable``
     (a factory called as scenarios call it, ``factory(setpoint)``, with a constant
     setpoint ``target`` on the table)."""
-    from ..sim.scenario import ControllerSpec, SetpointProfile
+    from ..inprocess.scenario import ControllerSpec, SetpointProfile
     if use != 'demo' and (use.count(':') != 1 or not all(use.split(':'))):
         raise UsageError(f'--controller must be demo or module:callable, not {use!r}')
     setpoint = SetpointProfile('steps', points=((0.0, float(target)),))

@@ -1,6 +1,6 @@
 """The table's frequency response measured by simulation, beside its linear model's.
 
-Each point runs the node's own loop in-process (:class:`~screwgear_ros.sim.simulation.
+Each point runs the node's own loop in-process (:class:`~screwgear_ros.inprocess.simulation.
 Simulation`: its session, its command validation) around the operating point of
 :func:`~screwgear_ros.design.linearize.linearize`, with one tick per integration step so
 the input changes at every step. Stepped sines (``Method.SINE``): for each frequency a new
@@ -45,10 +45,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..inprocess.simulation import Simulation
 from ..params.table import SimSettings, TableParams
 from ..physics.drive import DrivePiece
 from ..sim.events import Command
-from ..sim.simulation import Simulation
 from .errors import MeasurementFailed, MeasurementRefused, UnknownOutput
 from .linear_model import OUTPUT_UNITS, OUTPUTS, LinearModel
 from .linearize import linearize

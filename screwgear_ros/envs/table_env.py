@@ -1,5 +1,5 @@
 """A Gymnasium environment of the table: ``ScrewgearTable-v0``, a thin layer over
-:class:`~screwgear_ros.sim.simulation.Simulation` (``pip install screwgear_ros[gym]``).
+:class:`~screwgear_ros.inprocess.simulation.Simulation` (``pip install screwgear_ros[gym]``).
 
 One environment step is one tick of the node (1/``publish_rate`` s of simulation time):
 the action takes effect at the tick's first step, as a lockstep controller's answer does.
@@ -16,7 +16,7 @@ the action takes effect at the tick's first step, as a lockstep controller's ans
   e the tracking error after the step and u the action (clipped): a quadratic tracking
   cost with a little effort penalty.
 * **Target**: ``target(t)``, t in s from the episode's start → table angle in rad; any
-  callable, e.g. a :class:`~screwgear_ros.sim.scenario.SetpointProfile`. Default: a square wave
+  callable, e.g. a :class:`~screwgear_ros.inprocess.scenario.SetpointProfile`. Default: a square wave
   ±0.05 rad with a 3 s period (the demo controller's profile).
 * **Episode**: ends (``truncated``) after ``duration`` s of simulation time;
   ``terminated`` when the model diverges (the plant then stands still, ``info['fault']``
@@ -37,8 +37,8 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from ..sim.scenario import SetpointProfile
-from ..sim.simulation import Observation, Simulation
+from ..inprocess.scenario import SetpointProfile
+from ..inprocess.simulation import Observation, Simulation
 
 ENV_ID = 'ScrewgearTable-v0'
 #: The observation's entries, in order.

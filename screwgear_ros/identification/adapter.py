@@ -23,6 +23,7 @@ import numpy as np
 
 from ..bag.format import typestore
 from ..errors import ScrewgearError
+from ..inprocess.simulation import ParameterFileError, file_values, resolve
 from ..params.declarations import Declaration, Kind, declared
 from ..params.table import ParameterError, SimSettings, TableParams
 from ..physics.sensors import JOINTS as SENSOR_JOINTS
@@ -30,7 +31,6 @@ from ..physics.sensors import SensorChain, SensorConfig
 from ..sim.commands import InputRejected, carries_no_command, command_value
 from ..sim.events import Command
 from ..sim.session import ROW, Session, Tick
-from ..sim.simulation import ParameterFileError, file_values, resolve
 from .errors import FitParameterError, RecordingError
 from .samples import Recording
 

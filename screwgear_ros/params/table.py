@@ -17,41 +17,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from enum import StrEnum
 from typing import Any
 
 from ..interface import ANSWERS
 from .declarations import ParameterError, declared, parameter, plain, validate
-from .sensors import MAX_DELAY, MAX_SEED, SensorConfig
-
-
-class Mode(StrEnum):
-    """The mechanism: both pinions under preload, or one pinion with backlash."""
-
-    ANTI_BACKLASH = 'anti_backlash'
-    CONVENTIONAL = 'conventional'
-
-
-class MeshPhase(StrEnum):
-    """What drives the mesh phase φ: the pinion angle (φ = z·θ) or time (φ = ω_e·t)."""
-
-    ANGLE = 'angle'
-    TIME = 'time'
-
-
-class MeshFormulation(StrEnum):
-    """How the mesh acts on the bodies (docs/model_notes.md §9).
-
-    `paper`: the mesh force F pushes each pinion through its radius r (model.md §3),
-    the paper's equations, which do work of their own in `angle` phase.
-    `energy_consistent`: the forces derive from the mesh potential ½·K(φ)·f(δ)² with
-    φ = z·θ: the pinion's lever is r − z·dε/dφ and the stiffness variation adds
-    ½·z·dK/dφ·f(δ)². In `time` phase the two are the same equations.
-    """
-
-    PAPER = 'paper'
-    ENERGY_CONSISTENT = 'energy_consistent'
-
+from .modes import MeshFormulation, MeshPhase, Mode
+from .sensors import (
+    MAX_SEED,
+    SensorConfig,
+    _encoder_counts,
+    _measurement_delay,
+    _position_noise,
+    _velocity_filter_cutoff,
+    _velocity_noise,
+)
 
 # Bounds of the physical parameters: wide around any real rotary table, narrow enough that
 # every derived quantity (m_e, ω0, the stiffest eigenvalue, a disc's mass in the URDF)
@@ -75,8 +54,6 @@ HARMONICS_WHY = ('each harmonic is summed in every RK4 stage of both meshes, so 
                  'costs in proportion; 32 describe any tooth profile error and keep the '
                  'default step within real time')
 
-#: Most encoder counts per revolution (2^30: a 30-bit encoder resolves 5.9e-9 rad).
-MAX_COUNTS = 2 ** 30
 
 #: Pinion speed of the paper's example, 24 r/min, in rad/s.
 PAPER_PINION_SPEED = 24.0 * 2.0 * math.pi / 60.0
@@ -300,41 +277,6 @@ class TableParams:
             What ``ros2 param dump`` would show, by name.
         """
         return {p.name: plain(getattr(self, p.name)) for p in declared(TableParams)}
-
-
-# One declaration per sensor quantity; each joint's fields below are made by these.
-def _encoder_counts(joint: str, k: str) -> Any:
-    return parameter(
-        0, f'N{k}', 'counts/rev', f'encoder counts per revolution of {joint}: joint_states '
-        'reports its angle in whole counts and its speed as their backward difference over '
-        'the tick; 0 = ideal (the exact angle and speed)', low=1, high=MAX_COUNTS, zero=True,
-        read_only=True, why='a 30-bit encoder, finer than any table encoder sold')
-
-
-def _position_noise(joint: str, k: str) -> Any:
-    return parameter(
-        0.0, f'σ_θ{k}', 'rad', f'white noise (standard deviation) on the angle of {joint} '
-        'before it is counted', low=0.0, high=1.0, read_only=True)
-
-
-def _velocity_noise(joint: str, k: str) -> Any:
-    return parameter(
-        0.0, f'σ_ω{k}', 'rad/s', f'white noise (standard deviation) on the speed of {joint}',
-        low=0.0, high=1e3, read_only=True)
-
-
-def _measurement_delay(joint: str, k: str) -> Any:
-    return parameter(
-        0, f'k{k}', 'ticks', f'joint_states reports the angle and speed of {joint} this many '
-        'publish ticks late', low=0, high=MAX_DELAY, read_only=True,
-        why='the delay line is kept per joint')
-
-
-def _velocity_filter_cutoff(joint: str, k: str) -> Any:
-    return parameter(
-        0.0, f'f_c{k}', 'Hz', 'cutoff of the first-order low-pass on the measured speed of '
-        f'{joint} (α = 1 − exp(−2π·f_c·Δt) per sample); 0 = off', low=1e-3, high=1e6,
-        zero=True, read_only=True)
 
 
 @dataclass(frozen=True)

@@ -16,18 +16,14 @@ A :class:`~screwgear_ros.sim.schedule.Schedule` comes from a recording
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field, replace
-from pathlib import Path
-from typing import Any, TypeVar
+from typing import TypeVar
 
 import numpy as np
 
 from ..bag.errors import InvalidBag
 from ..bag.reader import RecordedRun
 from ..sim.events import Event, ParameterChange, describe
-from ..sim.scenario import ScenarioError
-from ..sim.scenario import load_scenario as read_scenario
 from ..sim.schedule import Schedule, ros_values
 from ..sim.session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
 
@@ -151,48 +147,9 @@ def schedule_from_run(run: RecordedRun) -> Schedule:
                     end_step=run.end_step)
 
 
-def schedule_from_scenario(path: str | Path) -> Schedule:
-    """The timed actions of a scenario file (docs/scenarios.md; the test bags are recorded
-    from these) as a schedule.
-
-    Parameters
-    ----------
-    path : str or Path
-        The scenario file.
-
-    Returns
-    -------
-    Schedule
-        Its start values and actions at their steps.
-
-    Raises
-    ------
-    ScenarioError
-        Naming the line of what is wrong; and for a scenario with a controller: that
-        runs in-process (``run_scenario``), a replay plays actions only.
-    """
-    scenario = read_scenario(path)            # the format's one reader
-    if scenario.controller is not None:
-        raise ScenarioError(f'{path}: line {scenario.controller.line}: this scenario closes '
-                         'its loop with a controller, which run_scenario runs in-process; '
-                         'replay_run --script plays a scenario\'s timed actions only')
-    return scenario.schedule()
-
-
-def __getattr__(name: str) -> Any:
-    """``load_scenario``, the old name of :func:`schedule_from_scenario`, for one release
-    (:func:`screwgear_ros.sim.scenario.load_scenario` reads a Scenario)."""
-    if name == 'load_scenario':
-        warnings.warn('screwgear_ros.runs.replay_in_process.load_scenario is now '
-                      'schedule_from_scenario', DeprecationWarning, stacklevel=2)
-        return schedule_from_scenario
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
-
-
 __all__ = [
     'ReplayedOutputs',
     'replay_in_process',
     'replayed_events',
     'schedule_from_run',
-    'schedule_from_scenario',
 ]

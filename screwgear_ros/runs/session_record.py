@@ -8,7 +8,7 @@ goes and dropping nothing (the recorder makes a tick wait for room rather than d
 it). :func:`record_session` plays a :class:`~screwgear_ros.sim.schedule.Schedule` into a
 fresh session that way. RunIO writes the node's messages as CDR bytes itself, so
 recording needs no ROS message package; the core's
-:class:`~screwgear_ros.sim.simulation.Simulation` imports this module only when asked to
+:class:`~screwgear_ros.inprocess.simulation.Simulation` imports this module only when asked to
 record (it loads the bag writer).
 """
 

@@ -2,8 +2,8 @@
 
 :class:`DemoLaw` is the pure control law that ``demo_controller`` (the rclpy node) runs on
 each new joint state, and that :class:`DemoController` runs on each
-:class:`~screwgear_ros.sim.simulation.Observation` of an in-process
-:class:`~screwgear_ros.sim.simulation.Simulation`: one law, two transports.
+:class:`~screwgear_ros.inprocess.simulation.Observation` of an in-process
+:class:`~screwgear_ros.inprocess.simulation.Simulation`: one law, two transports.
 
 The target steps through ``targets`` (rad), holding each for ``dwell`` s of simulation
 time from the first joint state answered. Proportional and derivative gains place the
@@ -178,7 +178,7 @@ class DemoLaw:
 
 
 class DemoController:
-    """The demo law as a :meth:`Simulation.run <screwgear_ros.sim.simulation.Simulation.run>`
+    """The demo law as a :meth:`Simulation.run <screwgear_ros.inprocess.simulation.Simulation.run>`
     controller: ``controller(observation) -> effort``.
 
     The stamps are the node's (:func:`~screwgear_ros.sim.simtime.sim_time_ns` of the

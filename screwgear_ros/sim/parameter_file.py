@@ -1,5 +1,5 @@
 """table_sim's parameters from a ROS 2 parameter file or by name, validated as the node
-validates them: what an in-process :class:`~screwgear_ros.sim.simulation.Simulation`
+validates them: what an in-process :class:`~screwgear_ros.inprocess.simulation.Simulation`
 is built from."""
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ def file_values(path: str | os.PathLike[str]) -> dict[str, Any]:
     with ``ros__parameters``, in file order; or a bare mapping of parameter names).
 
     The one reader of a parameter file: the node's ``--params-file`` semantics, used by
-    :meth:`~screwgear_ros.sim.simulation.Simulation.from_yaml`, sweeps and the design
+    :meth:`~screwgear_ros.inprocess.simulation.Simulation.from_yaml`, sweeps and the design
     tools alike.
     """
     try:

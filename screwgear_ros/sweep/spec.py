@@ -17,12 +17,12 @@ from typing import Any
 
 import yaml
 
+from ..inprocess.metrics import Metrics
+from ..inprocess.scenario import ScenarioError, load_scenario
+from ..inprocess.simulation import ParameterFileError, file_values
 from ..params.declarations import declared
 from ..params.table import SimSettings, TableParams
 from ..params.yaml_reader import YamlReader
-from ..sim.metrics import Metrics
-from ..sim.scenario import ScenarioError, load_scenario
-from ..sim.simulation import ParameterFileError, file_values
 from . import model
 from .model import Sweep, SweepError, plain
 from .resolve import resolve_runs

@@ -84,7 +84,7 @@ def _scenario(bundle: Bundle) -> Any:
     controller modules (workers need no shared filesystem)."""
     digest = bundle.digest
     if digest not in _SCENARIOS:
-        from ..sim.scenario import load_scenario
+        from ..inprocess.scenario import load_scenario
         directory = Path(tempfile.mkdtemp(prefix=f'sweep_{digest}_'))
         for name, text in bundle.sources:
             (directory / name).write_text(text, encoding='utf-8')
@@ -132,9 +132,9 @@ def execute(bundle: Bundle, spec: RunSpec) -> Outcome:
 
 
 def _execute(bundle: Bundle, spec: RunSpec) -> Outcome:
+    from ..inprocess.metrics import run_metrics
+    from ..inprocess.simulation import Simulation
     from ..sim.commands import InputRejected
-    from ..sim.metrics import run_metrics
-    from ..sim.simulation import Simulation
 
     started, cpu = time.perf_counter(), time.thread_time()
     nothing = tuple(math.nan for _ in bundle.metrics)
@@ -176,7 +176,7 @@ def warm_up() -> None:
     """Load the compiled model in this process, once (so the first run's time, and its
     time limit, are its own)."""
     if not _WARM:
-        from ..sim.simulation import Simulation
+        from ..inprocess.simulation import Simulation
         Simulation().reset()
         _WARM.append(True)
 

@@ -8,7 +8,7 @@ within the law's hold band (``DemoGains.hold_error`` of the target, under
 ``DemoGains.hold_speed``). The recordings are read with rosbags (a second reader, not
 the package's): joint_states and the latched active_path, by log time (simulation time).
 
-Tracking (screwgear_ros.sim.metrics on the recorded table angle): the design is critically
+Tracking (screwgear_ros.inprocess.metrics on the recorded table angle): the design is critically
 damped at ω_n = 20 rad/s, whose 2 % settling time is about 5.8/ω_n = 0.29 s with no
 overshoot; the bounds below leave room for the mesh ripple and the torque limit.
 Lockstep (table_sim ``lockstep:=true``, real_time_factor 0, with demo_controller over
@@ -32,8 +32,8 @@ from rosbags.typesys import Stores, get_typestore
 from rosgraph_msgs.msg import Clock
 
 from screwgear_ros import Simulation
+from screwgear_ros.inprocess.metrics import run_metrics
 from screwgear_ros.sim.control import DemoController, DemoGains
-from screwgear_ros.sim.metrics import run_metrics
 
 CONFIG = ROOT / 'config' / 'paper.yaml'
 STORE = get_typestore(Stores.ROS2_JAZZY)

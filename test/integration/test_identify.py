@@ -20,7 +20,7 @@ from identify_truth import PRESET, TRUTH, copy_topics, write_base
 from ros_procs import record_lockstep_demo
 
 from screwgear_ros import Simulation
-from screwgear_ros.sim.simulation import file_values
+from screwgear_ros.inprocess.simulation import file_values
 
 TICK_NS = 1_000_000
 INERTIA = 48.0           # kg·m², the preset's (the paper's) is 46.101

@@ -31,6 +31,7 @@ from paths import DATA
 from ros_procs import STARTUP_TIMEOUT, Peer, assert_clean_exit, stamp_ns, start_process, wait_until
 
 from screwgear_ros.bag.reader import RecordedRun, read_run
+from screwgear_ros.inprocess.scenario import schedule_from_scenario
 from screwgear_ros.runs.compare import (
     compare_runs,
     exact_comparison,
@@ -39,11 +40,7 @@ from screwgear_ros.runs.compare import (
     shift_event,
 )
 from screwgear_ros.runs.lockstep_plan import plan_from_run
-from screwgear_ros.runs.replay_in_process import (
-    replay_in_process,
-    schedule_from_run,
-    schedule_from_scenario,
-)
+from screwgear_ros.runs.replay_in_process import replay_in_process, schedule_from_run
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
 
 #: Generous bounds for a process to finish: a hang fails the test, a slow machine does not.

@@ -30,7 +30,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from screwgear_ros import Simulation
-from screwgear_ros.sim.simulation import Observation
+from screwgear_ros.inprocess.simulation import Observation
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 VALUES = {'table_damping': 8867.0, 'command_timeout': 0.0, 'publish_rate': 1000.0}

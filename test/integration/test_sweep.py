@@ -241,8 +241,8 @@ def test_faulting_failing_and_overrunning_runs_are_rows(tmp_path):
 
 @pytest.mark.ros
 def test_the_rerun_file_of_a_worst_run_reproduces_its_row(tmp_path):
-    from screwgear_ros.sim.metrics import run_metrics
-    from screwgear_ros.sim.scenario import load_scenario
+    from screwgear_ros.inprocess.metrics import run_metrics
+    from screwgear_ros.inprocess.scenario import load_scenario
 
     path = _sweep_dir(tmp_path, SWEEP.replace('count: 5', 'count: 2'))
     proc = installed('sweep', path, '--out', tmp_path / 'out', '--workers', '1', '--no-plot')

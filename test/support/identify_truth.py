@@ -14,8 +14,8 @@ from typing import Any
 import yaml
 from paths import ROOT as REPO
 
-from screwgear_ros.sim.scenario import load_scenario
-from screwgear_ros.sim.simulation import Simulation, file_values
+from screwgear_ros.inprocess.scenario import load_scenario
+from screwgear_ros.inprocess.simulation import Simulation, file_values
 
 PRESET = REPO / 'config' / 'realistic.yaml'
 EXCITATION = REPO / 'docs' / 'examples' / 'identification_excitation.yaml'

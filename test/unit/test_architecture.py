@@ -100,7 +100,7 @@ def _reach(start: str, cut: set[tuple[str, str]]) -> set[str]:
 def test_the_walk_sees_the_package_and_its_lazy_imports():
     assert {f'{PACKAGE}.params.table', f'{PACKAGE}.runs.run_io', f'{PACKAGE}.bag.reader'} <= set(
         MODULES)
-    assert (f'{PACKAGE}.runs.session_record', True) in IMPORTS[f'{PACKAGE}.sim.simulation']
+    assert (f'{PACKAGE}.runs.session_record', True) in IMPORTS[f'{PACKAGE}.inprocess.simulation']
     assert ('rclpy', False) in [(t.split('.')[0], lazy) for t, lazy in
                                 IMPORTS[f'{PACKAGE}.ros.node']]
 

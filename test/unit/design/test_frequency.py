@@ -177,9 +177,9 @@ def test_the_measured_loop_of_a_pd_law_has_the_margins_of_its_closed_form():
     for the next: around the linear plant, L = (Kp + jω·Kd)·P(jω)·e^(−jωh/2)·sinc(ωh/2)."""
     from scipy.optimize import brentq
 
+    from screwgear_ros.inprocess.scenario import SetpointProfile
     from screwgear_ros.params.table import SimSettings
     from screwgear_ros.sim.control import DemoController, DemoGains
-    from screwgear_ros.sim.scenario import SetpointProfile
     settings = SimSettings()
     gains = DemoGains(ki=0.0)
     controller = DemoController(gains, dt=settings.dt,

@@ -24,12 +24,12 @@ from screwgear_ros.design.linear_model import INPUTS, OUTPUTS, STATES
 from screwgear_ros.design.linearize import linearize
 from screwgear_ros.design.operating_point import operating_point
 from screwgear_ros.errors import ScrewgearError
+from screwgear_ros.inprocess.simulation import Simulation
 from screwgear_ros.params.table import MeshPhase, Mode, TableParams
 from screwgear_ros.physics.drive import DrivePiece
 from screwgear_ros.physics.mesh import ContactBranch
 from screwgear_ros.physics.motion import rhs, stiffest_linearization
 from screwgear_ros.physics.packed import Drive, pack
-from screwgear_ros.sim.simulation import Simulation
 
 PAPER = TableParams()
 

@@ -13,7 +13,7 @@ from gymnasium.utils.env_checker import check_env
 
 from screwgear_ros import Simulation
 from screwgear_ros.envs.table_env import ENV_ID, OBSERVATION, ScrewgearTableEnv
-from screwgear_ros.sim.scenario import SetpointProfile
+from screwgear_ros.inprocess.scenario import SetpointProfile
 
 
 def test_gymnasium_check_env_passes():

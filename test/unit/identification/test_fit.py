@@ -16,7 +16,7 @@ from identify_truth import PRESET, TRUTH, record_excitation, truth_simulation, w
 import screwgear_ros
 from screwgear_ros import Simulation
 from screwgear_ros.identification.errors import TooShortError
-from screwgear_ros.sim.simulation import file_values
+from screwgear_ros.inprocess.simulation import file_values
 
 STIFF = ('mesh_stiffness_mean', 'inertia_table', 'preload_torque')
 LOOSE = ('mesh_damping', 'table_coulomb_torque')

@@ -15,8 +15,8 @@ from screwgear_ros.errors import ScrewgearError
 from screwgear_ros.identification.adapter import simulate
 from screwgear_ros.identification.errors import RecordingError
 from screwgear_ros.identification.recording import parse_joints, read_recording
+from screwgear_ros.inprocess.simulation import file_values
 from screwgear_ros.interface import Input
-from screwgear_ros.sim.simulation import file_values
 
 
 def test_a_plain_bag_gives_the_ticks_of_the_node_recording(recordings):

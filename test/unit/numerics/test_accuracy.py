@@ -19,12 +19,12 @@ from bag_runs import installed_check_run as check_run
 from paths import DATA
 
 from screwgear_ros.bag.reader import read_run
+from screwgear_ros.inprocess.simulation import Run, Simulation
 from screwgear_ros.numerics.reference import Segment, solve
 from screwgear_ros.physics.equilibrium import equilibrium_state
 from screwgear_ros.runs import check
 from screwgear_ros.sim.control import DemoController
 from screwgear_ros.sim.plant import DriveInput
-from screwgear_ros.sim.simulation import Run, Simulation
 
 #: One count of a 26-bit table encoder, rad (written out here, not taken from check_run).
 COUNT = 2.0 * math.pi / 2**26

@@ -32,9 +32,9 @@ from mcap.writer import Writer
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
+from screwgear_ros.inprocess.simulation import Simulation
 from screwgear_ros.physics.sensors import JointSensor, SensorChain, SensorConfig
 from screwgear_ros.sim.events import Reset
-from screwgear_ros.sim.simulation import Simulation
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 COUNTS = (4096, 1 << 20, 1000)          # a power of two, a 20-bit encoder, a round number

@@ -24,8 +24,8 @@ from bag_runs import copy_bag, installed_check_run, nudge_table_angle, record_se
 from paths import DATA
 
 from screwgear_ros.bag.reader import read_run
+from screwgear_ros.inprocess.scenario import schedule_from_scenario
 from screwgear_ros.runs.check import SAFETY, SAFETY_FIXED_STEP, check_run
-from screwgear_ros.runs.replay_in_process import schedule_from_scenario
 
 
 @pytest.fixture(scope='module')

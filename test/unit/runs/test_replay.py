@@ -21,9 +21,10 @@ from diverging import diverging
 from paths import DATA
 
 from screwgear_ros.bag.reader import read_run
+from screwgear_ros.inprocess.scenario import schedule_from_scenario
 from screwgear_ros.interface import topic_names
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.runs.replay_in_process import replay_in_process, schedule_from_scenario
+from screwgear_ros.runs.replay_in_process import replay_in_process
 from screwgear_ros.runs.run_io import RunIO
 from screwgear_ros.sim import fast_ticks
 from screwgear_ros.sim.events import Command, ParameterChange, Reset

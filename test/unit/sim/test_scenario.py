@@ -14,10 +14,10 @@ from paths import ROOT
 
 from screwgear_ros import Simulation
 from screwgear_ros.bag.reader import read_run
+from screwgear_ros.inprocess.metrics import SETTLING_BAND, run_metrics
+from screwgear_ros.inprocess.scenario import ScenarioError, SetpointProfile, load_scenario
 from screwgear_ros.params.table import ParameterError
-from screwgear_ros.sim.metrics import SETTLING_BAND, run_metrics
 from screwgear_ros.sim.parameter_set import default_values, split_parameters
-from screwgear_ros.sim.scenario import ScenarioError, SetpointProfile, load_scenario
 
 SCENARIOS = sorted((ROOT / 'test' / 'data' / 'scenarios').glob('*.yaml'))
 EXAMPLES = sorted(p for p in (ROOT / 'docs' / 'examples').glob('*.yaml')
@@ -133,7 +133,7 @@ def test_a_failing_controller_exits_2_with_the_reason(tmp_path):
 
 
 def test_a_replay_refuses_a_scenario_with_a_controller():
-    from screwgear_ros.runs.replay_in_process import schedule_from_scenario as replay_scenario
+    from screwgear_ros.inprocess.scenario import schedule_from_scenario as replay_scenario
     with pytest.raises(ValueError, match='line 6: .*run_scenario'):
         replay_scenario(ROOT / 'docs' / 'examples' / 'demo_position_steps.yaml')
 
@@ -214,9 +214,13 @@ def test_an_in_process_run_refuses_a_publish_rate_change(tmp_path):
 
 
 def test_the_old_names_answer_for_one_release() -> None:
-    import screwgear_ros.runs.replay_in_process as replay
-    from screwgear_ros.sim import scenario
+    import warnings
+
+    from screwgear_ros.inprocess import scenario
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore', DeprecationWarning)
+        from screwgear_ros.runs import replay
     with pytest.warns(DeprecationWarning, match='SetpointProfile'):
         assert scenario.Setpoint is SetpointProfile
     with pytest.warns(DeprecationWarning, match='schedule_from_scenario'):
-        assert replay.load_scenario is replay.schedule_from_scenario
+        assert replay.load_scenario is scenario.schedule_from_scenario

@@ -29,12 +29,12 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
 from screwgear_ros.bag.reader import read_run
+from screwgear_ros.inprocess.scenario import load_scenario
 from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.runs.plot import Mark, Panel, plt, run_figure
 from screwgear_ros.runs.replay_in_process import replay_in_process
 from screwgear_ros.sim.control import SETPOINT_REPEAT
 from screwgear_ros.sim.events import Command, Setpoint
-from screwgear_ros.sim.scenario import load_scenario
 from screwgear_ros.sim.session import Session, row_of
 
 STORE = get_typestore(Stores.ROS2_JAZZY)

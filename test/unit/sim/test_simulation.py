@@ -162,7 +162,7 @@ def test_run_is_deterministic_and_its_inputs_pickle():
     # after a run too (a simulation pickles as its parameters), and scenarios pickle
     again = pickle.loads(pickle.dumps(sim)).run(pd, 0.2)
     assert again.observed.tobytes() == a.observed.tobytes()
-    from screwgear_ros.sim.scenario import load_scenario
+    from screwgear_ros.inprocess.scenario import load_scenario
     scenario = load_scenario(CONFIG.parent / 'docs' / 'examples' / 'demo_position_steps.yaml')
     assert pickle.loads(pickle.dumps(scenario)) == scenario
 
@@ -210,8 +210,8 @@ def test_a_run_gives_the_bits_it_records(values, tmp_path):
     with): both give the same samples, with the drive reversing, silent ticks, answers
     in the deadband, scheduled commands (one refused) and a reset. The controller sees
     what the session's outputs and sensors say of each sample."""
+    from screwgear_ros.inprocess.simulation import Observation
     from screwgear_ros.sim.events import Command, Reset
-    from screwgear_ros.sim.simulation import Observation
     seen = []
 
     def pd(o):

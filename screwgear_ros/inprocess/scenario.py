@@ -5,15 +5,13 @@ changes, resets, at simulation times), and optionally a controller closing the l
 at every tick (``demo``, the demo controller's law, or ``module:callable``) with a
 setpoint profile it tracks. :func:`load_scenario` reads and validates one: every error is
 a :class:`ScenarioError` naming the file and the line. :meth:`Scenario.run` runs it
-in-process (:class:`~screwgear_ros.sim.simulation.Simulation`); :meth:`Scenario.schedule`
+in-process (:class:`~screwgear_ros.inprocess.simulation.Simulation`); :meth:`Scenario.schedule`
 is what ``replay_run --script`` plays into a live node over DDS (actions only).
 """
 
 from __future__ import annotations
 
-import importlib
 import os
-import sys
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -26,12 +24,13 @@ from ..errors import ScrewgearError
 from ..interface import Input
 from ..params.table import ParameterError
 from ..params.yaml_reader import YamlReader
-from .commands import INPUT_TOPICS, InputRejected, apply_command
-from .control import TABLE_JOINT, DemoController, DemoGains
-from .events import Command, Event, ParameterChange, Reset
-from .parameter_set import default_values, split_parameters
-from .plant import DriveInput
-from .schedule import Schedule
+from ..sim.commands import INPUT_TOPICS, InputRejected, apply_command
+from ..sim.control import TABLE_JOINT, DemoController
+from ..sim.events import Command, Event, ParameterChange, Reset
+from ..sim.parameter_set import default_values, split_parameters
+from ..sim.plant import DriveInput
+from ..sim.schedule import Schedule
+from .scenario_controller import ControllerSpec, read_controller, resolve_callable
 from .setpoint_profile import PROFILES, SetpointProfile, read_setpoint
 from .simulation import Controller, Run, Simulation
 
@@ -40,8 +39,6 @@ KEYS = ('parameters', 'duration', 'actions', 'controller', 'setpoint')
 #: What an action can do besides its ``time``: a command on an input topic, a parameter
 #: change, a reset.
 ACTIONS = (*INPUT_TOPICS, 'parameters', 'reset')
-#: A scenario's controller: its keys.
-CONTROLLER_KEYS = ('use', 'parameters')
 
 
 class ScenarioError(ScrewgearError, ValueError):
@@ -56,78 +53,6 @@ class ScenarioError(ScrewgearError, ValueError):
     ...     print('cannot read' in str(exc) or 'no/such' in str(exc))
     True
     """
-
-
-# ---------------------------------------------------------------- controllers
-
-@dataclass(frozen=True)
-class ControllerSpec:
-    """``use``: 'demo' or 'module:callable'; ``parameters``: its keyword arguments."""
-
-    use: str
-    parameters: tuple[tuple[str, Any], ...] = ()
-    line: int = 0
-    directory: str = ''      # the scenario file's: searched first for the module
-
-    def make(self, simulation: Simulation, setpoint: SetpointProfile | None) -> Controller:
-        """A fresh controller for one run of ``simulation``."""
-        values = dict(self.parameters)
-        if self.use == 'demo':
-            if setpoint is not None:
-                values['joint'] = setpoint.joint
-            return DemoController(DemoGains(**values), dt=simulation.settings.dt,
-                                  joint_names=simulation.settings.joint_names, setpoint=setpoint)
-        factory = resolve_callable(self.use, self.directory)
-        return factory(setpoint, **values)
-
-
-def resolve_callable(text: str, directory: str = '') -> Callable[..., Any]:
-    """The callable 'package.module:name' names, the module looked for in ``directory``
-    first (ImportError/AttributeError say why it is not there)."""
-    module, _, name = text.partition(':')
-    if directory and directory not in sys.path:
-        sys.path.insert(0, directory)
-    target: Any = importlib.import_module(module)
-    for part in name.split('.'):
-        target = getattr(target, part)
-    if not callable(target):
-        raise TypeError(f'{text} is not callable')
-    return target
-
-
-def _controller(reader: YamlReader, node: yaml.Node) -> ControllerSpec:
-    entries = reader.mapping(node, 'controller')
-    reader.known(entries, CONTROLLER_KEYS, 'controller key')
-    if 'use' not in entries:
-        raise reader.error(node, "controller needs 'use': demo or module:callable")
-    use_node = entries['use'][1]
-    use = reader.value(use_node)
-    if not isinstance(use, str) or (use != 'demo' and (
-            use.count(':') != 1 or not all(use.split(':')))):
-        raise reader.error(use_node, f"controller 'use' must be demo or module:callable, "
-                           f'not {use!r}')
-    parameters: dict[str, Any] = {}
-    if 'parameters' in entries:
-        pnode = entries['parameters'][1]
-        pentries = reader.mapping(pnode, 'controller parameters')
-        if use == 'demo':
-            known = tuple(n for n in DemoGains.names() if n != 'joint')
-            reader.known(pentries, known, 'demo controller parameter')
-        parameters = {name: reader.value(value) for name, (_, value) in pentries.items()}
-        if use == 'demo':
-            try:
-                DemoGains(**parameters)
-            except (TypeError, ValueError) as exc:
-                raise reader.error(pnode, str(exc)) from None
-    directory = str(reader.path.resolve().parent)
-    if use != 'demo':
-        try:
-            resolve_callable(use, directory)
-        except Exception as exc:  # noqa: BLE001 - any import failure is the file's problem
-            raise reader.error(use_node, f'controller {use!r} cannot be loaded: '
-                               f'{type(exc).__name__}: {exc}') from None
-    return ControllerSpec(use, tuple(parameters.items()), use_node.start_mark.line + 1,
-                          directory)
 
 
 # ---------------------------------------------------------------- the scenario
@@ -376,7 +301,7 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
                     raise reader.error(value_node, f'the node would refuse this command: '
                                        f'{exc}') from None
                 actions.append(Action(t, kind, command, line))
-    controller = _controller(reader, top['controller'][1]) if 'controller' in top else None
+    controller = read_controller(reader, top['controller'][1]) if 'controller' in top else None
     setpoint = (read_setpoint(reader, top[Input.SETPOINT][1]) if Input.SETPOINT in top
                 else None)
     if setpoint is not None and setpoint.joint not in values['joint_names']:
@@ -409,7 +334,7 @@ def _command(reader: YamlReader, topic: str, node: yaml.Node) -> Any:
                                '[-350.0]')
         return value
     if topic == Input.JOINT_COMMANDS:
-        from .commands import JointCommand
+        from ..sim.commands import JointCommand
         if not isinstance(value, dict) or not set(value) <= {'name', 'position', 'velocity',
                                                              'effort'}:
             raise reader.error(node, 'joint_commands takes {name: [...], effort: [...]}')
@@ -428,11 +353,38 @@ def __getattr__(name: str) -> Any:
     """``Setpoint``, the old name of :class:`SetpointProfile`, for one release
     (:class:`screwgear_ros.sim.events.Setpoint` is the event that records one)."""
     if name == 'Setpoint':
-        warnings.warn('screwgear_ros.sim.scenario.Setpoint is now SetpointProfile',
+        warnings.warn('screwgear_ros.inprocess.scenario.Setpoint is now SetpointProfile',
                       DeprecationWarning, stacklevel=2)
         return SetpointProfile
     raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
+
+def schedule_from_scenario(path: str | Path) -> Schedule:
+    """The timed actions of a scenario file (docs/scenarios.md; the test bags are recorded
+    from these) as a schedule.
+
+    Parameters
+    ----------
+    path : str or Path
+        The scenario file.
+
+    Returns
+    -------
+    Schedule
+        Its start values and actions at their steps.
+
+    Raises
+    ------
+    ScenarioError
+        Naming the line of what is wrong; and for a scenario with a controller: that
+        runs in-process (``run_scenario``), a replay plays actions only.
+    """
+    scenario = load_scenario(path)            # the format's one reader
+    if scenario.controller is not None:
+        raise ScenarioError(f'{path}: line {scenario.controller.line}: this scenario closes '
+                         'its loop with a controller, which run_scenario runs in-process; '
+                         'replay_run --script plays a scenario\'s timed actions only')
+    return scenario.schedule()
 
 __all__ = [
     'ACTIONS',
@@ -445,4 +397,5 @@ __all__ = [
     'SetpointProfile',
     'load_scenario',
     'resolve_callable',
+    'schedule_from_scenario',
 ]

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..params.table import SimSettings, TableParams
-from .plant import OBSERVED_DELTA, OBSERVED_JOINTS
+from ..sim.plant import OBSERVED_DELTA, OBSERVED_JOINTS
 
 
 @dataclass(slots=True)

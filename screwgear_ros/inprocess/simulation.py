@@ -31,10 +31,12 @@ import numpy as np
 from ..interface import Input
 from ..numerics.integrator import OBSERVED
 from ..params.table import ParameterError, SimSettings, TableParams
+from ..sim.commands import InputRejected, apply_command
+from ..sim.events import Command, Event
+from ..sim.parameter_file import NODE_KEYS, ParameterFileError, file_values, resolve
+from ..sim.session import Session
+from ..sim.simtime import sim_time_ns
 from .closed_loop import Controller, closed_loop
-from .commands import InputRejected, apply_command
-from .events import Command, Event
-from .parameter_file import NODE_KEYS, ParameterFileError, file_values, resolve
 from .samples import (
     DELTA,
     DELTA_RATE,
@@ -46,8 +48,6 @@ from .samples import (
     Run,
     observation_of,
 )
-from .session import Session
-from .simtime import sim_time_ns
 
 
 class Simulation:

@@ -1,5 +1,5 @@
 """What a closed-loop run did, in a few numbers: :func:`run_metrics` of a
-:class:`~screwgear_ros.sim.simulation.Run` (``run_scenario`` prints them, sweeps keep them).
+:class:`~screwgear_ros.inprocess.simulation.Run` (``run_scenario`` prints them, sweeps keep them).
 
 * **max |TE|**: the largest |transmission error| of the active path, m.
 * **tracking** (with a setpoint: t → target angle of one joint, t from the run's start):
@@ -129,7 +129,7 @@ def run_metrics(run: Any, setpoint: Callable[[float], float] | None = None,
     Parameters
     ----------
     run : Run
-        A :class:`~screwgear_ros.sim.samples.Run` (or anything with its columns).
+        A :class:`~screwgear_ros.inprocess.samples.Run` (or anything with its columns).
     setpoint : callable, optional
         t (s from the run's start) → target angle (rad) of ``joint``.
     joint : int or str

@@ -1,4 +1,4 @@
-"""The closed loop of :meth:`Simulation.run <screwgear_ros.sim.simulation.Simulation.run>`
+"""The closed loop of :meth:`Simulation.run <screwgear_ros.inprocess.simulation.Simulation.run>`
 over :meth:`Session.advance <screwgear_ros.sim.session.Session.advance>`: the controller
 answers each tick's observation, every sample lands in the run's arrays."""
 
@@ -11,11 +11,11 @@ from typing import Any
 import numpy as np
 
 from ..interface import Input
-from .control import SetpointNotes
-from .events import Event, ParameterChange, Setpoint
+from ..sim.control import SetpointNotes
+from ..sim.events import Event, ParameterChange, Setpoint
+from ..sim.session import Session, Tick
+from ..sim.simtime import sim_time_ns
 from .samples import Observation
-from .session import Session, Tick
-from .simtime import sim_time_ns
 
 Controller = Callable[[Observation], 'float | None']
 
