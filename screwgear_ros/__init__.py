@@ -21,7 +21,7 @@ _API = {
     'TableParams': 'params.table', 'SimSettings': 'params.table',
     'Scenario': 'sim.scenario', 'load_scenario': 'sim.scenario', 'ScenarioError': 'sim.scenario',
     'run_metrics': 'sim.metrics', 'Metrics': 'sim.metrics',
-    'DemoController': 'sim.control',
+    'DemoController': 'sim.control', 'config_path': 'params.config_files',
 }
 
 _moved.install(__name__)
