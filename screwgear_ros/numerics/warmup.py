@@ -21,8 +21,9 @@ from __future__ import annotations
 
 import importlib
 import sys
+import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 import numpy as np
@@ -107,9 +108,50 @@ def warm() -> int:
     return compiled_now()
 
 
+#: Kernels a first warm-up compiles into an empty cache (of the :func:`kernels` defined,
+#: the node and the tools call these; measured), for the progress lines' "of about".
+FIRST_COMPILE = 51
+
+
+def compiled_kernels(every: list) -> int:
+    """How many of the kernels ``every`` this process has compiled (at least one
+    signature made, not loaded from the cache)."""
+    return sum(1 for k in every if sum(k.stats.cache_misses.values()))
+
+
+@contextmanager
+def progress(period: float = 5.0, say: Callable[[str], None] = print,
+             every: list | None = None) -> Iterator[None]:
+    """Within: every ``period`` s in which more of the kernels ``every`` (default: all,
+    :func:`kernels`) were compiled, ``say`` 'compiling kernels: n done of about N, t s'
+    (a first compile takes minutes; with the cache in place nothing is compiled and
+    nothing said)."""
+    every = kernels() if every is None else every
+    finished = threading.Event()
+    start = time.perf_counter()
+
+    def report() -> None:
+        last = 0
+        while not finished.wait(period):
+            done = compiled_kernels(every)
+            if done != last:
+                say(f'screwgear_ros warmup: compiling kernels: {done} done of about '
+                    f'{FIRST_COMPILE}, {time.perf_counter() - start:.0f} s')
+                last = done
+
+    thread = threading.Thread(target=report, name='warmup progress', daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        finished.set()
+        thread.join()
+
+
 def main() -> int:
     start = time.perf_counter()
-    compiled = warm()
+    with progress(say=lambda line: print(line, flush=True)):
+        compiled = warm()
     loaded = sum(sum(k.stats.cache_hits.values()) for k in kernels())
     print(f'screwgear_ros warmup: {compiled} kernel signatures compiled and cached, '
           f'{loaded} loaded from the cache, {time.perf_counter() - start:.1f} s')
