@@ -2,8 +2,9 @@
 # Set everything up, then run table_sim (the paper's parameters) closed-loop with the demo
 # PID controller. The table_sim status log (every 5 s) and the controller's target/actual
 # lines show the table following a back-and-forth profile with reversals. Ctrl-C stops both.
-# The run is recorded to out/demo_<date>_<time>/; at the end its plot (plot_run, a few
-# seconds for a 20 s run) is written into that directory and its path printed.
+# The run is recorded to out/demo_<date>_<time>/; at the end its plot (plot_run: 7 s of
+# CPU for a 20 s run, longer on a busy machine) is written into that directory and its
+# path printed.
 #   bash scripts/run_demo.sh [--free-running] [--realistic] [--duration SECONDS]
 #   (default)           lockstep: table_sim (lockstep:=true, paced at real-time factor 1)
 #                       integrates each tick only once the controller answered the last
@@ -29,7 +30,7 @@ while [ $# -gt 0 ]; do
         --realistic) params+=(--params-file "$root/config/realistic.yaml"); shift ;;
         --duration) duration="${2:?--duration needs SECONDS}"; shift 2 ;;
         --duration=*) duration="${1#*=}"; shift ;;
-        -h|--help) sed -n '2,19p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
         *) echo "unknown argument: $1 (use --free-running, --realistic, --duration SECONDS)" >&2
            exit 2 ;;
     esac
@@ -61,7 +62,7 @@ stop() {
         echo "run_demo: stopped before table_sim recorded anything: no plot" >&2
         return
     fi
-    echo "run_demo: drawing the plot of the run (plot_run, a few seconds)"
+    echo "run_demo: drawing the plot of the run (plot_run: seconds, up to a minute on a busy machine)"
     local start=$SECONDS why
     if why="$(plot_run "$bag" -o "$bag/plot.png" 2>&1 >/dev/null 8>&-)"; then
         echo "run_demo: plot of the run ($((SECONDS - start)) s): $bag/plot.png"

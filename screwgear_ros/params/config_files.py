@@ -3,9 +3,9 @@ working directory: an install's share directory, else the source tree."""
 
 from __future__ import annotations
 
+import os
 import sys
 import sysconfig
-from contextlib import suppress
 from pathlib import Path
 
 from ..errors import ScrewgearError
@@ -19,20 +19,16 @@ class ConfigNotFound(ScrewgearError, FileNotFoundError):
 
 def config_dirs() -> list[Path]:
     """The directories :func:`config_path` looks in, in order: the package's share
-    directory in the ament index (a colcon install, or the venv once sourced), the
-    share directory of the Python environment (a pip install: setup.py's data_files),
-    the source tree this module lies in."""
+    directory under each prefix of the ament index (``AMENT_PREFIX_PATH``: a colcon
+    install, or the venv once ``scripts/env.sh`` is sourced; read as the index's
+    layout, ``share/ament_index/resource_index/packages/<package>``, without importing
+    ROS), the share directory of the Python environment (a pip install: setup.py's
+    data_files), the source tree this module lies in."""
     found = []
-    try:
-        from ament_index_python.packages import (
-            PackageNotFoundError,
-            get_package_share_directory,
-        )
-    except ImportError:                  # no ROS here: the other two places
-        pass
-    else:
-        with suppress(PackageNotFoundError):
-            found.append(Path(get_package_share_directory(PACKAGE)) / 'config')
+    for prefix in filter(None, os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)):
+        marker = Path(prefix) / 'share' / 'ament_index' / 'resource_index' / 'packages'
+        if (marker / PACKAGE).is_file():
+            found.append(Path(prefix) / 'share' / PACKAGE / 'config')
     for prefix in (sysconfig.get_paths()['data'], sys.prefix):
         found.append(Path(prefix) / 'share' / PACKAGE / 'config')
     found.append(Path(__file__).resolve().parents[2] / 'config')
