@@ -53,7 +53,7 @@ def constant(code: str, name: str) -> float:
             for target in node.targets:
                 names = target.elts if isinstance(target, ast.Tuple) else [target]
                 values = node.value.elts if isinstance(node.value, ast.Tuple) else [node.value]
-                for n, v in zip(names, values):
+                for n, v in zip(names, values, strict=True):
                     if isinstance(n, ast.Name) and n.id == name:
                         return float(ast.literal_eval(v))
     raise AssertionError(f'the controller sets no {name}')
