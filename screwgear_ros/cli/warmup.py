@@ -18,7 +18,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..interface import Input
-from ..numerics.kernels import compiled_now, kernels, without_blas_probe
+from ..numerics.kernels import compiled_now, kernels, progress, without_blas_probe
 from ..params.table import MeshPhase, Mode, SimSettings, TableParams
 from ..sim.events import Command
 from ..sim.session import ROW, Session
@@ -50,7 +50,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     argparse.ArgumentParser(prog='warmup', description=__doc__.split('\n\n')[0]).parse_args(
         argv)
     start = time.perf_counter()
-    compiled = warm()
+    with progress(say=lambda line: print(line, flush=True)):
+        compiled = warm()
     loaded = sum(sum(k.stats.cache_hits.values()) for k in kernels())
     print(f'screwgear_ros warmup: {compiled} kernel signatures compiled and cached, '
           f'{loaded} loaded from the cache, {time.perf_counter() - start:.1f} s')

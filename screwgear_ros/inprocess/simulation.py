@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import os
+import shutil
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -248,14 +249,19 @@ class Simulation:
     def run(self, controller: Controller | None, duration: float,
             record: str | os.PathLike[str] | None = None, *,
             events: Sequence[Event] = (),
-            setpoint: Callable[[float], float] | None = None) -> Run:
+            setpoint: Callable[[float], float] | None = None,
+            overwrite: bool = False) -> Run:
         """A new run of ``duration`` s of simulation time (rounded to whole ticks), closed
         by ``controller(observation) -> effort`` at every tick: the effort it returns
         for the observation of tick k (cmd_effort's signed drive torque, N·m; None: no
         command) takes effect at the first step of tick k + 1, as a lockstep answer does.
 
         ``record``: a new rosbag2 directory to record the run to, exactly as table_sim
-        records it (``check_run`` and ``replay_run`` take it). ``events``: session
+        records it (``check_run`` and ``replay_run`` take it): a path that does not
+        exist or an empty directory (``tempfile.mkdtemp()`` gives a fresh one); with
+        ``overwrite`` also an earlier recording there, which is deleted first (a
+        non-empty directory that is no recording, i.e. has no ``metadata.yaml``, is
+        refused with FileExistsError either way). ``events``: session
         events with their ``step`` set (a scenario's actions), each submitted once the
         outputs of its step are out, before the controller's answer, as ``replay_run``
         plays them into a node. An effort the node refuses raises
@@ -304,6 +310,8 @@ class Simulation:
         if any(event.step is None for event in events):
             raise ValueError('every event of a run needs the step it takes effect at')
         ticks = round(duration / self.tick_period)
+        if record is not None and overwrite:
+            remove_recording(Path(record))
         first = self.reset()
         session = self.session
         recording = None
@@ -334,6 +342,17 @@ class Simulation:
                    rejected, None if measured is None else measured[:n])
 
 
+def remove_recording(path: Path) -> None:
+    """Delete the rosbag2 recording at ``path``, if there is one. FileExistsError: a
+    non-empty directory (or a file) there that is not a recording."""
+    if not path.exists() or (path.is_dir() and not any(path.iterdir())):
+        return
+    if not (path / 'metadata.yaml').is_file():
+        raise FileExistsError(f'{path} exists and is not a recording (no metadata.yaml): '
+                              'not overwritten')
+    shutil.rmtree(path)
+
+
 def stamp_ns(observation: Observation, dt: float) -> int:
     """The header stamp (ns) the node puts on this observation's messages."""
     return sim_time_ns(observation.step, dt)
@@ -354,6 +373,7 @@ __all__ = [
     'Run',
     'Simulation',
     'file_values',
+    'remove_recording',
     'resolve',
     'stamp_ns',
 ]

@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import importlib
 import sys
-from collections.abc import Iterator
+import threading
+import time
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
@@ -74,4 +76,45 @@ def without_blas_probe() -> Iterator[None]:
             del sys.modules['scipy.linalg']
 
 
-__all__ = ['compiled_now', 'kernels', 'without_blas_probe']
+#: Kernels a first warm-up compiles into an empty cache (of the :func:`kernels` defined,
+#: the node and the tools call these; measured), for the progress lines' "of about".
+FIRST_COMPILE = 51
+
+
+def compiled_kernels(every: list[Any]) -> int:
+    """How many of the kernels ``every`` this process has compiled (at least one
+    signature made, not loaded from the cache)."""
+    return sum(1 for k in every if sum(k.stats.cache_misses.values()))
+
+
+@contextmanager
+def progress(period: float = 5.0, say: Callable[[str], None] = print,
+             every: list[Any] | None = None) -> Iterator[None]:
+    """Within: every ``period`` s in which more of the kernels ``every`` (default: all,
+    :func:`kernels`) were compiled, ``say`` 'compiling kernels: n done of about N, t s'
+    (a first compile takes minutes; with the cache in place nothing is compiled and
+    nothing said)."""
+    every = kernels() if every is None else every
+    finished = threading.Event()
+    start = time.perf_counter()
+
+    def report() -> None:
+        last = 0
+        while not finished.wait(period):
+            done = compiled_kernels(every)
+            if done != last:
+                say(f'screwgear_ros warmup: compiling kernels: {done} done of about '
+                    f'{FIRST_COMPILE}, {time.perf_counter() - start:.0f} s')
+                last = done
+
+    thread = threading.Thread(target=report, name='warmup progress', daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        finished.set()
+        thread.join()
+
+
+__all__ = ['FIRST_COMPILE', 'compiled_kernels', 'compiled_now', 'kernels', 'progress',
+           'without_blas_probe']

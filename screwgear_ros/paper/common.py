@@ -8,11 +8,11 @@ plain dataclass the tests check) and turns them into a :class:`Section` with
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..params.config_files import config_path
 from ..runs.figure_style import COLORS, plt
 
 HOLDS = 'holds'
@@ -89,16 +89,6 @@ def agreement(difference: float, scale: float = 1.0) -> str:
     if difference == 0.0:
         return 'exactly (bit for bit)'
     return f'to {fmt(difference / scale, 1)}' + (' of the scale' if scale != 1.0 else '')
-
-
-def config_path(name: str) -> Path:
-    """A file of the package's ``config/`` (installed share dir, else the source tree)."""
-    candidates = [Path(sys.prefix) / 'share' / 'screwgear_ros' / 'config' / name,
-                  Path(__file__).resolve().parents[2] / 'config' / name]
-    for path in candidates:
-        if path.is_file():
-            return path
-    raise FileNotFoundError(f'config/{name} not found in {[str(p) for p in candidates]}')
 
 
 __all__ = [

@@ -178,6 +178,12 @@ class TableParams:
         'zero torque and keeps the drive direction (rounding noise of a controller at rest '
         'is no reversal)', low=0.0, high=10.0,
         note='2.5e-9 of max_torque, above the rounding noise of a PD law on rad-scale states')
+    direction_hysteresis: float = parameter(
+        0.0, 'T_h', 'N·m', 'an effort against the drive direction in force reverses the drive '
+        'only when its magnitude exceeds this; up to it, it is zero torque and keeps the '
+        'direction (a dual-path drive switches paths with hysteresis, so sensor noise on a '
+        'near-zero effort makes no path chatter)', low=0.0, high=TORQUE,
+        note='0: every sign change outside the deadband is a reversal, as in the paper')
     drive_no_load_speed: float = parameter(
         8.0 * math.pi, 'ω_nl', 'rad/s', 'speed of the active pinion at which the drive '
         'torque line falls to zero (servo/DC characteristic); 0 = ideal torque source',

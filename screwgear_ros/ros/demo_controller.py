@@ -28,10 +28,14 @@ controlled joint is the table (the second name of joint_states).
 
 On SIGINT/SIGTERM it sends a zero effort, leaving the table unforced (in lockstep
 that zero answers the pending tick, which then runs unforced, and the node waits).
+Given a stop time (``stop_at``, simulated seconds) it answers no joint_states stamped at
+or after it and says it is finished; in lockstep the table then stands at exactly that
+stamp, since the node integrates no tick without an answer.
 """
 
 from __future__ import annotations
 
+import threading
 import warnings
 
 from rclpy.node import Node
@@ -52,9 +56,15 @@ class DemoControllerNode(Node):
     ``use_sim_time`` is on.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, stop_at: float | None = None,
+                 done: threading.Event | None = None) -> None:
+        """``stop_at``: simulated seconds after which nothing is answered (None: never);
+        ``done``: set then, with :attr:`finished`."""
         super().__init__('demo_controller',
                          parameter_overrides=[Parameter('use_sim_time', value=True)])
+        self._stop_at = None if stop_at is None else round(stop_at * 1e9)
+        self._done = done
+        self.finished = False
         defaults = DemoGains()
         values = {name: self.declare_parameter(name, _ros_default(getattr(defaults, name))).value
                   for name in DemoGains.names()}
@@ -77,6 +87,9 @@ class DemoControllerNode(Node):
         if self.joint not in msg.name:
             return
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        if self._stop_at is not None and stamp >= self._stop_at:
+            self._finish(stamp, self._stop_at)
+            return
         last = self.law.last_stamp
         if last is not None and stamp <= last:
             if stamp == last:
@@ -109,6 +122,14 @@ class DemoControllerNode(Node):
         self.get_logger().info(
             f't = {now:8.3f} s | target {target:+.5f} rad | actual {angle:+.5f} rad | '
             f'error {(target - angle) * 1e3:+8.3f} mrad | effort {effort:+7.1f} N·m')
+
+    def _finish(self, stamp: int, stop_at: int) -> None:
+        if not self.finished:
+            self.finished = True
+            self.get_logger().info(f't = {stamp * 1e-9:8.3f} s: the stop time '
+                                   f'({stop_at * 1e-9:g} s) is reached: not answered')
+        if self._done is not None:
+            self._done.set()
 
     def stop_driving(self) -> None:
         """Send a zero effort: the torque goes to 0, the direction stays."""

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from enum import StrEnum
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -28,10 +28,10 @@ from ..bag.errors import NoData
 from ..bag.reader import RecordedRun
 from ..errors import ScrewgearError
 from ..params.table import Mode
-from ..physics.drive import active_path
 from ..sim.session import Tick
 from .check import MESH_SIGNALS, CheckReport, signal_names
 from .figure_style import COLORS, plt
+from .plot_path import draw_path, draw_switch_lines
 from .plot_series import (
     ParameterMark,
     RunMarks,
@@ -42,7 +42,11 @@ from .plot_series import (
     setpoint_series,
     tracking_error,
 )
+from .presets import closest_preset
 from .replay_in_process import replay_in_process
+
+if TYPE_CHECKING:    # check_run's reference solver (SciPy): imported by check_figure
+    from .check import CheckReport
 
 #: Resolution the figures are written at (and readable at), dots per inch.
 DPI = 100
@@ -202,10 +206,7 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
     a.plot(ms.steps * run.dt, ms.values[:, 0] * 1e6, color=COLORS[0], label='δ1 mesh 1')
     if not conventional:
         a.plot(ms.steps * run.dt, ms.values[:, 1] * 1e6, color=COLORS[1], label='δ3 mesh 3')
-    switches = run.active_path.steps[1:] * run.dt
-    for k, time in enumerate(switches):
-        a.axvline(time, color=COLORS[4], linestyle=':', linewidth=1.0, gid=Mark.PATH_SWITCH,
-                  label=f'path switch ({len(switches)})' if k == 0 else None)
+    draw_switch_lines(a, run, marks, Mark.PATH_SWITCH)
     if params.backlash > 0.0:
         for sign in (1.0, -1.0):
             a.axhline(sign * params.backlash * 1e6, color='0.4', linestyle=':', linewidth=1.0,
@@ -214,7 +215,9 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
     _legend(a)
 
     _draw_mesh(ax[Panel.MESH], run, ticks, conventional)
-    _draw_path(ax[Panel.PATH], run, marks, t_end)
+    draw_path(ax[Panel.PATH], run, marks, (float(t[0]), t_end), Mark.PATH_SWITCH,
+              Mark.REVERSAL)
+    _legend(ax[Panel.PATH])
 
     for a in axes:
         _mark_events(a, marks)
@@ -234,9 +237,12 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
     truncated = '; TRUNCATED: the readable part' if run.truncated else ''
     if zoom is not None:
         truncated += f'; zoomed to {zoom[0]:g}–{zoom[1]:g} s'
+    preset = closest_preset(params, run.parameters.settings)
+    files = '' if preset is None else f'\nparameters: {preset}'
     fig.suptitle(f'{run.path.name}: {params.mode.value} mode, dt = {run.dt * 1e6:g} µs, '
                  f'{run.parameters.settings.publish_rate:g} Hz outputs, '
-                 f'{t_end - float(t[0]):.2f} s{truncated}', fontsize=13, x=0.02, ha='left')
+                 f'{t_end - float(t[0]):.2f} s{truncated}{files}', fontsize=13, x=0.02,
+                 ha='left')
     return fig
 
 
@@ -295,27 +301,6 @@ def _draw_mesh(a: Axes, run: RecordedRun, ticks: list[Tick], conventional: bool)
         a.plot([], [], ' ', label='conventional mode:\npinion 3 disengaged (F3 = 0)')
     a.axhline(0.0, color='0.5', linewidth=0.6)
     a.set_ylabel('mesh force [kN]')
-    _legend(a)
-
-
-def _draw_path(a: Axes, run: RecordedRun, marks: RunMarks, t_end: float) -> None:
-    path = run.active_path
-    if len(path):
-        values = path.values[:, 0]
-        a.plot(np.append(path.steps * run.dt, t_end), np.append(values, values[-1]),
-               drawstyle='steps-post', color=COLORS[0], linewidth=1.8, label='active path')
-    mode = run.parameters.params.mode
-    for direction, marker, name in ((1, '^', 'forward'), (-1, 'v', 'reverse')):
-        at = [time for time, d in marks.reversals if d == direction]
-        if at:      # on the path that carries the drive after the reversal
-            a.plot(at, [active_path(mode, direction)] * len(at), linestyle='none',
-                   marker=marker, markersize=9, color=COLORS[4], markeredgecolor='k',
-                   gid=Mark.REVERSAL, zorder=3, label=f'reversal to {name} ({len(at)})')
-    if not marks.reversals:
-        a.plot([], [], ' ', label='no commanded reversal')
-    a.set_yticks([1, 3], ['1  (A → pinion 1)', '3  (B → pinion 3)'])
-    a.set_ylim(0.2, 3.8)
-    a.set_ylabel('path [–]')
     _legend(a)
 
 

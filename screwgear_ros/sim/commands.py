@@ -123,11 +123,14 @@ def apply_direction(current: DriveInput, value: int) -> DriveInput:
 
 
 def _signed(topic: str, value: Any, max_torque: float, shown: Any,
-            deadband: float) -> tuple[float, int]:
+            deadband: float, direction: int = 0, hysteresis: float = 0.0) -> tuple[float, int]:
     """A signed drive torque as (torque, direction): the sign sets the direction, |value|
     the torque. Within ``deadband`` (N·m, effort_deadband) it is zero torque and
     direction 0, which keeps the direction in force: a controller at rest whose effort
-    flips sign by rounding noise commands no reversal."""
+    flips sign by rounding noise commands no reversal. Against ``direction`` (the one in
+    force; 0: none) and within ``hysteresis`` (N·m, direction_hysteresis) it is zero
+    torque and direction 0 as well: a reversal needs an effort beyond the hysteresis, so
+    noise on a near-zero effort does not switch the path back and forth."""
     effort = value
     # A float within the limit (so finite) is valid as it is: the common case, checked in
     # one comparison; anything else gets the full checks and their messages.
@@ -142,41 +145,52 @@ def _signed(topic: str, value: Any, max_torque: float, shown: Any,
     magnitude = abs(effort)
     if magnitude <= deadband:
         return 0.0, 0
-    return magnitude, 1 if effort > 0.0 else -1
+    sign = 1 if effort > 0.0 else -1
+    if magnitude <= hysteresis and sign != direction:
+        return 0.0, 0
+    return magnitude, sign
 
 
 def _signed_drive(topic: str, current: DriveInput, value: Any, max_torque: float,
-                  shown: Any, deadband: float) -> DriveInput:
+                  shown: Any, deadband: float, hysteresis: float = 0.0) -> DriveInput:
     """The input in force with a signed drive torque (:func:`_signed`) folded in."""
-    torque, direction = _signed(topic, value, max_torque, shown, deadband)
+    torque, direction = _signed(topic, value, max_torque, shown, deadband,
+                                current.direction, hysteresis)
     # DriveInput.of: a closed loop folds one of these into the input every tick.
     return DriveInput.of(torque, direction or current.direction, current.load)
 
 
-def effort_drive(value: Any, max_torque: float, deadband: float = 0.0) -> tuple[float, int]:
+def effort_drive(value: Any, max_torque: float, deadband: float = 0.0, direction: int = 0,
+                 hysteresis: float = 0.0) -> tuple[float, int]:
     """cmd_effort's one value as (drive torque, direction; 0: the direction in force
     stays), validated as :func:`apply_effort` validates it (the same InputRejected): what
-    a closed loop's answer folds into the input, without making the input itself."""
-    return _signed(Input.CMD_EFFORT, value, max_torque, [value], deadband)
+    a closed loop's answer folds into the input, without making the input itself.
+    ``direction`` is the one in force, for the ``hysteresis``."""
+    return _signed(Input.CMD_EFFORT, value, max_torque, [value], deadband, direction,
+                   hysteresis)
 
 
 def apply_effort(current: DriveInput, values: Sequence[float], max_torque: float,
-                 deadband: float = 0.0) -> DriveInput:
+                 deadband: float = 0.0, hysteresis: float = 0.0) -> DriveInput:
     """cmd_effort: one signed torque, N·m; the sign sets the direction, |value| the torque.
 
     |value| <= ``deadband`` is zero torque and keeps the direction in force (no
-    reversal without a sign that means something).
+    reversal without a sign that means something); so is a value against the direction
+    in force with |value| <= ``hysteresis`` (a reversal needs more than the hysteresis).
     """
     if len(values) != 1:
         raise InputRejected(Input.CMD_EFFORT, list(values),
                             f'expects exactly one value (the signed drive torque), got {len(values)}')
-    return _signed_drive(Input.CMD_EFFORT, current, values[0], max_torque, list(values), deadband)
+    return _signed_drive(Input.CMD_EFFORT, current, values[0], max_torque, list(values), deadband,
+                         hysteresis)
 
 
 def apply_joint_command(current: DriveInput, command: Any, max_torque: float,
-                        joint_names: Sequence[str], deadband: float = 0.0) -> DriveInput:
+                        joint_names: Sequence[str], deadband: float = 0.0,
+                        hysteresis: float = 0.0) -> DriveInput:
     """joint_commands: the effort of ``joint_names[COMMANDED_JOINT]`` is a signed drive
-    torque, N·m, exactly as cmd_effort's one value (with the same ``deadband``).
+    torque, N·m, exactly as cmd_effort's one value (with the same ``deadband`` and
+    ``hysteresis``).
 
     The message must name that joint, name no joint joint_states does not have, carry
     no position or velocity command and exactly one effort value.
@@ -199,7 +213,8 @@ def apply_joint_command(current: DriveInput, command: Any, max_torque: float,
         raise InputRejected(topic, command, f'expects exactly one effort value ({joint}/'
                             f'{COMMAND_INTERFACE}, the signed drive torque), got '
                             f'{len(command.effort)}')
-    return _signed_drive(topic, current, command.effort[0], max_torque, command, deadband)
+    return _signed_drive(topic, current, command.effort[0], max_torque, command, deadband,
+                         hysteresis)
 
 
 def apply_load(current: DriveInput, value: float, max_load: float) -> DriveInput:
@@ -246,7 +261,8 @@ def apply_command(current: DriveInput, topic: str, value: Any, params: TablePara
     joint_states names in force (default: the default names).
     """
     if topic == Input.CMD_EFFORT:            # first: a closed loop sends one a tick
-        return apply_effort(current, value, params.max_torque, params.effort_deadband)
+        return apply_effort(current, value, params.max_torque, params.effort_deadband,
+                            params.direction_hysteresis)
     if topic == Input.CMD_TORQUE:
         return apply_torque(current, value, params.max_torque)
     if topic == Input.CMD_DIRECTION:
@@ -257,7 +273,7 @@ def apply_command(current: DriveInput, topic: str, value: Any, params: TablePara
     if topic == Input.JOINT_COMMANDS:
         names = SimSettings().joint_names if joint_names is None else joint_names
         return apply_joint_command(current, value, params.max_torque, names,
-                                   params.effort_deadband)
+                                   params.effort_deadband, params.direction_hysteresis)
     raise InputRejected(topic, value, f'unknown input topic (known: {", ".join(INPUT_TOPICS)})')
 
 

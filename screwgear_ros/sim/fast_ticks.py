@@ -43,7 +43,8 @@ def tick_effort(self: Session, effort: Any) -> Tick | None:
         return self.tick(Command.of(Input.CMD_EFFORT, [effort]))
     params = plant.params
     try:
-        torque, direction = effort_drive(effort, params.max_torque, params.effort_deadband)
+        torque, direction = effort_drive(effort, params.max_torque, params.effort_deadband,
+                                         plant.direction, params.direction_hysteresis)
     except InputRejected:                # tick refuses it, counts it and says why
         return self.tick(Command.of(Input.CMD_EFFORT, [effort]))
     plant.set_drive(torque, direction)

@@ -23,9 +23,10 @@ EXTRA_KEYS = ('package_version', 'initial_state', 'start_step')
 #: Parameters and settings added after the first release, with the value that recordings
 #: made before them ran with (so that such a recording replays as it ran): no command
 #: timeout, the ideal torque source (the stall torque then plays no part), the paper's
-#: mesh equations, plain fixed-step RK4 (no contact location), no effort deadband, no
-#: bearing friction, an instant drive torque without cogging.
+#: mesh equations, plain fixed-step RK4 (no contact location), no effort deadband and
+#: no direction hysteresis, no bearing friction, an instant drive torque without cogging.
 INTRODUCED = {'command_timeout': 0.0, 'drive_no_load_speed': 0.0, 'effort_deadband': 0.0,
+              'direction_hysteresis': 0.0,
               'drive_stall_torque': TableParams.drive_stall_torque, 'mesh_formulation': 'paper',
               'contact_location': False, **{
                   f'{body}_{what}': 0.0 for body in ('table', 'pinion')

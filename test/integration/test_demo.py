@@ -178,3 +178,28 @@ def test_lockstep_demo_with_busy_loops_holds_quietly_and_tracks(tmp_path):
     assert_quiet_hold(rec)
     assert_tracks(rec)
     assert np.isfinite(rec.angle).all()
+
+
+@pytest.mark.ros
+def test_demo_controller_duration_stops_a_lockstep_run_at_exactly_that_stamp(tmp_path):
+    """``demo_controller --duration S`` answers no joint_states stamped at or after S
+    simulated seconds and exits 0; table_sim in lockstep integrates no tick without an
+    answer, so its recording ends at exactly S."""
+    duration = 0.4
+    bag = tmp_path / 'bag'
+    sim = ctl = None
+    try:
+        sim = start_process('table_sim', params_file=CONFIG,
+                            params={'lockstep': True, 'real_time_factor': 0.0,
+                                    'record': str(bag)}, workdir=tmp_path / 'sim')
+        ctl = start_process('demo_controller', args=['--duration', str(duration)],
+                            workdir=tmp_path / 'ctl')
+        assert ctl.popen.wait(timeout=STARTUP_TIMEOUT + RUN_TIMEOUT) == 0, ctl.output()
+        assert 'stop time' in ctl.output()[1] + ctl.output()[0]
+        assert_clean_exit(sim, signal.SIGINT)      # closes the bag
+    finally:
+        for proc in (sim, ctl):
+            if proc is not None:
+                proc.kill()
+    rec = read_bag(bag)
+    assert round(rec.time[-1] * 1e9) == round(duration * 1e9), rec.time[-1]

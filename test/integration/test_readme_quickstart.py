@@ -53,7 +53,7 @@ def constant(code: str, name: str) -> float:
             for target in node.targets:
                 names = target.elts if isinstance(target, ast.Tuple) else [target]
                 values = node.value.elts if isinstance(node.value, ast.Tuple) else [node.value]
-                for n, v in zip(names, values, strict=False):
+                for n, v in zip(names, values, strict=True):
                     if isinstance(n, ast.Name) and n.id == name:
                         return float(ast.literal_eval(v))
     raise AssertionError(f'the controller sets no {name}')
@@ -101,10 +101,20 @@ def test_quick_start_qos_names_the_latched_topics():
     assert 'transient local' in words(line)
 
 
+def test_quick_start_runs_the_node_in_lockstep_and_answers_each_new_stamp_once():
+    """The flag, and the lines of the controller that skip a stamp already answered."""
+    text, code = words(section()), controller_code()
+    assert '-p lockstep:=true' in text, 'the quick start does not start the node in lockstep'
+    assert 'msg.header.stamp' in code and 'self.last' in code, (
+        'the quick start controller does not remember the stamp it answered')
+    assert 'get_subscription_count' in code, (
+        'the quick start controller answers before the node can hear it')
+
+
 @pytest.mark.ros
 def test_quick_start_controller_runs_as_printed(tmp_path):
     code = controller_code()
-    assert len(code.splitlines()) <= 20, 'the quick start controller is over 20 lines'
+    assert len(code.splitlines()) <= 25, 'the quick start controller is over 25 lines'
     target = constant(code, 'TARGET')
     script = tmp_path / 'my_pd.py'
     script.write_text(code, encoding='utf-8')

@@ -97,6 +97,28 @@ def test_an_effort_within_the_deadband_is_no_torque_and_no_reversal(topic):
     assert apply_command(NOW, topic, value(1e-14), exact) == DriveInput(1e-14, 1, 15.0)
 
 
+@pytest.mark.parametrize('topic', ['cmd_effort', 'joint_commands'])
+def test_a_reversal_needs_an_effort_beyond_the_direction_hysteresis(topic):
+    """A Schmitt trigger on the effort: against the direction in force (reverse, −1),
+    an effort up to the hysteresis is no torque and keeps the path; beyond it, it
+    reverses; along the direction in force every effort drives."""
+    hysteresis = 20.0
+    params = P.replace(direction_hysteresis=hysteresis)
+    value = (lambda e: [e]) if topic == 'cmd_effort' else (
+        lambda e: JointCommand(('pinion_1',), effort=(e,)))
+    for effort in (1e-3, 5.0, hysteresis):
+        assert apply_command(NOW, topic, value(effort), params) == DriveInput(0.0, -1, 15.0)
+        assert apply_command(NOW, topic, value(-effort), params) == \
+            DriveInput(effort, -1, 15.0)
+    assert apply_command(NOW, topic, value(20.5), params) == DriveInput(20.5, 1, 15.0)
+    forward = DriveInput(120.0, 1, 15.0)
+    assert apply_command(forward, topic, value(-20.0), params) == DriveInput(0.0, 1, 15.0)
+    assert apply_command(forward, topic, value(-20.5), params) == DriveInput(20.5, -1, 15.0)
+    # the declared default is no hysteresis: the paper's law, every sign a direction
+    assert TableParams.direction_hysteresis == 0.0
+    assert apply_command(NOW, topic, value(5.0), P) == DriveInput(5.0, 1, 15.0)
+
+
 def test_a_controller_at_rest_flipping_its_sign_by_rounding_noise_reverses_nothing():
     # the effort of a PD controller holding the table, rounding noise of either sign,
     # then silence past command_timeout: no reversal, and the timeout says nothing of a

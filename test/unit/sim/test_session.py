@@ -249,10 +249,11 @@ def test_a_tick_given_its_command_is_a_submit_then_a_tick():
 
 @pytest.mark.parametrize('params, settings', [
     (P.replace(effort_deadband=5.0), replace(S, command_timeout=0.03)),
+    (P.replace(direction_hysteresis=150.0), S),
     (P, replace(S, encoder_counts_table=4096, position_noise_pinion_1=1e-4,
                 velocity_noise_pinion_3=0.01, velocity_filter_cutoff_table=200.0,
                 measurement_delay_pinion_1=2, sensor_seed=7)),
-], ids=['deadband-timeout', 'sensors'])
+], ids=['deadband-timeout', 'hysteresis', 'sensors'])
 def test_a_closed_loop_tick_is_the_tick_given_its_command(params, settings):
     """tick_effort(e), the closed loop's fast tick, leaves the session exactly as
     tick(Command('cmd_effort', [e])) does (state bits, step, input, path, outputs, what

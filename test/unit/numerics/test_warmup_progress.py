@@ -1,0 +1,42 @@
+"""The warm-up's progress lines: one per period in which more kernels were compiled,
+counting kernels this process compiled (not those loaded from the cache)."""
+
+from __future__ import annotations
+
+import time
+
+import numba
+
+from screwgear_ros.numerics.kernels import FIRST_COMPILE, progress
+
+
+def test_progress_counts_the_kernels_compiled_within():
+    @numba.njit
+    def double(x):
+        return 2.0 * x
+
+    @numba.njit
+    def triple(x):
+        return 3.0 * x
+
+    lines: list[str] = []
+    with progress(period=0.05, say=lines.append, every=[double, triple]):
+        double(1.0)
+        time.sleep(0.5)
+        triple(1.0)
+        time.sleep(0.5)
+    counts = [line.split('compiling kernels: ')[1].split(' done')[0] for line in lines]
+    assert counts == ['1', '2'], lines
+    assert all(f'of about {FIRST_COMPILE}' in line for line in lines)
+
+
+def test_nothing_compiled_nothing_said():
+    """A kernel the block does not call is not compiled and not reported."""
+    @numba.njit
+    def half(x):
+        return 0.5 * x
+
+    lines: list[str] = []
+    with progress(period=0.01, say=lines.append, every=[half]):
+        time.sleep(0.1)
+    assert lines == []
