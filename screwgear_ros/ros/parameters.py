@@ -264,8 +264,8 @@ __all__ = [
     'changed_values',
     'complete_harmonics',
     'declare',
-    'dropped_harmonics',
     'descriptor',
+    'dropped_harmonics',
     'plain_value',
     'unknown_overrides',
 ]

@@ -385,12 +385,12 @@ def format_exact(c: ExactComparison) -> str:
 
 
 __all__ = [
+    'WHY_NOT_THE_SAME',
     'Comparison',
     'Difference',
     'EventTiming',
     'ExactComparison',
     'SignalDifference',
-    'WHY_NOT_THE_SAME',
     'compare_runs',
     'exact_comparison',
     'format_comparison',
