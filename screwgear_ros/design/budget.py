@@ -1,0 +1,90 @@
+"""What a frequency-response measurement will cost, known before it runs, and the bounds
+beyond which it is refused.
+
+A stepped sine at f Hz runs at least two periods after its settling, so a low ``--from``
+makes long runs: at 1e-4 Hz one point is 2e4 s of simulated time, 4e8 integration steps.
+The measurement keeps each run's samples in memory (the outputs of every tick), and a
+chirp or a closed loop is one run. :func:`check_cost` refuses a measurement whose largest
+run would hold more than ``MAX_BYTES`` of samples, or that makes more than ``MAX_TICKS``
+ticks in all (about an hour on one core), naming the limit; a measurement with more than
+``MAX_POINTS`` frequencies is refused before any plan is made.
+
+:attr:`Cost.wall_estimate` is a rough wall time (``TICKS_PER_SECOND`` and
+``STEPS_PER_SECOND``, measured on one core of the 2-core machine); the CLI prints it before a
+measurement expected to take longer than ``ANNOUNCE_AFTER`` s.
+
+Examples
+--------
+>>> cost = Cost(ticks=1000, largest_run=500, simulated=0.05, bytes=28_000, steps=1000)
+>>> check_cost(cost) is None and cost.wall_estimate < 1.0
+True
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .errors import MeasurementRefused
+
+#: Most frequencies in one measurement.
+MAX_POINTS = 2000
+#: Most memory the samples of the largest run may take, bytes.
+MAX_BYTES = 1 << 30
+#: Most ticks in one measurement (about an hour of wall time on one core).
+MAX_TICKS = 100_000_000
+#: For the estimate: ticks per second of wall time, and integration steps per second
+#: beyond one a tick (one core of the 2-core machine, measured).
+TICKS_PER_SECOND = 36_000.0
+STEPS_PER_SECOND = 2_000_000.0
+#: The CLI prints the estimate before a measurement expected to take longer, s.
+ANNOUNCE_AFTER = 10.0
+
+
+@dataclass(frozen=True)
+class Cost:
+    """A measurement's size: ``ticks`` in all, the ``largest_run``'s ticks, the simulated
+    time (s), the ``bytes`` the largest run's samples take, the integration ``steps``."""
+
+    ticks: int
+    largest_run: int
+    simulated: float
+    bytes: int
+    steps: int
+
+    @property
+    def wall_estimate(self) -> float:
+        """Rough wall time, s (module docstring)."""
+        return self.ticks / TICKS_PER_SECOND + (self.steps - self.ticks) / STEPS_PER_SECOND
+
+    def describe(self) -> str:
+        return (f'{self.simulated:.4g} s simulated in {self.ticks:,} ticks, about '
+                f'{self.wall_estimate:.0f} s of wall time; the largest run holds '
+                f'{self.bytes / 2**20:.3g} MiB of samples')
+
+
+def check_points(points: int) -> None:
+    """Refuse a number of frequencies beyond ``MAX_POINTS`` (or below 1)."""
+    if not 1 <= points <= MAX_POINTS:
+        raise MeasurementRefused(f'the number of frequencies must lie in 1 … {MAX_POINTS}, '
+                                 f'got {points}')
+
+
+def check_cost(cost: Cost) -> None:
+    """Refuse a measurement beyond the bounds (module docstring), saying which and what
+    would raise the lowest frequency into them."""
+    if cost.bytes > MAX_BYTES:
+        raise MeasurementRefused(
+            f'the measurement would hold {cost.bytes / 2**30:.3g} GiB of samples in one run '
+            f'({cost.largest_run:,} ticks); the limit is {MAX_BYTES / 2**30:g} GiB: raise '
+            'the lowest frequency (--from) or use stepped sines')
+    if cost.ticks > MAX_TICKS:
+        raise MeasurementRefused(
+            f'the measurement would make {cost.ticks:,} ticks ({cost.simulated:.4g} s '
+            f'simulated, about {cost.wall_estimate / 3600:.3g} h); the limit is '
+            f'{MAX_TICKS:,} (about {MAX_TICKS / TICKS_PER_SECOND / 3600:.2g} h): raise the '
+            'lowest frequency (--from) or use fewer points')
+
+
+__all__ = ['ANNOUNCE_AFTER', 'MAX_BYTES', 'MAX_POINTS', 'MAX_TICKS', 'STEPS_PER_SECOND',
+           'TICKS_PER_SECOND',
+           'Cost', 'check_cost', 'check_points']
