@@ -47,7 +47,7 @@ import numpy as np
 from ..params.table import SimSettings, TableParams
 from ..sim.simulation import Observation, Simulation
 from .bode import loop_figure
-from .budget import Cost, check_cost, check_points
+from .budget import LOOP_TICK, Cost, check_cost, check_points
 from .errors import MeasurementRefused, UnknownOutput, UsageError
 from .frequency import INPUT_UNIT, Input, Measurement, Method, _fit, default_bias
 from .linear_model import OUTPUTS
@@ -169,8 +169,7 @@ def measure_loop(params: TableParams, settings: SimSettings | None,
         plan.append((start, start + window, 2.0 * math.pi * periods / (window * h)))
         tick = start + window
     total = tick
-    cost = Cost(total, total, total * h, total * LOOP_BYTES_PER_TICK,
-                total * settings.steps_per_publish)
+    cost = Cost(total, total, total * h, total * LOOP_BYTES_PER_TICK, LOOP_TICK)
     check_cost(cost)
     if announce is not None:
         announce(cost)

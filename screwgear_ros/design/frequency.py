@@ -50,7 +50,7 @@ from ..physics.drive import DrivePiece
 from ..sim.events import Command
 from ..sim.simulation import Simulation
 from .bode import TRUST, measurement_figure
-from .budget import Cost, check_cost, check_points
+from .budget import SINE_TICK, Cost, check_cost, check_points
 from .errors import MeasurementFailed, MeasurementRefused, UnknownOutput
 from .linear_model import OUTPUTS, LinearModel
 from .linearize import linearize
@@ -77,8 +77,9 @@ SETTLE_TIME_CONSTANTS = 8.0
 SETTLE_MIN, SETTLE_MAX = 0.02, 2.0
 #: Fit window: at least this many periods and this long, s (rounded up to whole periods).
 FIT_PERIODS, FIT_MIN_TIME = 2, 0.02
-#: Bytes a run keeps per tick and per column (inputs, outputs, fitted columns: float64).
-BYTES_PER_TICK = 8
+#: Bytes a run keeps per tick and per column (inputs, outputs, fitted columns: float64),
+#: and the columns it works with besides the outputs (steps, times, input, fit basis).
+BYTES_PER_TICK, WORK_COLUMNS = 8, 6
 
 
 @dataclass
@@ -267,7 +268,8 @@ def measure(params: TableParams, settings: SimSettings | None = None, *,
     else:
         runs = [_chirp_ticks(hz_points, settings.dt, settle)]
     cost = Cost(sum(runs), max(runs), sum(runs) * settings.dt,
-                max(runs) * BYTES_PER_TICK * (len(outputs) + len(OUTPUTS)), sum(runs))
+                max(runs) * BYTES_PER_TICK * (len(outputs) + len(OUTPUTS) + WORK_COLUMNS),
+                SINE_TICK)
     check_cost(cost)
     if announce is not None:
         announce(cost)
