@@ -117,10 +117,23 @@ def measurement_figure(m: Any, column: int, input_unit: str) -> Any:
     return fig
 
 
+def _beside(f: np.ndarray, curve: np.ndarray, at_hz: float, level: float) -> dict:
+    """Where a margin's label goes: beside its arrow at ``level``, on the side (an octave
+    left or right of ``at_hz``) where ``curve`` stays further from that level."""
+    if len(f) < 2:
+        return {'xytext': (8, 0), 'ha': 'left'}
+    logf = np.log(f)
+    left, right = (np.interp(math.log(at_hz) + d, logf, curve) for d in (-0.7, 0.7))
+    if abs(right - level) >= abs(left - level):
+        return {'xytext': (8, 0), 'ha': 'left'}
+    return {'xytext': (-8, 0), 'ha': 'right'}
+
+
 def loop_figure(loop: Any, trust: float = TRUST) -> Any:
     """Bode plot of a :class:`~.closed_loop.LoopMeasurement`: the loop gain's magnitude
-    (dB) and phase with the gain and phase margins marked, and the sensitivity's
-    magnitude with its peak marked; measured (markers, grey where the coherence is low)
+    (dB) and phase with the gain and phase margins marked (the phase margin's label below
+    the −180° line, where a stable loop's phase is not near its crossover), and the
+    sensitivity's magnitude with its peak marked (its label above the peak); measured (markers, grey where the coherence is low)
     and with the linear plant (lines through the same frequencies)."""
     import matplotlib
     matplotlib.use('Agg')
@@ -148,9 +161,8 @@ def loop_figure(loop: Any, trust: float = TRUST) -> Any:
         ph.annotate('', xy=(m.phase_at_hz, -180.0 + m.phase), xytext=(m.phase_at_hz, -180.0),
                     arrowprops={'arrowstyle': '<->', 'color': 'C2'})
         ph.annotate(f'phase margin {m.phase:.1f}°\nat {m.phase_at_hz:.3g} Hz',
-                    (m.phase_at_hz, -180.0 + 0.5 * m.phase), xytext=(-12, 0),
-                    textcoords='offset points', ha='right', va='center', fontsize=8,
-                    color='C2')
+                    (m.phase_at_hz, -180.0), xytext=(6, -4), textcoords='offset points',
+                    ha='left', va='top', fontsize=8, color='C2')
     if m.gain is not None:
         gm_db = 20.0 * math.log10(m.gain)
         for ax in axes:
@@ -158,16 +170,18 @@ def loop_figure(loop: Any, trust: float = TRUST) -> Any:
         mag.annotate('', xy=(m.gain_at_hz, 0.0), xytext=(m.gain_at_hz, -gm_db),
                      arrowprops={'arrowstyle': '<->', 'color': 'C4'})
         mag.annotate(f'gain margin {gm_db:.1f} dB\nat {m.gain_at_hz:.4g} Hz',
-                     (m.gain_at_hz, -0.5 * gm_db), xytext=(-12, 0),
-                     textcoords='offset points', ha='right', va='center', fontsize=8,
-                     color='C4')
+                     (m.gain_at_hz, -0.5 * gm_db),
+                     **_beside(f, db(r.linear[0]), m.gain_at_hz, -0.5 * gm_db),
+                     textcoords='offset points', va='center', fontsize=8, color='C4')
     if m.peak_sensitivity is not None:
         peak_db = 20.0 * math.log10(m.peak_sensitivity)
         sens.plot([m.peak_at_hz], [peak_db], marker='v', ms=9, color='C1', ls='none')
         sens.annotate(f'peak |S| {m.peak_sensitivity:.2f} ({peak_db:.1f} dB)\nat '
-                      f'{m.peak_at_hz:.4g} Hz', (m.peak_at_hz, peak_db), xytext=(12, -2),
-                      textcoords='offset points', ha='left', va='top', fontsize=8,
+                      f'{m.peak_at_hz:.4g} Hz', (m.peak_at_hz, peak_db), xytext=(0, 9),
+                      textcoords='offset points', ha='center', va='bottom', fontsize=8,
                       color='C1')
+        low, high = sens.get_ylim()
+        sens.set_ylim(low, high + 0.3 * (high - low))    # room above the peak for its label
     fig.suptitle(f'loop of {loop.name} around the table, at the tick rate', fontsize=11)
     mag.set_title('loop gain L = −c/u: c the controller\'s effort, u = c + d what the plant '
                   'gets (d the injected sine)', fontsize=8.5)
