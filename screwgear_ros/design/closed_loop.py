@@ -63,6 +63,8 @@ FIT_PERIODS, FIT_MIN_TIME = 2, 0.1
 #: Highest frequency measured, as a fraction of the Nyquist frequency of the tick rate
 #: (module docstring).
 NYQUIST_FRACTION = 0.9
+#: The name of a controller factory's first parameter (a parameter name, not an input).
+FACTORY_PARAMETER = 'setpoint'
 #: Bytes the run keeps per tick: the effort, the disturbance and the seven outputs.
 LOOP_BYTES_PER_TICK = 8 * (2 + len(OUTPUTS))
 
@@ -288,7 +290,7 @@ def _is_factory(found: Callable[..., object]) -> bool:
         parameters = list(inspect.signature(found).parameters)
     except (TypeError, ValueError):       # a builtin without a signature: a controller
         return False
-    return bool(parameters) and parameters[0] == 'setpoint'
+    return bool(parameters) and parameters[0] == FACTORY_PARAMETER
 
 
 class _PlainController:
@@ -312,6 +314,7 @@ class _PlainController:
 __all__ = [
     'INPUT_UNIT',
     'LOOP',
+    'FACTORY_PARAMETER',
     'LOOP_BYTES_PER_TICK',
     'NYQUIST_FRACTION',
     'SENSITIVITY',
