@@ -268,6 +268,7 @@ def main(argv: list[str] | None = None) -> int:
             print('replay_run: a free-running replay is judged by whether its outputs are '
                   'what the events make at the steps they landed, not compared for identity',
                   file=sys.stderr)
+        assert original is not None        # --compare needs a BAG (_arguments)
         with _raising_on_signals():
             return _compare(original, args.record, lockstep)
     except Interrupted:

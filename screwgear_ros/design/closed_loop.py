@@ -312,9 +312,9 @@ class _PlainController:
 
 
 __all__ = [
+    'FACTORY_PARAMETER',
     'INPUT_UNIT',
     'LOOP',
-    'FACTORY_PARAMETER',
     'LOOP_BYTES_PER_TICK',
     'NYQUIST_FRACTION',
     'SENSITIVITY',
