@@ -14,8 +14,16 @@ diverged during a measurement.
 
 ``--controller demo|module:callable`` closes the loop (:mod:`screwgear_ros.design.
 closed_loop`): the sine is added to the controller's effort, and the rows are the loop
-gain, the sensitivity and each output's closed-loop response; it prints the gain and phase
-margins read off the measured loop gain (and off the loop with the linear plant).
+gain, the sensitivity and each output's closed-loop response of the sampled-data loop, up
+to 0.9 of the tick rate's Nyquist frequency; it prints the gain margin, the phase margin
+and the peak |S| read off the measured loop gain (and off the loop with the linear plant).
+``module`` is imported as ``python -m`` imports one (the current directory first);
+``callable`` is a factory (its first parameter named ``setpoint``: called once with the
+setpoint) or the controller itself (called every tick with an observation).
+
+Bounds (:mod:`screwgear_ros.design.budget`): at most 2000 frequencies; a measurement whose
+largest run would hold more than 1 GiB of samples, or that makes more than 1e8 ticks, is
+refused with the limit; one expected to take more than 10 s prints its estimate first.
 """
 
 from __future__ import annotations
@@ -26,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..design.budget import ANNOUNCE_AFTER, MAX_POINTS, Cost
 from ..design.closed_loop import make_controller, measure_loop
 from ..design.errors import DesignError, UsageError
 from ..design.frequency import Input, Method, measure
@@ -72,9 +81,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--mesh', choices=('average', 'frozen'), default='average',
                         help="the linear model's mesh (see linearize --mesh; default average)")
     parser.add_argument('--controller', metavar='demo|module:callable',
-                        help='close the loop with this controller (the demo PID, or a factory '
-                        'called as scenarios call it) holding the table; measures the loop '
-                        'gain, the sensitivity and the closed-loop response, and the margins')
+                        help='close the loop with this controller holding the table: the demo '
+                        'PID, or module:callable from the current directory or the Python '
+                        'path, a factory whose first parameter is named setpoint (called as '
+                        'scenarios call it) or the controller itself (called every tick with '
+                        'an observation); measures the loop gain, the sensitivity and the '
+                        'closed-loop response, and the margins')
     parser.add_argument('-o', '--out', required=True, metavar='OUT',
                         help='output stem: OUT.csv and OUT.png')
     args = parser.parse_args(argv)
@@ -90,8 +102,8 @@ def main(argv: list[str] | None = None) -> int:
         if not (args.low > 0.0 and args.high >= args.low and np.isfinite(args.high)):
             raise UsageError(f'--from {args.low:g} and --to {args.high:g} must be '
                              'finite with 0 < from <= to')
-        if args.points < 1:
-            raise UsageError(f'--points must be >= 1, got {args.points}')
+        if not 1 <= args.points <= MAX_POINTS:
+            raise UsageError(f'--points must lie in 1 … {MAX_POINTS}, got {args.points}')
         if not stem.parent.is_dir():
             raise UsageError(f'{stem.parent} is not a directory')
         params, settings = resolve(file_values(args.params) if args.params else {})
@@ -105,13 +117,14 @@ def main(argv: list[str] | None = None) -> int:
             controller = make_controller(args.controller, settings)
             loop = measure_loop(params, settings, controller, outputs=args.output,
                                 frequencies=frequencies, amplitude=args.amplitude,
-                                torque=args.torque, load=args.load, direction=args.direction)
+                                torque=args.torque, load=args.load, direction=args.direction,
+                                mesh=args.mesh, name=args.controller, announce=_announce)
             result = loop.response
         else:
             result = measure(params, settings, input=args.input, outputs=args.output,
                              frequencies=frequencies, amplitude=args.amplitude,
                              torque=args.torque, load=args.load, direction=args.direction,
-                             method=args.method, mesh=args.mesh)
+                             method=args.method, mesh=args.mesh, announce=_announce)
         csv_path, png_path = stem.with_name(stem.name + '.csv'), stem.with_name(stem.name + '.png')
         result.write_csv(csv_path)
         (loop or result).save_figure(png_path)
@@ -133,6 +146,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f'closed loop ({args.controller}), linear plant: {loop.margins_linear.describe()}')
     print(f'wrote {csv_path} and {png_path}')
     return EXIT_OK
+
+
+def _announce(cost: Cost) -> None:
+    """Say what a long measurement will take before it starts."""
+    if cost.wall_estimate > ANNOUNCE_AFTER:
+        print(f'frequency_response: measuring {cost.describe()}', flush=True)
 
 
 if __name__ == '__main__':

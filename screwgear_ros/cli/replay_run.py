@@ -17,8 +17,10 @@ are counted, not told apart by their stamps). :mod:`screwgear_ros.ros.node_repla
 **Free-running** (into a running node with ``lockstep: false``, or ``--record NEW
 --free-running``): each event is sent when the node's /clock reaches one publish tick
 (``--lead-ticks``) before its step; it lands where the wall clock puts it, usually on
-its step, sometimes a tick or more late. ``--compare`` then passes when the new run is
-exactly what the original's events make at the steps they landed (runs.compare).
+its step, sometimes a tick or more late. ``--compare`` then says CONSISTENT (not the
+same run: a moved event makes another trajectory) when the new run is exactly what the
+original's events make at the steps they landed (runs.compare), with the timing and the
+largest signal difference to the original beside it.
 
 * ``replay_run BAG --record NEW``: starts a fresh ``table_sim`` with the bag's start
   parameters, ``record:=NEW``, ``lockstep:=true``, ``publish_clock:=true`` and real-time
@@ -34,8 +36,8 @@ The replay must be alone with its node: a second node of the same full name, or 
 other publisher on the node's input topics or ``<node>/tick``, is refused before the
 replay starts (and stops it if one appears meanwhile).
 
-Exit status: 0 replayed (with ``--compare``: identical, or free-running: what the
-events make at the steps they landed); 1 ``--compare`` found a difference; 2 an error,
+Exit status: 0 replayed (with ``--compare``: IDENTICAL, or free-running: CONSISTENT,
+what the events make at the steps they landed); 1 ``--compare`` found a difference; 2 an error,
 with the reason on stderr and never a traceback: a BAG or scenario that cannot be read,
 a recording that lost ticks (lockstep), NEW exists, table_sim not on PATH, the node
 (its inputs, ``~/tick``, services, joint_states or /clock) not reachable within
@@ -43,7 +45,7 @@ CONNECT_TIMEOUT, another node of its name or another publisher to it, the spawne
 ending early or with a non-zero status, a parameter change or reset refused (the
 node's reason), a service reply missing after REPLY_TIMEOUT, a lockstep node making no
 tick for STALL_TIMEOUT after an answer (a free-running node's /clock standing still as
-long), a comparison that compared nothing, a new recording that cannot be read, and
+long), a comparison that compared nothing (an original with no sample after its start), a new recording that cannot be read, and
 SIGINT/SIGTERM: replay_run then stops within a second, saying how far it got (a node it
 started gets SIGINT too and closes its bag on its own).
 """
@@ -100,8 +102,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument('--record', help='start a fresh table_sim recording to this path '
                         'and replay into it')
     parser.add_argument('--compare', action='store_true', help='with --record: compare the '
-                        'new recording with BAG (lockstep: identical; free-running: what the '
-                        'events make at the steps they landed)')
+                        'new recording with BAG (lockstep: identical; free-running: consistent, '
+                        'what the events make at the steps they landed)')
     parser.add_argument('--free-running', action='store_true', help='with --record: run the '
                         'fresh node free-running at --rate and follow its /clock instead of '
                         'lockstep')
@@ -267,6 +269,7 @@ def main(argv: list[str] | None = None) -> int:
             print('replay_run: a free-running replay is judged by whether its outputs are '
                   'what the events make at the steps they landed, not compared for identity',
                   file=sys.stderr)
+        assert original is not None        # --compare needs a BAG (_arguments)
         with _raising_on_signals():
             return _compare(original, args.record, lockstep)
     except Interrupted:

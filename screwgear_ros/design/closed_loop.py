@@ -1,28 +1,43 @@
 """The loop of a controller around the table, measured by simulation: loop gain, sensitivity,
-closed-loop response, and the gain and phase margins read off the measured loop gain.
+closed-loop response, and the gain margin, the phase margin and the peak |S| read off the
+measured loop gain.
 
 One run of the node's own loop in-process (:class:`~screwgear_ros.inprocess.simulation.Simulation`
 at the node's tick rate; the controller answers each observation with an effort that takes
 effect at the next tick, as in lockstep). A sine d is added to the controller's effort c at
 the plant input: u = c + d. Around a bias load that the controller holds (so the effort
 keeps its sign), stepped sines in one run, each settled then fitted over whole periods
-like the open-loop measurement (:mod:`.frequency`). With every signal taken as the value
-held over each tick:
+like the open-loop measurement (:mod:`.frequency`).
 
-* loop gain L = −c/u (the controller's answer to the plant's answer to u, its one-tick
-  delay included);
+This is the sampled-data loop the controller lives in: every signal is the sequence of
+values held over the ticks (c, u, d) or sampled at their ends (the outputs), and each
+ratio is one of sequences, so the loop gain is the discrete one the controller sees,
+with its zero-order hold and its one tick to answer:
+
+* loop gain L = −c/u (the controller's answer to the plant's answer to u);
 * sensitivity S = u/d = 1/(1 + L);
-* closed-loop response of each output y/d.
+* closed-loop response of each output y/d (y sampled at the end of the tick d is held).
 
-The "linear" columns put the linear plant model into the same loop with the controller as
-measured (its answer c to the table angle, C = −c/θ2): L = C·P, S = 1/(1 + L), y/d = P·S.
-This is the controller's own law for one of the table angle (the demo's PID); another
-controller's linear columns mean that only if it reads the table angle alone.
+A sampled sinusoid is one sinusoid below the Nyquist frequency of the tick rate, so the
+method holds up to it; it measures up to ``NYQUIST_FRACTION`` (0.9) of it, where a period
+still spans more than two ticks and the whole-period fit of cos and sin stays well
+conditioned. On the paper's table at 1 kHz that covers the mesh resonance (180–227 Hz)
+and its gain margin. Checked against python-control on the linear model in the loop with
+the controller discretized at the tick rate (test/unit/design/test_sampled_loop.py).
+
+The "linear" columns put the linear plant into the same loop, discretized as the
+controller sees it (:func:`~.margins.held_response`), with the controller as measured
+(its answer c to the table angle sampled as the hold starts, C = −c/θ2): L = C·P,
+S = 1/(1 + L), y/d = z·P·S. This is the controller's own law for one of the table angle;
+a controller that reads more (the demo's PID reads the speed too) has its other paths
+folded into C as the measured plant drives them.
 """
 
 from __future__ import annotations
 
+import inspect
 import math
+import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -31,10 +46,13 @@ import numpy as np
 
 from ..inprocess.simulation import Observation, Simulation
 from ..params.table import SimSettings, TableParams
+from .bode import loop_figure
+from .budget import LOOP_TICK, Cost, check_cost, check_points
 from .errors import MeasurementRefused, UnknownOutput, UsageError
 from .frequency import INPUT_UNIT, Input, Measurement, Method, _fit, default_bias
 from .linear_model import OUTPUTS
 from .linearize import linearize
+from .margins import Margins, held_response, margins
 
 #: Rows of the closed-loop table besides the outputs' closed-loop responses.
 LOOP, SENSITIVITY = 'loop_gain', 'sensitivity'
@@ -42,97 +60,30 @@ LOOP, SENSITIVITY = 'loop_gain', 'sensitivity'
 SETTLE, SETTLE_PERIODS = 0.5, 2
 #: Fit window: at least this many periods and this long, s.
 FIT_PERIODS, FIT_MIN_TIME = 2, 0.1
-
-
-@dataclass(frozen=True)
-class Margins:
-    """Gain margin (factor, at the phase crossover) and phase margin (degrees, at the gain
-    crossover) of a loop gain; None where the range holds no crossover."""
-
-    gain: float | None
-    gain_at_hz: float | None
-    phase: float | None
-    phase_at_hz: float | None
-
-    def describe(self) -> str:
-        phase = (f'phase margin {self.phase:.1f}° at {self.phase_at_hz:.3g} Hz'
-                 if self.phase is not None else 'no gain crossover in the range')
-        gain = (f'gain margin {self.gain:.3g} ({20 * math.log10(self.gain):.1f} dB) at '
-                f'{self.gain_at_hz:.4g} Hz' if self.gain is not None
-                else 'no phase crossover (−180°) in the range')
-        return f'{phase}; {gain}'
-
-
-def margins(frequency: np.ndarray, loop: np.ndarray) -> Margins:
-    """Margins of a loop gain sampled at ``frequency`` (Hz, rising): crossings located by
-    linear interpolation in log frequency, of log|L| and of the phase unwrapped from the
-    lowest frequency into (−360°, 0°]."""
-    logf = np.log(frequency)
-    mag = np.log(np.abs(loop))
-    phase = np.degrees(np.unwrap(np.angle(loop)))
-    phase -= 360.0 * np.ceil(phase[0] / 360.0)          # the first one in (−360, 0]
-    pm = pm_hz = gm = gm_hz = None
-    for k in range(len(frequency) - 1):
-        if pm is None and mag[k] >= 0.0 > mag[k + 1]:
-            s = mag[k] / (mag[k] - mag[k + 1])
-            pm_hz = float(np.exp(logf[k] + s * (logf[k + 1] - logf[k])))
-            pm = float(180.0 + phase[k] + s * (phase[k + 1] - phase[k]))
-        if gm is None and (phase[k] + 180.0) * (phase[k + 1] + 180.0) <= 0.0 \
-                and phase[k] != phase[k + 1]:
-            s = (phase[k] + 180.0) / (phase[k] - phase[k + 1])
-            gm_hz = float(np.exp(logf[k] + s * (logf[k + 1] - logf[k])))
-            gm = float(1.0 / np.exp(mag[k] + s * (mag[k + 1] - mag[k])))
-    return Margins(gm, gm_hz, pm, pm_hz)
+#: Highest frequency measured, as a fraction of the Nyquist frequency of the tick rate
+#: (module docstring).
+NYQUIST_FRACTION = 0.9
+#: The name of a controller factory's first parameter (a parameter name, not an input).
+FACTORY_PARAMETER = 'setpoint'
+#: Bytes the run keeps per tick: the effort, the disturbance and the seven outputs.
+LOOP_BYTES_PER_TICK = 8 * (2 + len(OUTPUTS))
 
 
 @dataclass
 class LoopMeasurement:
     """The measured loop (module docstring) as a :class:`Measurement` of the rows
-    ``loop_gain``, ``sensitivity`` and each output's closed-loop response, and its margins."""
+    ``loop_gain``, ``sensitivity`` and each output's closed-loop response, its margins
+    (gain, phase, peak |S|), measured and with the linear plant, and the controller's
+    name."""
 
     response: Measurement
     margins: Margins
     margins_linear: Margins
+    name: str = 'controller'
 
     def figure(self):
-        """Bode plot of the loop gain (margins marked) and the sensitivity's magnitude,
-        measured (markers) and with the linear plant (lines through the same points)."""
-        import matplotlib
-        matplotlib.use('Agg')
-        import matplotlib.pyplot as plt
-        r = self.response
-        f = r.frequency
-        fig, axes = plt.subplots(3, 1, figsize=(7.5, 9.0), sharex=True)
-        mag, ph, sens = axes
-        for values, style, label in ((r.linear, {'color': 'C0', 'ls': '-'}, 'linear plant'),
-                                     (r.measured, {'color': 'C3', 'ls': 'none', 'marker': 'o',
-                                                       'ms': 4}, 'measured')):
-            mag.loglog(f, np.abs(values[0]), label=label, **style)
-            phase = np.degrees(np.unwrap(np.angle(values[0])))
-            ph.semilogx(f, phase - 360.0 * np.ceil(phase[0] / 360.0), **style)
-            sens.loglog(f, np.abs(values[1]), **style)
-        mag.axhline(1.0, color='0.5', lw=0.8)
-        ph.axhline(-180.0, color='0.5', lw=0.8)
-        sens.axhline(1.0, color='0.5', lw=0.8)
-        m = self.margins
-        if m.phase is not None:
-            for ax in axes:
-                ax.axvline(m.phase_at_hz, color='C2', ls='--', lw=0.9)
-            ph.annotate(f'phase margin {m.phase:.1f}°', (m.phase_at_hz, -180.0 + m.phase),
-                        fontsize=8, color='C2')
-        if m.gain is not None:
-            for ax in axes:
-                ax.axvline(m.gain_at_hz, color='C4', ls='--', lw=0.9)
-            mag.annotate(f'gain margin {20 * math.log10(m.gain):.1f} dB',
-                         (m.gain_at_hz, 1.0 / m.gain), fontsize=8, color='C4')
-        mag.set(ylabel='|L|', title='loop gain L = −c/u')
-        ph.set(ylabel='∠L, °')
-        sens.set(ylabel='|S| = |u/d|', xlabel='frequency, Hz', title='sensitivity')
-        for ax in axes:
-            ax.grid(True, which='both', alpha=0.3)
-        mag.legend(fontsize=8)
-        fig.tight_layout()
-        return fig
+        """Bode plot of the loop (:func:`~.bode.loop_figure`)."""
+        return loop_figure(self)
 
     def save_figure(self, path) -> None:
         import matplotlib.pyplot as plt
@@ -148,10 +99,47 @@ def measure_loop(params: TableParams, settings: SimSettings | None,
                  outputs: Sequence[str] = ('table_angle',),
                  frequencies: Sequence[float] | np.ndarray = (1.0, 3.0, 10.0), amplitude: float = 10.0,
                  torque: float | None = None, load: float | None = None,
-                 direction: int = 1) -> LoopMeasurement:
-    """Measure the loop of ``controller`` around the table (module docstring). The bias:
-    ``torque`` (default twice the amplitude) and the ``load`` the controller holds with it
-    (default the one that balances that torque), applied from the start."""
+                 direction: int = 1, mesh: str = 'average', name: str = 'controller',
+                 announce: Callable[[Cost], None] | None = None) -> LoopMeasurement:
+    """Measure the loop of ``controller`` around the table (module docstring).
+
+    Parameters
+    ----------
+    params, settings : TableParams, SimSettings
+        The table and the simulation (its publish_rate is the controller's rate).
+    controller : callable
+        ``controller(observation) -> effort`` (N·m, or None to keep the last).
+    outputs : sequence of str
+        Outputs whose closed-loop response y/d is measured too.
+    frequencies : sequence of float
+        Hz, each in (0, NYQUIST_FRACTION × the Nyquist frequency of the tick rate].
+    amplitude : float
+        Of the sine added to the effort, N·m.
+    torque, load : float, optional
+        The bias: ``torque`` (default twice the amplitude) and the ``load`` the
+        controller holds with it (default the one that balances that torque), applied
+        from the start.
+    direction : int
+        +1 or −1.
+    mesh : str
+        The linear model's mesh (:func:`~.linearize.linearize`).
+    name : str
+        The controller's name, for the plot's title.
+    announce : callable, optional
+        Told the measurement's :class:`~.budget.Cost` before it runs.
+
+    Returns
+    -------
+    LoopMeasurement
+
+    Raises
+    ------
+    MeasurementRefused
+        A frequency out of range, an amplitude that is no finite positive number, or a
+        measurement beyond the budget (:mod:`.budget`).
+    UnknownOutput
+        An output name that is not one of OUTPUTS.
+    """
     settings = settings or SimSettings()
     unknown = [name for name in outputs if name not in OUTPUTS]
     if unknown:
@@ -159,16 +147,19 @@ def measure_loop(params: TableParams, settings: SimSettings | None,
                             f'{", ".join(OUTPUTS)}')
     if not (math.isfinite(amplitude) and amplitude > 0.0):
         raise MeasurementRefused(f'amplitude must be a finite number > 0, got {amplitude!r}')
+    check_points(len(frequencies))
     hz_points = np.sort(np.asarray(frequencies, dtype=float))
     simulation = Simulation.from_values({**params.as_dict(), **settings.as_dict()},
                                         command_timeout=0.0, record='')
     h = simulation.tick_period
-    if hz_points.size == 0 or hz_points[0] <= 0.0 or hz_points[-1] >= 0.05 / h:
-        raise MeasurementRefused(f'closed-loop frequencies must lie in (0, {0.05 / h:g}) Hz: '
-                                 f'a tenth of the Nyquist frequency of the controller\'s rate '
-                                 f'({1.0 / h:g} Hz, publish_rate)')
+    highest = NYQUIST_FRACTION * 0.5 / h
+    if hz_points.size == 0 or not np.all(np.isfinite(hz_points)) or hz_points[0] <= 0.0 \
+            or hz_points[-1] > highest:
+        raise MeasurementRefused(f'closed-loop frequencies must lie in (0, {highest:g}] Hz: '
+                                 f'{NYQUIST_FRACTION:g} of the Nyquist frequency of the '
+                                 f'controller\'s rate ({1.0 / h:g} Hz, publish_rate)')
     bias = default_bias(params, Input.TORQUE, amplitude, torque, load, direction)
-    model = linearize(params, bias[0], bias[1], direction)
+    model = linearize(params, bias[0], bias[1], direction, mesh)
     rows = [OUTPUTS.index(name) for name in outputs]
     plan = []
     tick = 0
@@ -180,6 +171,10 @@ def measure_loop(params: TableParams, settings: SimSettings | None,
         plan.append((start, start + window, 2.0 * math.pi * periods / (window * h)))
         tick = start + window
     total = tick
+    cost = Cost(total, total, total * h, total * LOOP_BYTES_PER_TICK, LOOP_TICK)
+    check_cost(cost)
+    if announce is not None:
+        announce(cost)
     d = np.zeros(total + 1)
     for k, (_start, end, omega) in enumerate(plan):
         first = 0 if k == 0 else plan[k - 1][1]
@@ -208,50 +203,120 @@ def measure_loop(params: TableParams, settings: SimSettings | None,
     linear = np.empty_like(measured)
     coherence = np.empty((len(names), len(plan)))
     exact = np.array([omega / (2.0 * math.pi) for _, _, omega in plan])
-    plant = model.response(exact)[:, 0, :]
+    plant = held_response(model, exact, h)[:, 0, :]
+    angle = OUTPUTS.index('table_angle')
     for k, (start, end, omega) in enumerate(plan):
         held = np.arange(start + 1, end + 1)          # ticks whose held values are fitted
-        t_mid = (held - 0.5) * h
+        # every sequence on one time base, the middle of each hold: the disturbance's
+        # phasor is then the amplitude itself, and each ratio is the sampled loop's
         signals = np.column_stack([effort[held - 1], effort[held - 1] + d[held],
-                                   y[held][:, rows], y[held][:, OUTPUTS.index('table_angle')]])
-        phasor_c, coh_c = _fit(t_mid, signals[:, :2], omega)
-        c_ph, u_ph = phasor_c
-        y_ph, coh_y = _fit(held * h, signals[:, 2:], omega)
-        zoh = math.sin(0.5 * omega * h) / (0.5 * omega * h)
-        d_ph = amplitude * zoh
+                                   y[held][:, rows], y[held - 1, angle]])
+        phasor, coh = _fit((held - 0.5) * h, signals, omega)
+        c_ph, u_ph, y_ph, angle_ph = phasor[0], phasor[1], phasor[2:-1], phasor[-1]
         loop = -c_ph / u_ph
-        measured[:, k] = (loop, u_ph / amplitude, *(y_ph[:-1] / d_ph))
-        coherence[:, k] = (min(coh_c), coh_c[1], *coh_y[:-1])
-        # the controller as measured: its answer to the table angle (held values against
-        # samples: the same hold correction as the input)
-        law = -c_ph / (y_ph[-1] * zoh)
-        p_angle = plant[OUTPUTS.index('table_angle'), k]
-        loop_lin = law * p_angle
+        measured[:, k] = (loop, u_ph / amplitude, *(y_ph / amplitude))
+        coherence[:, k] = (min(coh[0], coh[1]), coh[1], *coh[2:-1])
+        # the controller as measured: its answer to the table angle sampled as the hold
+        # starts, with the plant the controller sees (held in, sampled out)
+        loop_lin = -c_ph / angle_ph * plant[angle, k]
         s_lin = 1.0 / (1.0 + loop_lin)
-        linear[:, k] = (loop_lin, s_lin, *(plant[rows, k] * s_lin))
+        ahead = np.exp(1j * omega * h)                # outputs at the end of the hold
+        linear[:, k] = (loop_lin, s_lin, *(ahead * plant[rows, k] * s_lin))
     measurement = Measurement(Input.TORQUE, names, exact, measured, linear, coherence, model,
                               amplitude, Method.SINE, total * h, wall,
                               list(model.point.warnings))
     return LoopMeasurement(measurement, margins(exact, measured[0]),
-                           margins(exact, linear[0]))
+                           margins(exact, linear[0]), name)
 
 
 def make_controller(use: str, simulation_settings: SimSettings, target: float = 0.0
                     ) -> Callable[[Observation], float | None]:
-    """``demo`` (the demo PID holding the table at ``target`` rad) or ``module:callable``
-    (a factory called as scenarios call it, ``factory(setpoint)``, with a constant
-    setpoint ``target`` on the table)."""
-    from ..inprocess.scenario import ControllerSpec, SetpointProfile
+    """The controller ``use`` names, holding the table at ``target`` rad.
+
+    Parameters
+    ----------
+    use : str
+        ``demo`` (the demo PID) or ``module:callable``, the module imported as
+        ``python -m`` imports one: the current directory first, then the Python path.
+        The callable is either a factory, told by its first parameter's name
+        ``setpoint`` and called once as scenarios call it, ``factory(setpoint)`` (a
+        constant setpoint ``target`` on the table), returning the controller; or the
+        controller itself, ``controller(observation) -> effort`` (N·m or None), called
+        every tick.
+    simulation_settings : SimSettings
+        The settings of the simulation the controller will run in (the demo's dt).
+    target : float
+        The table angle held, rad.
+
+    Returns
+    -------
+    callable
+        ``controller(observation) -> float | None``.
+
+    Raises
+    ------
+    UsageError
+        ``use`` names no importable callable, or a plain controller answers its first
+        observation with a callable (a factory whose first parameter is not named
+        ``setpoint``).
+
+    Examples
+    --------
+    >>> from screwgear_ros.params.table import SimSettings
+    >>> callable(make_controller('demo', SimSettings()))
+    True
+    """
+    from ..inprocess.scenario import ControllerSpec, SetpointProfile, resolve_callable
     if use != 'demo' and (use.count(':') != 1 or not all(use.split(':'))):
         raise UsageError(f'--controller must be demo or module:callable, not {use!r}')
     setpoint = SetpointProfile('steps', points=((0.0, float(target)),))
     holder = Simulation(settings=simulation_settings)
-    return ControllerSpec(use).make(holder, setpoint)
+    if use == 'demo':
+        return ControllerSpec(use).make(holder, setpoint)
+    try:
+        found = resolve_callable(use, os.getcwd())
+    except (ImportError, AttributeError, TypeError) as exc:
+        raise UsageError(f'--controller {use}: {type(exc).__name__}: {exc} (the module is '
+                         'looked for in the current directory, then on the Python '
+                         'path)') from None
+    if _is_factory(found):
+        return found(setpoint)
+    return _PlainController(use, found)
+
+
+def _is_factory(found: Callable[..., object]) -> bool:
+    """Whether ``found``'s first parameter is named ``setpoint`` (a factory)."""
+    try:
+        parameters = list(inspect.signature(found).parameters)
+    except (TypeError, ValueError):       # a builtin without a signature: a controller
+        return False
+    return bool(parameters) and parameters[0] == FACTORY_PARAMETER
+
+
+class _PlainController:
+    """A controller named directly; its first answer must be an effort, not a controller
+    (which would mean a factory whose first parameter is not named ``setpoint``)."""
+
+    def __init__(self, use: str, controller: Callable[[Observation], float | None]) -> None:
+        self.use, self.controller, self.checked = use, controller, False
+
+    def __call__(self, observation: Observation) -> float | None:
+        answer = self.controller(observation)
+        if not self.checked:
+            self.checked = True
+            if callable(answer):
+                raise UsageError(f'--controller {self.use} answered an observation with a '
+                                 'callable: a factory is told by its first parameter\'s name, '
+                                 '"setpoint"')
+        return answer
 
 
 __all__ = [
+    'FACTORY_PARAMETER',
     'INPUT_UNIT',
     'LOOP',
+    'LOOP_BYTES_PER_TICK',
+    'NYQUIST_FRACTION',
     'SENSITIVITY',
     'LoopMeasurement',
     'Margins',

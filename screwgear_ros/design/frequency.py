@@ -38,7 +38,7 @@ from __future__ import annotations
 import csv
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
@@ -49,8 +49,10 @@ from ..inprocess.simulation import Simulation
 from ..params.table import SimSettings, TableParams
 from ..physics.drive import DrivePiece
 from ..sim.events import Command
+from .bode import TRUST, measurement_figure
+from .budget import SINE_TICK, Cost, check_cost, check_points
 from .errors import MeasurementFailed, MeasurementRefused, UnknownOutput
-from .linear_model import OUTPUT_UNITS, OUTPUTS, LinearModel
+from .linear_model import OUTPUTS, LinearModel
 from .linearize import linearize
 
 
@@ -69,14 +71,15 @@ INPUT_COLUMN = {Input.TORQUE: 0, Input.LOAD: 1}
 INPUT_UNIT = 'N·m'
 CSV_COLUMNS = ('frequency_hz', 'output', 'magnitude', 'phase_deg', 'magnitude_linear',
                'phase_deg_linear', 'coherence')
-#: Coherence below which a measured point is drawn hollow (not to be trusted).
-TRUST = 0.9
 #: Transient allowance: this many time constants of the slowest decaying mode.
 SETTLE_TIME_CONSTANTS = 8.0
 #: Bounds of the settling time, s.
 SETTLE_MIN, SETTLE_MAX = 0.02, 2.0
 #: Fit window: at least this many periods and this long, s (rounded up to whole periods).
 FIT_PERIODS, FIT_MIN_TIME = 2, 0.02
+#: Bytes a run keeps per tick and per column (inputs, outputs, fitted columns: float64),
+#: and the columns it works with besides the outputs (steps, times, input, fit basis).
+BYTES_PER_TICK, WORK_COLUMNS = 8, 6
 
 
 @dataclass
@@ -114,54 +117,8 @@ class Measurement:
                 writer.writerow([f'{row[0]:.9g}', row[1], *(f'{v:.9g}' for v in row[2:])])
 
     def figure(self):
-        """A Bode plot: magnitude and phase of each output, measured (markers; hollow where
-        the coherence is below ``TRUST``) and linear (lines), the oscillating modes marked."""
-        import matplotlib
-        matplotlib.use('Agg')
-        import matplotlib.pyplot as plt
-        n = len(self.outputs)
-        fig, axes = plt.subplots(2, n, figsize=(5.6 * n, 6.6), squeeze=False, sharex=True)
-        fine = np.geomspace(self.frequency[0], self.frequency[-1], 600) \
-            if len(self.frequency) > 1 else self.frequency
-        column = INPUT_COLUMN[self.input]
-        dense = self.model.response(fine)[:, column, :]
-        at_points = self.model.response(self.frequency)[:, column, :]
-        modes = [m for m in self.model.modes() if m.oscillating
-                 and self.frequency[0] <= m.hz <= self.frequency[-1]]
-        for i, name in enumerate(self.outputs):
-            row = OUTPUTS.index(name)
-            mag, ph = axes[0, i], axes[1, i]
-            trusted = self.coherence[i] >= TRUST
-            line_phase = np.degrees(np.unwrap(np.angle(dense[row])))
-            # each measured phase drawn on the branch of the linear curve at its frequency
-            ref = np.interp(np.log(self.frequency), np.log(fine), line_phase)
-            measured_phase = ref + _deg_wrap(np.degrees(np.angle(self.measured[i]))
-                                             - np.degrees(np.angle(at_points[row])))
-            mag.loglog(fine, np.abs(dense[row]), color='C0', label='linear model')
-            ph.semilogx(fine, line_phase, color='C0')
-            for mask, style in ((trusted, {'color': 'C3'}),
-                                (~trusted, {'mfc': 'none', 'mec': 'C3'})):
-                if mask.any():
-                    label = (f'measured ({self.method.value}, {self.amplitude:g} {INPUT_UNIT})'
-                             if style.get('color') else f'measured, coherence < {TRUST:g}')
-                    mag.loglog(self.frequency[mask], np.abs(self.measured[i][mask]), 'o',
-                               ms=4, label=label, **style)
-                    ph.semilogx(self.frequency[mask], measured_phase[mask], 'o', ms=4, **style)
-            for c, mode in enumerate(modes):
-                for ax in (mag, ph):
-                    ax.axvline(mode.hz, color=f'C{c + 1}', lw=0.9, ls='--',
-                               label=(f'{mode.hz:.1f} Hz, ζ {mode.damping:.3f}: {mode.shape}'
-                                      if ax is mag else None))
-            unit = OUTPUT_UNITS[row]
-            mag.set_title(f'{self.input.value} → {name}', fontsize=10)
-            mag.set_ylabel(f'|H|, {unit}/{INPUT_UNIT}')
-            ph.set_ylabel('phase, °')
-            ph.set_xlabel('frequency, Hz')
-            mag.grid(True, which='both', alpha=0.3)
-            ph.grid(True, which='both', alpha=0.3)
-        axes[0, 0].legend(fontsize=7, loc='lower left')
-        fig.tight_layout()
-        return fig
+        """A Bode plot (:func:`~.bode.measurement_figure`)."""
+        return measurement_figure(self, INPUT_COLUMN[self.input], INPUT_UNIT)
 
     def save_figure(self, path: str | Path) -> None:
         import matplotlib.pyplot as plt
@@ -170,11 +127,6 @@ class Measurement:
             fig.savefig(path, dpi=110)
         finally:
             plt.close(fig)
-
-
-def _deg_wrap(angle: np.ndarray) -> np.ndarray:
-    """Angles in degrees wrapped into (−180, 180]."""
-    return -((-np.asarray(angle) + 180.0) % 360.0 - 180.0)
 
 
 def _settle_time(model: LinearModel) -> float:
@@ -289,15 +241,20 @@ def measure(params: TableParams, settings: SimSettings | None = None, *,
             input: Input | str = Input.TORQUE, outputs: Sequence[str] = ('table_angle',),
             frequencies: Sequence[float] | np.ndarray = (1.0, 10.0, 100.0), amplitude: float = 10.0,
             torque: float | None = None, load: float | None = None, direction: int = 1,
-            method: Method | str = Method.SINE, mesh: str = 'average') -> Measurement:
+            method: Method | str = Method.SINE, mesh: str = 'average',
+            announce: Callable[[Cost], None] | None = None) -> Measurement:
     """Measure the response from ``input`` to ``outputs`` (module docstring), beside the
-    linear model's with the ``mesh`` taken as :func:`linearize` takes it."""
+    linear model's with the ``mesh`` taken as :func:`linearize` takes it; ``announce`` is
+    told the :class:`~.budget.Cost` before the runs start. Raises
+    :class:`~.errors.MeasurementRefused` for a request beyond the bounds of
+    :mod:`.budget`."""
     input, method = Input(input), Method(method)
     settings = settings or SimSettings()
     unknown = [name for name in outputs if name not in OUTPUTS]
     if unknown or not outputs:
         raise UnknownOutput(f'unknown output {unknown[0] if unknown else "(none)"}; '
                             f'outputs are {", ".join(OUTPUTS)}')
+    check_points(len(frequencies))
     hz_points = np.sort(np.asarray(frequencies, dtype=float))
     bias = default_bias(params, input, amplitude, torque, load, direction)
     model = linearize(params, bias[0], bias[1], direction, mesh)
@@ -307,6 +264,15 @@ def measure(params: TableParams, settings: SimSettings | None = None, *,
     if method is Method.SINE:
         plan = [_sine_plan(hz, settings.dt, settle) for hz in hz_points]
         hz_points = np.array([omega / (2.0 * math.pi) for _, _, omega in plan])
+        runs = [ticks for _, ticks, _ in plan]
+    else:
+        runs = [_chirp_ticks(hz_points, settings.dt, settle)]
+    cost = Cost(sum(runs), max(runs), sum(runs) * settings.dt,
+                max(runs) * BYTES_PER_TICK * (len(outputs) + len(OUTPUTS) + WORK_COLUMNS),
+                SINE_TICK)
+    check_cost(cost)
+    if announce is not None:
+        announce(cost)
     simulation = _simulation(params, settings)
     runner = _Runner(simulation, input, direction, bias, outputs)
     column = INPUT_COLUMN[input]
@@ -332,6 +298,12 @@ def _sine_plan(hz: float, h: float, settle: float) -> tuple[int, int, float]:
     start = math.ceil(settle / h)
     window = max(1, round(periods / (hz * h)))
     return start, start + window, 2.0 * math.pi * periods / (window * h)
+
+
+def _chirp_ticks(frequencies: np.ndarray, h: float, settle: float) -> int:
+    """The ticks of the chirp's one run (:func:`_chirp`)."""
+    duration = max(10.0 / frequencies[0], 20.0 * settle)
+    return round(duration / h) + math.ceil(settle / h)
 
 
 def _stepped_sine(runner: _Runner, plan: list[tuple[int, int, float]], amplitude: float,
@@ -364,6 +336,7 @@ def _chirp(runner: _Runner, frequencies: np.ndarray, amplitude: float, u0: float
     duration = max(10.0 / frequencies[0], 20.0 * settle)
     ticks = round(duration / h)
     start = math.ceil(settle / h)
+    assert ticks + start == _chirp_ticks(frequencies, h, settle)
     steps = np.arange(ticks + start)
     t_mid = (steps - start + 0.5) * h               # each value holds over its step
     rate = math.log(f1 / f0) / duration
@@ -403,6 +376,7 @@ def _chirp(runner: _Runner, frequencies: np.ndarray, amplitude: float, u0: float
 __all__ = [
     'CSV_COLUMNS',
     'INPUT_COLUMN',
+    'TRUST',
     'Input',
     'Measurement',
     'Method',

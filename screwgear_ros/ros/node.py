@@ -215,7 +215,7 @@ class TableSim(Node):
             self._gate.answer()         # an answer, if a bad one, as a rejected command is
 
     def _command(self, topic: str, value: Any) -> None:
-        if not carries_no_command(topic, value):
+        if not carries_no_command(topic, value, self.session.settings.joint_names):
             self.session.submit(Command.of(topic, value))
         if self._answers(topic):
             self._gate.answer()

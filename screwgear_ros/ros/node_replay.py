@@ -95,7 +95,8 @@ def replay_free(schedule: Schedule, client: ReplayClient, spawned: bool, rate: f
     if spawned:
         offset = 0
         client.set_parameters({'real_time_factor': float(rate)}, 'bringing the node to --rate')
-        first = schedule.events[0].step if schedule.events else schedule.end_step
+        step = schedule.events[0].step if schedule.events else None
+        first = schedule.end_step if step is None else step
         now = client.wait_clock(0)
         if now > first - lead:
             print(f'replay_run: warning: the node reached step {now} before the replay was '
@@ -107,6 +108,7 @@ def replay_free(schedule: Schedule, client: ReplayClient, spawned: bool, rate: f
               f'replayed from t = {offset * schedule.dt:.6f} s on (shifted by {offset} steps)',
               file=sys.stderr)
     for event in list(schedule.events):
+        assert event.step is not None          # a scheduled event carries its step
         progress.step = client.wait_clock(event.step + offset - lead)
         for due in schedule.due(progress.step - offset + lead):
             client.perform(due, schedule)

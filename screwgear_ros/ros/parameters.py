@@ -15,7 +15,10 @@ STE harmonic. When a set makes their lengths differ, the shorter one is complete
 with zeros (a missing phase is 0 rad, a missing amplitude 0 m: that harmonic off) and
 set together with it, so ``ros2 param set /table_sim ste_amplitudes "[1.0e-6, 2.0e-7]"``
 alone changes the number of harmonics; the node logs what it completed once the set
-was applied. The same rules hold at start, for ``-p`` and ``--params-file`` values, as
+was applied. The longer one is cut only where it holds zeros: a set of one array that
+would drop a nonzero entry of the other is refused (the arrays' lengths differ), and the
+node logs a warning saying which value it would have lost; set both arrays in one set
+to remove a harmonic. The same rules hold at start, for ``-p`` and ``--params-file`` values, as
 for a set at run time: an integer where a double is declared is that double (YAML and
 ``ros2 param set`` read ``46`` as an integer), and one STE array given without the
 other completes the other.
@@ -38,6 +41,9 @@ from ..params.table import MAX_HARMONICS, SimSettings, TableParams
 PARAMETERS = (*declared(TableParams), *declared(SimSettings))
 #: The pair of STE arrays that must be as long as each other.
 HARMONICS = ('ste_amplitudes', 'ste_phases')
+#: Prefix of a pre-set note that says why the STE arrays were not completed.
+REFUSED = 'refused: '
+
 _INT_MAX = 2 ** 31 - 1
 
 
@@ -78,7 +84,11 @@ def declare(node: Node, log: Callable[[str], None]) -> tuple[dict[str, Any], str
     def pre_set(params: list[Parameter]) -> list[Parameter]:
         notes.clear()
         params, note = _complete_harmonics(node, _integers_as_doubles(node, params))
-        notes.extend([note] if note else [])
+        if note is not None and note.startswith(REFUSED):
+            # the validation refuses the lengths; this says why they were not made equal
+            node.get_logger().warning(note[len(REFUSED):])
+        elif note:
+            notes.append(note)
         return params
 
     def post_set(params: list[Parameter]) -> None:
@@ -136,10 +146,15 @@ def unknown_overrides(node: Node) -> list[str]:
 
 def complete_harmonics(amplitudes: list[float], phases: list[float],
                        changed: str) -> tuple[list[float], list[float], str | None]:
-    """The STE arrays with the one not being set completed with zeros (or cut) to the
-    length of the one being set (``changed``), and what was done (None: nothing)."""
+    """The STE arrays with the one not being set completed with zeros (or cut, where it
+    holds only zeros beyond) to the length of the one being set (``changed``), and what
+    was done (None: nothing). A cut that would drop a nonzero entry is not made
+    (:func:`dropped_harmonics` says why): the arrays come back as given, and the
+    validation refuses their lengths."""
     if len(amplitudes) == len(phases) or max(len(amplitudes), len(phases)) > MAX_HARMONICS:
         return amplitudes, phases, None    # nothing to do, or the validation refuses it
+    if dropped_harmonics(amplitudes, phases, changed) is not None:
+        return amplitudes, phases, None
     if changed == 'ste_amplitudes':
         n, other, name = len(amplitudes), phases, 'ste_phases'
     else:
@@ -148,6 +163,30 @@ def complete_harmonics(amplitudes: list[float], phases: list[float],
     note = (f'{name} set to {excerpt(fitted)} to match {n} STE harmonic{"s" * (n != 1)} of '
             f'{changed} (a missing entry is 0)')
     return ((amplitudes, fitted, note) if name == 'ste_phases' else (fitted, phases, note))
+
+
+def dropped_harmonics(amplitudes: list[float], phases: list[float], changed: str) -> str | None:
+    """Why setting ``changed`` to a shorter array than the other STE array is refused:
+    completing it would cut nonzero entries of the other (data lost without a word);
+    None when the other holds only zeros beyond (or is not longer).
+
+    Examples
+    --------
+    >>> print(dropped_harmonics([1e-6, 2e-7], [0.5], 'ste_phases'))
+    ste_phases: refused [0.5]: 1 entry would cut ste_amplitudes [1e-06, 2e-07] to 1 STE harmonic and drop its nonzero 2e-07; set both arrays in one set (ros2 param load) to change the number of harmonics
+    >>> dropped_harmonics([1e-6, 0.0], [0.5], 'ste_phases') is None
+    True
+    """
+    given, other, name = ((amplitudes, phases, 'ste_phases') if changed == 'ste_amplitudes'
+                          else (phases, amplitudes, 'ste_amplitudes'))
+    lost = [v for v in other[len(given):] if v != 0.0]
+    if not lost:
+        return None
+    n = len(given)
+    return (f'{changed}: refused {excerpt(given)}: {n} entr{"ies" if n != 1 else "y"} would '
+            f'cut {name} {excerpt(other)} to {n} STE harmonic{"s" * (n != 1)} and drop its '
+            f'nonzero {excerpt(lost[0] if len(lost) == 1 else lost)}; set both arrays in one '
+            'set (ros2 param load) to change the number of harmonics')
 
 
 _DOUBLE_TYPES = {
@@ -186,8 +225,9 @@ def _integers_as_doubles(node: Node, params: Iterable[Parameter]) -> list[Parame
 def _complete_harmonics(node: Node,
                         params: list[Parameter]) -> tuple[list[Parameter], str | None]:
     """Pre-set: a set of one STE array that changes the harmonic count also sets the
-    other; what was completed (None: nothing). A value that is no double array is left
-    for rclpy to refuse by its type."""
+    other; what was completed (None: nothing), or REFUSED and why it was not (the set then
+    fails its validation: the lengths differ). A value that is no double array is left for
+    rclpy to refuse by its type."""
     names = [p.name for p in params]
     if sum(name in HARMONICS for name in names) != 1 or not node.has_parameter(HARMONICS[0]):
         return params, None
@@ -196,6 +236,9 @@ def _complete_harmonics(node: Node,
         return params, None
     current = {name: list(node.get_parameter(name).value) for name in HARMONICS}
     current[changed.name] = plain_value(changed.value)
+    why = dropped_harmonics(current['ste_amplitudes'], current['ste_phases'], changed.name)
+    if why is not None:
+        return params, REFUSED + why
     amplitudes, phases, note = complete_harmonics(current['ste_amplitudes'],
                                                   current['ste_phases'], changed.name)
     if note is None:
@@ -222,6 +265,7 @@ __all__ = [
     'complete_harmonics',
     'declare',
     'descriptor',
+    'dropped_harmonics',
     'plain_value',
     'unknown_overrides',
 ]

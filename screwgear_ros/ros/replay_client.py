@@ -31,6 +31,7 @@ from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+from rclpy.subscription import Subscription
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty
@@ -97,7 +98,7 @@ class ReplayClient:
         self._mesh_stamp: int | None = None   # the last one's stamp, ns
         self._clock: int | None = None        # newest /clock, ns
         self._clock_moved = time.monotonic()  # when /clock last advanced
-        self._clock_sub = None
+        self._clock_sub: Subscription | None = None
         self._graph_checked = 0.0
         self._started = time.monotonic()
         # Publishers first: the node learns our endpoints in the order we create them,

@@ -8,7 +8,8 @@ A free-running replay over DDS applies each recorded event (input command, param
 change, reset) at the first tick after it arrives, so it may land a publish tick or so
 away from its recorded step, and the trajectories then differ by what that timing
 makes. :func:`compare_runs` does not guess a tolerance for that difference; it
-explains it: the replay passes when it started from the original's parameters,
+explains it: the replay is ``CONSISTENT`` (not the same run: consistent with its own
+events) when it started from the original's parameters,
 applied every physical event of the original, in order, and nothing else, and its
 outputs are, bit for bit, what the session computes from those events at the steps
 they landed (an in-process replay of the new recording). The trajectory difference to
@@ -51,6 +52,7 @@ class SignalDifference:
     unit: str
     max_diff: float
     at_time: float
+    scale: float = 0.0        # largest |value| of the signal in the original
 
 
 @dataclass
@@ -82,10 +84,21 @@ class Comparison:
 
     @property
     def ok(self) -> bool:
+        """The replay is CONSISTENT: its outputs are what the original's events make at
+        the steps they landed (not: the same run as the original)."""
         return (self.nothing_compared is None and self.first_difference is None
                 and self.sensor_mismatch is None
                 and not self.extra and not self.start_differences
                 and all(t.new_step is not None for t in self.timings))
+
+    def largest(self) -> SignalDifference | None:
+        """The signal that differs most from the original, measured against the size of
+        that signal in the original (its units differ from the others'); None when no
+        sample was common."""
+        if not self.signals:
+            return None
+        return max(self.signals, key=lambda s: s.max_diff / s.scale if s.scale > 0.0
+                   else (np.inf if s.max_diff > 0.0 else 0.0))
 
 
 def _physical_events(run: RecordedRun) -> list[tuple[int, Event]]:
@@ -211,18 +224,28 @@ def compare_runs(original: RecordedRun, new: RecordedRun) -> Comparison:
         worst = int(np.argmax(diff))
         same = same and not np.any(diff)
         result.signals.append(SignalDifference(name, unit, float(diff[worst]),
-                                               float(a.steps[rows_a[worst]] * original.dt)))
+                                               float(a.steps[rows_a[worst]] * original.dt),
+                                               float(np.max(np.abs(a.values[rows_a, c])))))
     result.identical = same and result.common > 0
     result.sensor_mismatch = sensor_mismatch(new)[1]
     return result
 
 
+#: Why a free-running replay is judged CONSISTENT, never IDENTICAL.
+WHY_NOT_THE_SAME = ('a free-running replay cannot reproduce the original: each event takes '
+                    'effect at the tick the wall clock brings it, often a tick or more off '
+                    'its recorded step, and the table answers a moved event with another '
+                    'trajectory (replay in lockstep, the default, for the same run)')
+
+
 def format_comparison(c: Comparison) -> str:
-    """What ``replay_run --compare`` prints for a free-running replay."""
+    """What ``replay_run --compare`` prints for a free-running replay: the verdict is
+    CONSISTENT (its outputs are what its events make) or INCONSISTENT, with the timing
+    and signal differences to the original beside it."""
     lines = [('free-running replay vs original (events land where the wall clock put them; '
-             'the replay passes when its outputs are exactly what the original\'s events make '
-             'at the steps they landed): event timing (integration steps; one publish tick = '
-             f'{c.ticks} steps)')]
+             'the replay is consistent when its outputs are exactly what the original\'s '
+             'events make at the steps they landed): event timing (integration steps; one '
+             f'publish tick = {c.ticks} steps)')]
     for t in c.timings:
         lines.append(f'  {t.what:<32} recorded step {t.original_step:>9}  replayed '
                      + ('never' if t.new_step is None else
@@ -248,8 +271,15 @@ def format_comparison(c: Comparison) -> str:
         lines.append('  the replay reproduces the original bit for bit')
     if c.nothing_compared is not None:
         lines.append(f'  RESULT: NOTHING COMPARED: {c.nothing_compared}')
-    else:
-        lines.append('  RESULT: ' + ('PASS' if c.ok else 'FAIL'))
+        return '\n'.join(lines)
+    largest = c.largest()
+    beside = f'timing differs by up to {c.jitter_ticks:g} publish ticks'
+    if largest is not None:
+        beside += (f', largest signal difference {largest.name} {largest.max_diff:.3g} '
+                   f'{largest.unit} at t = {largest.at_time:.4f} s')
+    lines.append(f'  RESULT: {"CONSISTENT" if c.ok else "INCONSISTENT"} ({beside})')
+    if not c.identical:
+        lines.append(f'  {WHY_NOT_THE_SAME}')
     return '\n'.join(lines)
 
 
@@ -271,11 +301,20 @@ class ExactComparison:
     samples: int                          # output samples compared
     first_difference: Difference | None   # None: identical at every sample
     missing: str | None = None            # what the replay lacks (it stopped early)
+    #: samples compared after the original's start step (its start sample is the
+    #: parameters' equilibrium, which any run starts from: it shows no run)
+    run_samples: int | None = None
+    start_step: int = 0
 
     @property
     def nothing_compared(self) -> str | None:
         """Why nothing was compared, or None."""
-        return 'neither run has an output sample to compare' if self.samples == 0 else None
+        if self.samples == 0:
+            return 'neither run has an output sample to compare'
+        if self.run_samples == 0:
+            return (f'the original holds no output sample after the start of its run (step '
+                    f'{self.start_step}): a replay of no run is not identical to anything')
+        return None
 
     @property
     def ok(self) -> bool:
@@ -298,13 +337,15 @@ def exact_comparison(original: RecordedRun, new: RecordedRun) -> ExactComparison
             [f'measured {name}' for name in names[:9]]))
     first: Difference | None = None
     missing = None
-    samples = 0
+    samples = run_samples = 0
+    start = original.parameters.start_step
     for a, b, signal in columns:
         n = len(a)
         if len(b) < n:
             missing = (f'the replay has {len(b)} samples of {signal[0]}, the original {n}')
             n = len(b)
         samples += n
+        run_samples += int(np.count_nonzero(a.steps[:n] > start))
         steps_differ = np.nonzero(a.steps[:n] != b.steps[:n])[0]
         values_differ = np.nonzero(np.any(a.values[:n] != b.values[:n], axis=1))[0]
         for k in sorted({*steps_differ[:1], *values_differ[:1]})[:1]:
@@ -317,7 +358,7 @@ def exact_comparison(original: RecordedRun, new: RecordedRun) -> ExactComparison
                                    float(b.values[k, c]))
             if first is None or found.step < first.step:
                 first = found
-    return ExactComparison(timings, samples, first, missing)
+    return ExactComparison(timings, samples, first, missing, run_samples, start)
 
 
 def format_exact(c: ExactComparison) -> str:
@@ -344,6 +385,7 @@ def format_exact(c: ExactComparison) -> str:
 
 
 __all__ = [
+    'WHY_NOT_THE_SAME',
     'Comparison',
     'Difference',
     'EventTiming',

@@ -195,6 +195,14 @@ def apply_joint_command(current: DriveInput, command: Any, max_torque: float,
     The message must name that joint, name no joint joint_states does not have, carry
     no position or velocity command and exactly one effort value.
     """
+    _joint_command_shape(command, joint_names)
+    return _signed_drive(Input.JOINT_COMMANDS, current, command.effort[0], max_torque, command,
+                         deadband, hysteresis)
+
+
+def _joint_command_shape(command: Any, joint_names: Sequence[str]) -> None:
+    """Refuse a joint_commands message whose names or arrays are not the plugin's
+    (:func:`apply_joint_command`), whatever its values."""
     topic = Input.JOINT_COMMANDS
     if not isinstance(command, JointCommand):
         raise InputRejected(topic, command, 'expects a sensor_msgs/JointState of joint commands')
@@ -213,8 +221,6 @@ def apply_joint_command(current: DriveInput, command: Any, max_torque: float,
         raise InputRejected(topic, command, f'expects exactly one effort value ({joint}/'
                             f'{COMMAND_INTERFACE}, the signed drive torque), got '
                             f'{len(command.effort)}')
-    return _signed_drive(topic, current, command.effort[0], max_torque, command, deadband,
-                         hysteresis)
 
 
 def apply_load(current: DriveInput, value: float, max_load: float) -> DriveInput:
@@ -294,14 +300,33 @@ def command_value(topic: str, msg: Any) -> Any:
     return msg.data
 
 
-def carries_no_command(topic: str, value: Any) -> bool:
+def carries_no_command(topic: str, value: Any, joint_names: Sequence[str] | None = None) -> bool:
     """True for a joint_commands message that commands nothing yet: ros2_control's
     command interfaces hold NaN until a controller writes them, and the plugin sends
-    them as they are. Such a message is neither a command nor a bad one."""
+    them as they are. Such a message is neither a command nor a bad one.
+
+    Only a message the plugin could send is one: its names and arrays as
+    :func:`apply_joint_command` requires (``joint_names``: those in force, default the
+    default names), its one effort NaN. Any other message, NaN or not, is a command to
+    validate, so a malformed one is refused and counted as every malformed one is.
+
+    Examples
+    --------
+    >>> nan = float('nan')
+    >>> carries_no_command('joint_commands', JointCommand(('pinion_1',), effort=(nan,)))
+    True
+    >>> carries_no_command('joint_commands', JointCommand(('pinion_1', 'table'),
+    ...                                                   effort=(nan, nan)))
+    False
+    """
     if topic != Input.JOINT_COMMANDS or not isinstance(value, JointCommand):
         return False
-    values = value.values()
-    return bool(values) and all(math.isnan(v) for v in values)
+    names = SimSettings().joint_names if joint_names is None else joint_names
+    try:
+        _joint_command_shape(value, names)
+    except InputRejected:
+        return False
+    return math.isnan(value.effort[0])
 
 
 __all__ = [

@@ -78,6 +78,21 @@ def test_a_refused_set_logs_nothing_and_an_accepted_one_logs_what_it_applied(nod
 
 
 @pytest.mark.ros
+def test_a_set_of_one_ste_array_that_would_drop_a_nonzero_value_is_refused(node):
+    """Two amplitudes in force: a single phase would cut the second amplitude (1e-05). The
+    set is refused, both amplitudes stay, and the log says which value it would lose."""
+    proc, peer, _, _ = node
+    assert peer.get_parameters(NODE, HARMONICS)['ste_amplitudes'] == AMPLITUDES
+    result, _ = _set(peer, 'ste_phases', [0.5])
+    assert not result.successful and 'one phase per STE harmonic' in result.reason
+    assert peer.get_parameters(NODE, HARMONICS) == {'ste_amplitudes': AMPLITUDES,
+                                                    'ste_phases': [0.0, 0.0]}
+    wait_until(lambda: 'drop its nonzero 1e-05' in proc.output()[1], 10.0,
+               'the reason in the log')
+    assert 'ste_amplitudes set to' not in proc.output()[1]
+
+
+@pytest.mark.ros
 def test_a_pace_set_back_takes_effect_at_once_not_at_the_old_deadline(node):
     proc, peer, states, _ = node
     # 1 Hz at 1/100 of real time: a tick lasts 100 s of wall time. The factor first: at

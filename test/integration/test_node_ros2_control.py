@@ -383,6 +383,10 @@ BAD_COMMANDS = [
     ('an unknown joint', _bad(name=['joint_1', 'pinion_1'])),
     ('pinion_1 missing', _bad(name=['table', 'pinion_3'])),
     ('infinite', _bad(effort=[math.inf])), ('over max_torque', _bad(effort=[-400.5])),
+    # NaN in a message the plugin could not send is no "not yet commanded": refused and
+    # counted as its finite twin
+    ('two NaN efforts', _bad(effort=[math.nan, math.nan])),
+    ('NaN with an unknown joint', _bad(effort=[math.nan], name=['joint_1', 'pinion_1'])),
 ]
 
 

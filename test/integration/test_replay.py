@@ -234,14 +234,15 @@ def test_free_running_replay_into_a_running_node(tmp_path: Path) -> None:
 def test_free_running_replay_with_record_is_explained_by_its_timing(tmp_path: Path) -> None:
     """``--free-running`` records a fresh free-running node; --compare then checks that
     the new run is what the original's events make at the steps they landed, and says
-    so. Where they landed depends on the load, so the verdict itself must be PASS: the
-    node computes exactly what its events make, whatever their timing."""
+    so. Where they landed depends on the load, so the verdict itself must be CONSISTENT:
+    the node computes exactly what its events make, whatever their timing."""
     new = tmp_path / 'free'
     result = tool('replay_run', DATA / 'steady_drive', '--record', new, '--free-running',
                   '--rate', 2.0, '--compare')
     assert_no_traceback(result)
     assert result.returncode == 0, result.stdout + result.stderr
     assert 'free-running replay vs original' in result.stdout, result.stdout
+    assert 'RESULT: CONSISTENT (timing differs by up to ' in result.stdout, result.stdout
     assert 'at the steps they landed' in result.stderr, result.stderr
     original, replayed = read_run(DATA / 'steady_drive'), read_run(new)
     assert not replayed.parameters.settings.lockstep
@@ -355,6 +356,19 @@ def test_replay_errors_exit_2_with_the_reason(tmp_path: Path) -> None:
     assert refused.returncode == 2 and 'lost ticks' in refused.stderr, refused.stderr
     assert not (tmp_path / 'from_lost').exists()
     assert_no_traceback(refused)
+
+
+@pytest.mark.ros
+def test_a_replay_of_a_start_sample_only_bag_is_not_identical(tmp_path: Path) -> None:
+    """A bag holding only its start sample (a run of length 0, or the main chunk lost)
+    holds no run: comparing its replay with it is "could not do the work" (exit 2)."""
+    copy_bag(DATA / 'steady_drive', tmp_path / 'start',
+             lambda topic, msgtype, t, raw: (t, raw) if t == 0 else None)
+    result = tool('replay_run', tmp_path / 'start', '--record', tmp_path / 'new', '--compare')
+    assert_no_traceback(result)
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert 'IDENTICAL' not in result.stdout and 'nothing compared' in result.stderr
+    assert 'after the start' in result.stderr, result.stderr
 
 
 @pytest.mark.ros

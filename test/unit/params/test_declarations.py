@@ -15,9 +15,14 @@ from readme_blocks import generated_block
 from screwgear_ros.params import docs as parameter_docs
 from screwgear_ros.params import table as params
 from screwgear_ros.params.declarations import Kind, declared, yaml_value
-from screwgear_ros.params.table import SimSettings, TableParams
+from screwgear_ros.params.table import ParameterError, SimSettings, TableParams
 from screwgear_ros.physics import packed as layout
-from screwgear_ros.ros.parameters import PARAMETERS, complete_harmonics, descriptor
+from screwgear_ros.ros.parameters import (
+    PARAMETERS,
+    complete_harmonics,
+    descriptor,
+    dropped_harmonics,
+)
 from screwgear_ros.sim import parameter_set as parameter_sets
 from screwgear_ros.sim.parameter_file import document_values
 
@@ -105,11 +110,27 @@ def test_yaml_values_read_back_as_what_they_are_in_yaml_1_1(value, text):
 def test_harmonics_are_completed_with_zeros_to_the_array_being_set():
     amps, phases, note = complete_harmonics([1e-6, 2e-7], [0.5], 'ste_amplitudes')
     assert (amps, phases) == ([1e-6, 2e-7], [0.5, 0.0]) and 'ste_phases' in note
-    amps, phases, note = complete_harmonics([1e-6, 2e-7], [0.5], 'ste_phases')
+    amps, phases, note = complete_harmonics([1e-6, 0.0], [0.5], 'ste_phases')
     assert (amps, phases) == ([1e-6], [0.5]) and 'ste_amplitudes' in note
     assert complete_harmonics([1.0], [2.0], 'ste_phases') == ([1.0], [2.0], None)
     TableParams(ste_amplitudes=amps, ste_phases=phases)      # a valid set again
     assert np.isfinite(layout.pack(TableParams()).p).all()
+
+
+@pytest.mark.parametrize('amplitudes, phases, changed, lost', [
+    ([1e-6, 2e-7], [0.5], 'ste_phases', '2e-07'),
+    ([1e-6], [0.5, 0.25], 'ste_amplitudes', '0.25'),
+    ([1e-6, 2e-7, 3e-8], [], 'ste_phases', '[1e-06, 2e-07, 3e-08]'),
+])
+def test_a_set_that_would_drop_a_nonzero_harmonic_is_not_completed(amplitudes, phases,
+                                                                   changed, lost):
+    """Completing may add zeros or cut zeros, never a value: the arrays come back as
+    given (the validation then refuses their lengths) and the reason names the value."""
+    assert complete_harmonics(amplitudes, phases, changed) == (amplitudes, phases, None)
+    why = dropped_harmonics(amplitudes, phases, changed)
+    assert why is not None and f'drop its nonzero {lost}' in why and why.startswith(changed)
+    with pytest.raises(ParameterError, match='one phase per STE harmonic'):
+        TableParams(ste_amplitudes=amplitudes, ste_phases=phases)
 
 
 def test_the_normalized_coefficients_are_declared_once_too():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 from paths import ROOT
@@ -271,12 +272,38 @@ def test_the_rejection_shows_the_message_compactly():
 
 def test_nan_before_the_first_command_carries_no_command():
     assert carries_no_command('joint_commands', plugin(math.nan))
-    assert carries_no_command('joint_commands', plugin(math.nan, math.nan))
+    assert carries_no_command('joint_commands', plugin(math.nan, name=('pinion_1',)))
     assert not carries_no_command('joint_commands', plugin(0.0))
     assert not carries_no_command('joint_commands', plugin(math.nan, 1.0))
     assert not carries_no_command('joint_commands', plugin())       # nothing: a bad message
     assert not carries_no_command('cmd_effort', [math.nan])         # a bad cmd_effort stays bad
     assert not carries_no_command('cmd_torque', math.nan)
+
+
+@pytest.mark.parametrize('command', [
+    plugin(math.nan, math.nan), plugin(math.nan, math.nan, math.nan),
+    plugin(math.nan, position=(math.nan,)), plugin(math.nan, name=('table', 'pinion_3')),
+    plugin(math.nan, name=('pinion_1', 'joint_1')),
+])
+def test_a_malformed_nan_message_is_refused_as_its_finite_twin_is(command):
+    """NaN in a message the plugin could not send is no "not yet commanded": it is
+    refused with the reason its finite twin gets."""
+    assert not carries_no_command('joint_commands', command)
+    finite = replace(command, effort=tuple(1.0 for _ in command.effort),
+                     position=tuple(1.0 for _ in command.position))
+    with pytest.raises(InputRejected) as nan_info:
+        apply_command(NOW, 'joint_commands', command, P)
+    with pytest.raises(InputRejected) as finite_info:
+        apply_command(NOW, 'joint_commands', finite, P)
+    rules = [str(info.value).replace(repr(info.value.value), '')
+             for info in (nan_info, finite_info)]
+    assert rules[0] == rules[1]
+
+
+def test_nan_from_the_plugin_with_other_joint_names_carries_no_command():
+    names = ('drive', 'turntable', 'backup')
+    assert carries_no_command('joint_commands', plugin(math.nan, name=names), names)
+    assert not carries_no_command('joint_commands', plugin(math.nan, name=names))
 
 
 def test_message_and_value_convert_both_ways_for_live_and_recorded_messages():

@@ -1,0 +1,113 @@
+"""Stability margins of a sampled loop gain, and the linear plant as a sampled-data
+controller sees it.
+
+A controller that answers each tick's observation with an effort held over the next tick
+sees the plant through a zero-order hold: the sequence of held efforts in, the sequence of
+sampled outputs out. Between those sequences the linear model is the discrete system
+``P(z) = C·(zI − Ad)⁻¹·Bd + D`` with ``Ad = exp(A·h)``, ``Bd = ∫₀ʰ exp(A·s) ds·B``
+(:func:`held_response`): python-control's ``c2d(P, h, 'zoh')``. It holds at every
+frequency below the Nyquist frequency of the tick rate, where a sampled sinusoid is still
+one sinusoid.
+
+:func:`margins` reads the gain margin, the phase margin and the peak of the sensitivity
+|S| = 1/|1 + L| off a loop gain L sampled at rising frequencies.
+
+Examples
+--------
+>>> import numpy as np
+>>> f = np.geomspace(0.1, 100.0, 400)
+>>> s = 2j * np.pi * f
+>>> m = margins(f, 10.0 / (s * (s / 20.0 + 1.0) * (s / 60.0 + 1.0)))
+>>> m.phase is not None and m.gain is not None and m.peak_sensitivity > 1.0
+True
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import expm
+
+from .linear_model import LinearModel
+
+
+@dataclass(frozen=True)
+class Margins:
+    """Gain margin (factor, at the first phase crossover), phase margin (degrees, at the
+    first gain crossover), None where the range holds no crossover; and the peak of
+    |S| = 1/|1 + L| over the range with its frequency (None: no point)."""
+
+    gain: float | None
+    gain_at_hz: float | None
+    phase: float | None
+    phase_at_hz: float | None
+    peak_sensitivity: float | None = None
+    peak_at_hz: float | None = None
+
+    def describe(self) -> str:
+        phase = (f'phase margin {self.phase:.1f}° at {self.phase_at_hz:.3g} Hz'
+                 if self.phase is not None else 'no gain crossover in the range')
+        gain = (f'gain margin {self.gain:.3g} ({20 * math.log10(self.gain):.1f} dB) at '
+                f'{self.gain_at_hz:.4g} Hz' if self.gain is not None
+                else 'no phase crossover (−180°) in the range')
+        peak = (f'; peak |S| {self.peak_sensitivity:.3g} '
+                f'({20 * math.log10(self.peak_sensitivity):.1f} dB) at '
+                f'{self.peak_at_hz:.4g} Hz' if self.peak_sensitivity is not None else '')
+        return f'{phase}; {gain}{peak}'
+
+
+def loop_phase(loop: np.ndarray) -> np.ndarray:
+    """The phase of a loop gain in degrees, unwrapped from the lowest frequency, the first
+    one in (−360°, 0°]."""
+    phase = np.degrees(np.unwrap(np.angle(loop)))
+    return phase - 360.0 * np.ceil(phase[0] / 360.0)
+
+
+def margins(frequency: np.ndarray, loop: np.ndarray) -> Margins:
+    """Margins of a loop gain sampled at ``frequency`` (Hz, rising): crossings located by
+    linear interpolation in log frequency, of log|L| and of :func:`loop_phase`; the peak
+    |S| is the largest of the samples."""
+    frequency, loop = np.asarray(frequency, dtype=float), np.asarray(loop)
+    if loop.size == 0:
+        return Margins(None, None, None, None)
+    logf = np.log(frequency)
+    mag = np.log(np.abs(loop))
+    phase = loop_phase(loop)
+    pm = pm_hz = gm = gm_hz = None
+    for k in range(len(frequency) - 1):
+        if pm is None and mag[k] >= 0.0 > mag[k + 1]:
+            s = mag[k] / (mag[k] - mag[k + 1])
+            pm_hz = float(np.exp(logf[k] + s * (logf[k + 1] - logf[k])))
+            pm = float(180.0 + phase[k] + s * (phase[k + 1] - phase[k]))
+        if gm is None and (phase[k] + 180.0) * (phase[k + 1] + 180.0) <= 0.0 \
+                and phase[k] != phase[k + 1]:
+            s = (phase[k] + 180.0) / (phase[k] - phase[k + 1])
+            gm_hz = float(np.exp(logf[k] + s * (logf[k + 1] - logf[k])))
+            gm = float(1.0 / np.exp(mag[k] + s * (mag[k + 1] - mag[k])))
+    sensitivity = 1.0 / np.abs(1.0 + loop)
+    peak = int(np.argmax(sensitivity))
+    return Margins(gm, gm_hz, pm, pm_hz, float(sensitivity[peak]), float(frequency[peak]))
+
+
+def held_response(model: LinearModel, frequency_hz: np.ndarray, h: float) -> np.ndarray:
+    """The response of ``model`` between inputs held for ``h`` s and outputs sampled
+    every ``h`` s (module docstring), shape (outputs, inputs, frequencies): the output
+    sample taken as the hold of the input sample starts, so it answers the holds before
+    (the one tick a sampled-data plant takes to answer)."""
+    n, m = model.b.shape
+    block = np.zeros((n + m, n + m))
+    block[:n, :n], block[:n, n:] = model.a * h, model.b * h
+    exp = expm(block)
+    ad, bd = exp[:n, :n], exp[:n, n:]
+    f = np.atleast_1d(np.asarray(frequency_hz, dtype=float))
+    eye = np.eye(n)
+    out = np.empty((model.c.shape[0], m, len(f)), dtype=complex)
+    for k, hz in enumerate(f):
+        z = np.exp(2j * math.pi * hz * h)
+        out[:, :, k] = model.c @ np.linalg.solve(z * eye - ad, bd) + model.d
+    return out
+
+
+__all__ = ['Margins', 'held_response', 'loop_phase', 'margins']
