@@ -97,9 +97,5 @@ def test_a_malformed_message_is_one_warning_counted_and_the_node_goes_on(node, t
     assert 'Traceback' not in stderr and 'ERROR' not in stderr, stderr[-3000:]
 
 
-@pytest.mark.xfail(strict=True, reason='node bug: joint_commands with three names and two '
-                                       'NaN efforts (exactly one effort is valid) is taken '
-                                       'for the plugin\'s "no command yet" and passes '
-                                       'uncounted and silent')
 def test_two_nan_efforts_are_a_malformed_joint_command_too(node):
     assert publish_once(node, *TWO_NANS) == (1, 1)

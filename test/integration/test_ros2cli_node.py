@@ -301,9 +301,6 @@ def test_param_set_of_the_ste_arrays_completes_the_other_with_zeros(node):
     assert not any(bad in node.log() for bad in LOG_ERRORS)
 
 
-@pytest.mark.xfail(strict=True, reason='node bug: a ste_phases shorter than ste_amplitudes '
-                                       'truncates ste_amplitudes to its length (an INFO line '
-                                       'only), silently dropping a harmonic')
 def test_a_shorter_ste_phases_never_silently_drops_an_amplitude(node):
     ros2 = overlay()
     ros2.ask('param', 'set', NODE, 'ste_amplitudes', '[1.0e-6, 2.0e-7]')
