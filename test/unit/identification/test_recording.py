@@ -33,7 +33,7 @@ def test_a_plain_bag_gives_the_ticks_of_the_node_recording(recordings):
 def test_the_resimulation_at_the_truth_is_the_recorded_run(recordings):
     """Independent of the reader's tick rule: the exact joint states the node recorded
     (~/true_joint_states) are what the re-simulation makes with ideal sensors."""
-    exact = read_run(recordings['node']).joint_states.values
+    exact = read_run(recordings['node']).true_joint_states.values
     ideal = {name: 0 for name in file_values(PRESET) if name.startswith(
         ('encoder_counts', 'measurement_delay'))}
     ideal.update({name: 0.0 for name in file_values(PRESET) if name.startswith(
