@@ -74,7 +74,8 @@ def report(sweep: Sweep, store: Store, done: dict[int, Any], out: Path, *, plot:
         path = rerun_file(sweep, store, index)
         print(f'  run {index}: {metrics[0]} = {table[metrics[0]][position]:.6g} ({swept})')
         print(f'    run_scenario {path} --record {path.with_suffix("")}_bag')
-    print('wrote ' + ', '.join(str(p) for p in written))
+    print(('up to date, kept: ' if kept is not None else 'wrote ')
+          + ', '.join(str(p) for p in written))
 
 
 def rerun_file(sweep: Sweep, store: Store, index: int) -> Path:

@@ -137,7 +137,7 @@ def _load(reader: YamlReader, path: Path, limit: int | None,
             _scalable(reader, axis, base.get(axis.name, default_values().get(axis.name)))
 
     total = run_count(grid, count)
-    simulated = total * float(scenario.duration)
+    simulated = float(scenario.duration) * min(total, 10 ** 300)     # no float overflow
     if limit is not None and total > limit:
         sizes = ' x '.join(str(len(a.values)) for a in grid) or '1'
         raise SweepError(f'{path}: {total:,} runs (grid {sizes}, {count:,} draws each; '
