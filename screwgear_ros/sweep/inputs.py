@@ -67,7 +67,6 @@ def scenario_of(reader: YamlReader, node: yaml.Node, here: Path) -> tuple[Any, P
     try:
         scenario = load_scenario(path)
         text = path.read_text(encoding='utf-8')
-        explicit = yaml.safe_load(text) or {}
     except _UNREADABLE as exc:
         raise reader.error(node, f'scenario: {_why(exc)}') from None
     for action in scenario.actions:

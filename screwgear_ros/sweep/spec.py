@@ -26,8 +26,14 @@ from ..params.table import SimSettings, TableParams
 from ..params.yaml_reader import YamlReader
 from ..sim.metrics import Metrics
 from . import model
-from .inputs import (NODE_ONLY, base_values, controller_sources, explicit_parameters,
-                     plain_value, scenario_of)
+from .inputs import (
+    NODE_ONLY,
+    base_values,
+    controller_sources,
+    explicit_parameters,
+    plain_value,
+    scenario_of,
+)
 from .model import Sweep, SweepError, plain
 from .resolve import resolve_runs, run_count
 

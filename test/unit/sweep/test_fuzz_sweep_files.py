@@ -111,13 +111,13 @@ def _sweep_file(rng: random.Random, kind: str) -> tuple[str, tuple[float, ...] |
     if kind == 'odd_value':
         value = rng.choice(ODD_VALUES)
         slot = rng.choice(['grid:\n  backlash: [{}]\n', 'grid:\n  backlash: {{scale: [{}]}}\n',
-                           'monte_carlo:\n  count: {}\n  parameters:\n    backlash: '
-                           '{{uniform: [0.0, 1.0e-5]}}\n',
-                           'monte_carlo:\n  count: 2\n  seed: {}\n  parameters:\n    backlash: '
-                           '{{uniform: [0.0, 1.0e-5]}}\n',
+                           ('monte_carlo:\n  count: {}\n  parameters:\n    backlash: '
+                           '{{uniform: [0.0, 1.0e-5]}}\n'),
+                           ('monte_carlo:\n  count: 2\n  seed: {}\n  parameters:\n    backlash: '
+                           '{{uniform: [0.0, 1.0e-5]}}\n'),
                            'time_limit: {}\ngrid:\n  backlash: [0.0]\n',
-                           'monte_carlo:\n  count: 2\n  parameters:\n    backlash: '
-                           '{{normal: [{}, 1.0e-6]}}\n',
+                           ('monte_carlo:\n  count: 2\n  parameters:\n    backlash: '
+                           '{{normal: [{}, 1.0e-6]}}\n'),
                            'grid:\n  joint_names: [{}]\n', 'grid:\n  mode: [{}]\n'])
         return HEAD + slot.format(value), None
     if kind == 'too_many_runs':
