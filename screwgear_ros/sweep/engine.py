@@ -3,6 +3,12 @@ embedded Dask ``LocalCluster`` (one single-threaded worker process per core), or
 existing Dask cluster at a scheduler address (short runs go several to a task). Each
 yields the runs' outcomes as they finish; the runs and their shared inputs travel as
 values, so remote workers need the package installed but no shared filesystem.
+
+Worker processes, not threads: ``benchmarks/bench_sweep.py`` runs the same short runs in N
+threads of one process and in N processes; the compiled kernels hold the GIL and every tick
+passes through Python (the controller, the deadline check), so threads share one core.
+``--workers auto`` (:func:`free_workers`) counts the cores free now, so that a busy
+machine gets one worker here rather than a cluster that competes with the load.
 """
 
 from __future__ import annotations
