@@ -76,6 +76,10 @@ class _Deadline:
         return None if self.controller is None else self.controller(observation)
 
 
+#: The longest in-process time limit the timer holds, s (a year).
+ALARM_MOST = 365.0 * 86400.0
+
+
 class _Alarm:
     """SIGALRM at the run's deadline, when the run is in the main thread (``--workers
     1``): the handler raises :class:`RunTimeout` wherever the run's Python code is (the
@@ -89,7 +93,8 @@ class _Alarm:
         self.old: Any = None
         if self.armed:
             self.old = signal.signal(signal.SIGALRM, self._fire)
-            signal.setitimer(signal.ITIMER_REAL, max(seconds, 1e-6))
+            # a limit past a year is no limit a timer needs to hold (nor can, on time_t)
+            signal.setitimer(signal.ITIMER_REAL, min(max(seconds, 1e-6), ALARM_MOST))
 
     def _fire(self, signum: int, frame: Any) -> None:
         if self.armed:

@@ -31,3 +31,12 @@ def test_progress_in_a_log_is_a_line_every_few_percent():
     lines = text.splitlines()
     assert len(lines) == 100 // STEP - 1          # from 5 % (10 of 200) to 100 %
     assert lines[-1].startswith('sweep: 200/200 runs (100 %), 3 failures')
+
+
+def test_a_run_with_a_time_limit_beyond_any_timer_runs(tmp_path):
+    from screwgear_ros.sweep.model import Bundle, RunSpec
+    from screwgear_ros.sweep.worker import Status, execute
+
+    bundle = Bundle('scenario.yaml', 'duration: 0.01\n', (), (), ('max_abs_te_m',), 1.0e300)
+    outcome = execute(bundle, RunSpec(0, 0, (), (), 'k'))
+    assert outcome.status is Status.OK, outcome.reason
