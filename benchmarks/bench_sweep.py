@@ -24,6 +24,7 @@ the table says the load average before and after. Compare ratios, run twice.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import multiprocessing
 import os
 import statistics
@@ -69,10 +70,8 @@ def _tree_cpu() -> float:
     me = psutil.Process()
     total = sum(me.cpu_times()[:2])
     for child in me.children(recursive=True):
-        try:
+        with contextlib.suppress(psutil.Error):
             total += sum(child.cpu_times()[:2])
-        except psutil.Error:
-            pass
     return total
 
 
@@ -222,8 +221,8 @@ def main() -> None:
         (f'{n} plain processes at once: throughput', f'{plain.rate:7.2f}/s',
          f'{plain.rate * run_time:.2f}x the anchor: what this machine gives now'),
         (f'{n} threads in one process: throughput', f'{threaded.rate:7.2f}/s',
-         f'{threaded.rate / plain.rate:.2f}x {n} plain processes: threads '
-         + ('win' if threaded.rate > plain.rate else 'lose')),
+         (f'{threaded.rate * run_time:.2f}x the anchor (one thread), '
+         f'{threaded.rate / plain.rate:.2f}x {n} plain processes')),
         (f'{n} workers: throughput, steady', f'{many.rate:7.2f}/s',
          f'{one.rate:.2f}/s (1 worker)'),
         (f'{n} workers / 1 worker (scaling)', f'{many.rate / one.rate:8.2f}x',
