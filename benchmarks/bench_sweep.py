@@ -8,6 +8,8 @@ over a grid of backlash values, measured in one run on this machine:
 * the scaling anchor: the same loop in N plain processes at once (no Dask): what N
   processes of these runs get from this machine right now, which is the most any engine
   can scale to here;
+* N threads of this process running the loop (no Dask): whether threads in one process
+  beat processes for short runs (the engine uses processes: see the table);
 * the sweep engine in this process (``--workers 1``: the runs, the per-run result files);
 * the sweep engine on a Dask LocalCluster of N single-threaded worker processes.
 For each: throughput in steady state (runs/s between the first and the last result, so
@@ -148,6 +150,32 @@ def plain_processes(path: Path, n: int) -> Phase:
                  statistics.fmean(p.cpu for p in phases), 0.0)
 
 
+def threads(path: Path, n: int) -> Phase:
+    """The runs shared out over ``n`` threads of this process (no Dask): what one
+    process gets from threads, against :func:`plain_processes`. The compiled kernels
+    hold the GIL (they are not compiled ``nogil``) and every tick passes through Python
+    (the controller, the deadline check), so threads share one core's worth of Python."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from screwgear_ros.sweep import load_sweep
+    from screwgear_ros.sweep.worker import execute, warm_up
+
+    sweep = load_sweep(path)
+    warm_up()
+    execute(sweep.bundle, sweep.runs[0])
+
+    def share(k: int) -> list[tuple[float, float]]:
+        return [(o.wall_time, o.cpu_time) for o in
+                (execute(sweep.bundle, spec) for spec in sweep.runs[k::n])]
+
+    started = time.perf_counter()
+    with ThreadPoolExecutor(n) as pool:
+        times = [t for part in pool.map(share, range(n)) for t in part]
+    elapsed = time.perf_counter() - started
+    return Phase(0.0, len(times) / elapsed, statistics.fmean(t[0] for t in times),
+                 statistics.fmean(t[1] for t in times), 0.0)
+
+
 def _load() -> str:
     return ' '.join(f'{v:.1f}' for v in os.getloadavg())
 
@@ -165,6 +193,7 @@ def main() -> None:
         path = sweep_file(scratch, args.runs)
         alone = anchor(path)
         plain = plain_processes(path, n)
+        threaded = threads(path, n)
         one = engine(path, scratch / 'one', 1)
         many = engine(path, scratch / 'many', n)
         alone_after = anchor(path)
@@ -191,6 +220,9 @@ def main() -> None:
         ('1 worker: first result after', f'{one.first:9.2f}s', ''),
         (f'{n} plain processes at once: throughput', f'{plain.rate:7.2f}/s',
          f'{plain.rate * run_time:.2f}x the anchor: what this machine gives now'),
+        (f'{n} threads in one process: throughput', f'{threaded.rate:7.2f}/s',
+         (f'{threaded.rate * run_time:.2f}x the anchor (one thread), '
+         f'{threaded.rate / plain.rate:.2f}x {n} plain processes')),
         (f'{n} workers: throughput, steady', f'{many.rate:7.2f}/s',
          f'{one.rate:.2f}/s (1 worker)'),
         (f'{n} workers / 1 worker (scaling)', f'{many.rate / one.rate:8.2f}x',

@@ -1,9 +1,12 @@
-"""sweep SWEEP.yaml --out DIR [--workers N] [--scheduler ADDRESS]: many runs of a scenario.
+"""sweep SWEEP.yaml --out DIR [--workers N|auto] [--scheduler ADDRESS]: many runs of a scenario.
 
 Runs the scenario of a sweep file (README "Sweeps") over its grid and/or Monte Carlo draw,
 each run in-process and deterministic, on this process (``--workers 1``, no Dask), an
-embedded Dask LocalCluster (default: one worker process per core) or an existing Dask
-cluster (``--scheduler tcp://HOST:8786``). Every run is validated before any starts.
+embedded Dask LocalCluster or an existing Dask cluster (``--scheduler tcp://HOST:8786``).
+The default, ``--workers auto``, takes the cores free now (affinity less the load
+average): one, here, on a busy machine. A sweep of more than ``--allow-runs`` runs is
+refused with its count before any run is built. Every run is validated before any starts;
+a sweep with nothing left to run starts no cluster.
 Writes DIR/sweep.yaml (the resolved sweep), one file per finished run under DIR/runs/,
 then DIR/results.parquet, DIR/results.csv and DIR/summary.png, and prints the worst runs
 with the command that re-runs and records one. The same command into the same DIR
@@ -13,7 +16,7 @@ Exit status: 0 every run has its row (faults, errors and timeouts included, as r
 1 stopped before every run had one (Ctrl-C, ``--max-runs``): rerun to resume; 2 nothing
 was run: a sweep file that cannot be read or is invalid (the message names its line and
 entry), a DIR that holds another sweep, an engine that cannot start, with the reason on
-stderr and never a traceback.
+stderr and never a traceback; 130 Ctrl-C before any run started (while validating).
 """
 
 from __future__ import annotations
@@ -23,7 +26,12 @@ import sys
 import time
 from pathlib import Path
 
-from . import EXIT_ERROR, EXIT_OK
+from . import EXIT_ERROR, EXIT_OK, interruptible
+
+#: --workers: the cores free now.
+AUTO = 'auto'
+#: Sweeps of this many runs or more say so before they are validated.
+ANNOUNCE = 10_000
 
 #: Stopped before every run had its row (rerun to resume).
 EXIT_INCOMPLETE = 1
@@ -37,45 +45,79 @@ def _arguments(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument('sweep', help='sweep YAML (README "Sweeps")')
     parser.add_argument('--out', required=True, metavar='DIR', help='results directory '
                         '(new, or one of an earlier run of the same sweep to resume)')
-    parser.add_argument('--workers', type=int, metavar='N', help='worker processes of the '
-                        'embedded LocalCluster (default: one per core); 1 = in this process, '
-                        'no Dask')
+    parser.add_argument('--workers', type=_workers, default=AUTO, metavar='N|auto',
+                        help='worker processes of the embedded LocalCluster; 1 = in this '
+                        'process, no Dask; auto (default): the cores free now (affinity '
+                        'less the load average), 1 on a busy machine')
     parser.add_argument('--scheduler', metavar='ADDRESS', help='submit to the Dask cluster '
                         'of this scheduler (tcp://HOST:8786) instead')
     parser.add_argument('--max-runs', type=int, metavar='N', help='stop after N more runs '
                         'finish (the rest on a later call)')
+    parser.add_argument('--allow-runs', type=int, metavar='N',
+                        help='resolve a sweep of up to N runs (default: '
+                        'screwgear_ros.sweep.spec.RUN_LIMIT, 100,000); a larger one is '
+                        'refused with its run count before anything is built')
     parser.add_argument('--no-plot', action='store_true', help='skip DIR/summary.png')
     args = parser.parse_args(argv)
-    if args.workers is not None and args.workers < 1:
-        parser.error('--workers takes a number >= 1')
     if args.max_runs is not None and args.max_runs < 1:
         parser.error('--max-runs takes a number >= 1')
-    if args.scheduler and args.workers is not None:
+    if args.allow_runs is not None and args.allow_runs < 1:
+        parser.error('--allow-runs takes a number >= 1')
+    if args.scheduler and args.workers != AUTO:
         parser.error('--workers is for the embedded cluster; a --scheduler has its own')
     return args
 
 
+def _workers(text: str) -> str | int:
+    if text == AUTO:
+        return AUTO
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{text!r}: a number >= 1, or auto') from None
+    if value < 1:
+        raise argparse.ArgumentTypeError('a number >= 1, or auto')
+    return value
+
+
+def _announce(total: int, simulated: float) -> None:
+    if total >= ANNOUNCE:
+        print(f'{total:,} runs, {simulated:.3g} s of simulation in all: validating every run '
+              'before any starts', flush=True)
+
+
+@interruptible('sweep', 'nothing was run')
 def main(argv: list[str] | None = None) -> int:
     args = _arguments(argv)
-    from ..sweep.engine import cores, describe
+    from ..sweep.engine import describe, free_workers
     from ..sweep.progress import run_pending
     from ..sweep.report import report
-    from ..sweep.spec import SweepError, load_sweep
+    from ..sweep.spec import RUN_LIMIT, SweepError, load_sweep
     from ..sweep.store import Store
 
     try:
-        sweep = load_sweep(args.sweep)
+        sweep = load_sweep(args.sweep, limit=args.allow_runs or RUN_LIMIT,
+                           announce=_announce)
         store = Store(args.out, sweep)
         done = store.open()
     except SweepError as exc:
         print(f'sweep: {exc}', file=sys.stderr)
         return EXIT_ERROR
-    workers = args.workers or (1 if args.scheduler else cores())
+    for path, why in store.damaged:
+        print(f'sweep: {path} is damaged ({why}): its run is run again', file=sys.stderr)
     todo = [r for r in sweep.runs if r.index not in done]
     if args.max_runs is not None:
         todo = todo[:args.max_runs]
+    if args.scheduler or args.workers != AUTO:
+        workers = 1 if args.scheduler else int(args.workers)
+    else:
+        chosen = free_workers(len(todo))
+        workers = chosen.count
+        if todo:
+            print(f'--workers auto: {workers} ({chosen.why})', flush=True)
     print(f'{args.sweep}: {len(sweep.runs)} runs, {len(done)} finished before, '
-          f'{len(todo)} to run on {describe(workers, args.scheduler)}', flush=True)
+          f'{len(todo)} to run' + (f' on {describe(workers, args.scheduler)}' if todo
+                                   else ''), flush=True)
     interrupted = False
     started = time.perf_counter()
     ran: tuple[float, ...] = ()

@@ -8,7 +8,7 @@ readers and callers see one exception, whatever the reader found.
 
 from __future__ import annotations
 
-import math
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -86,7 +86,7 @@ class YamlReader:
         """A finite number, at least ``low`` (above it if ``strict``)."""
         value = self.value(node)
         if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                or not math.isfinite(value):
+                or not abs(value) <= sys.float_info.max:      # an int of 400 digits too
             raise self.error(node, f'{what} must be a finite number, not {value!r}')
         if low is not None and (value <= low if strict else value < low):
             raise self.error(node, f'{what} must be {">" if strict else ">="} {low:g}, '

@@ -3,6 +3,7 @@ the node's parameters, on this process, a Dask LocalCluster or a Dask cluster
 (``sweep`` executable, README "Sweeps").
 
 :mod:`.spec` reads sweep files into a :mod:`.model` (the sweep, its axes and runs),
+:mod:`.inputs` reads the files a sweep file names,
 :mod:`.resolve` resolves and validates every run, :mod:`.worker` runs one run anywhere,
 :mod:`.engine` places the runs, :mod:`.progress` runs the pending ones with a progress
 bar, :mod:`.store` keeps the results directory, :mod:`.report` writes the results and

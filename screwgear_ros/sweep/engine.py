@@ -3,6 +3,12 @@ embedded Dask ``LocalCluster`` (one single-threaded worker process per core), or
 existing Dask cluster at a scheduler address (short runs go several to a task). Each
 yields the runs' outcomes as they finish; the runs and their shared inputs travel as
 values, so remote workers need the package installed but no shared filesystem.
+
+Worker processes, not threads: ``benchmarks/bench_sweep.py`` runs the same short runs in N
+threads of one process and in N processes; the compiled kernels hold the GIL and every tick
+passes through Python (the controller, the deadline check), so threads share one core.
+``--workers auto`` (:func:`free_workers`) counts the cores free now, so that a busy
+machine gets one worker here rather than a cluster that competes with the load.
 """
 
 from __future__ import annotations
@@ -11,6 +17,7 @@ import logging
 import math
 import os
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from .model import Bundle, RunSpec
@@ -23,6 +30,50 @@ def cores() -> int:
         return len(os.sched_getaffinity(0))
     except AttributeError:
         return os.cpu_count() or 1
+
+
+@dataclass(frozen=True)
+class Workers:
+    """How many worker processes a sweep uses, and why that many."""
+
+    count: int
+    why: str
+
+
+def free_workers(runs: int, load: float | None = None, allowed: int | None = None) -> Workers:
+    """The workers for ``runs`` runs on the cores that are free now: the cores this
+    process may run on (its affinity) less the 1-minute load average, rounded; at least
+    1, and never more than the runs. One worker runs here, with no cluster to start.
+
+    Parameters
+    ----------
+    runs
+        The runs to place.
+    load, allowed
+        The load average and the cores this process may use (default: measured now).
+
+    Returns
+    -------
+    Workers
+        The count and a sentence saying why.
+
+    Examples
+    --------
+    >>> free_workers(300, load=7.0, allowed=2).count
+    1
+    >>> free_workers(300, load=0.2, allowed=2).count
+    2
+    """
+    allowed = cores() if allowed is None else allowed
+    load = os.getloadavg()[0] if load is None else load
+    free = max(1, min(allowed, math.floor(allowed - load + 0.5)))
+    why = f'{allowed} cores, load average {load:.1f}'
+    if runs <= 1:
+        return Workers(1, f'{runs} run to do')
+    if free == 1 and allowed > 1:
+        return Workers(1, f'the machine is busy ({why}): one worker here is faster than '
+                       'several sharing the cores with the load')
+    return Workers(min(free, runs), f'{why}: {free} free')
 
 
 def in_process(bundle: Bundle, specs: Sequence[RunSpec]) -> Iterator[Outcome]:
@@ -170,4 +221,4 @@ def describe(workers: int, scheduler: str | None) -> str:
     return f'a Dask LocalCluster of {workers} worker processes'
 
 
-__all__ = ['cores', 'describe', 'in_process', 'on_dask', 'outcomes']
+__all__ = ['Workers', 'cores', 'describe', 'free_workers', 'in_process', 'on_dask', 'outcomes']

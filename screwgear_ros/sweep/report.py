@@ -22,6 +22,8 @@ def report(sweep: Sweep, store: Store, done: dict[int, Any], out: Path, *, plot:
            quiet: bool = False) -> None:
     """Write the results files (and, with ``plot``, ``out/summary.png``), then print the
     status counts, the first failed runs and the worst runs with their re-run commands.
+    Files newer than every run file are kept as they are (a rerun of a finished sweep
+    rewrites and redraws nothing).
 
     Parameters
     ----------
@@ -38,7 +40,8 @@ def report(sweep: Sweep, store: Store, done: dict[int, Any], out: Path, *, plot:
     """
     if not done:
         return
-    written = store.write_results(done)
+    kept = store.current(plot and not quiet)
+    written = kept if kept is not None else store.write_results(done)
     if not any(p.suffix == '.parquet' for p in written):
         print("sweep: results.parquet needs pyarrow (pip install 'screwgear_ros[sweep]'); "
               'results.csv holds the same table', file=sys.stderr)
@@ -46,7 +49,9 @@ def report(sweep: Sweep, store: Store, done: dict[int, Any], out: Path, *, plot:
         return
     table = store.table(done)
     metrics = sweep.bundle.metrics
-    if plot:
+    if plot and kept is not None:
+        written.append(out / 'summary.png')
+    elif plot:
         try:
             written.append(summary.figure(table, sweep.columns, metrics, bool(sweep.draws),
                                           out / 'summary.png'))
@@ -69,7 +74,8 @@ def report(sweep: Sweep, store: Store, done: dict[int, Any], out: Path, *, plot:
         path = rerun_file(sweep, store, index)
         print(f'  run {index}: {metrics[0]} = {table[metrics[0]][position]:.6g} ({swept})')
         print(f'    run_scenario {path} --record {path.with_suffix("")}_bag')
-    print('wrote ' + ', '.join(str(p) for p in written))
+    print(('up to date, kept: ' if kept is not None else 'wrote ')
+          + ', '.join(str(p) for p in written))
 
 
 def rerun_file(sweep: Sweep, store: Store, index: int) -> Path:

@@ -5,7 +5,7 @@ parameter changes on top), before any run starts.
 
 from __future__ import annotations
 
-import itertools
+import math
 from typing import Any
 
 import numpy as np
@@ -25,14 +25,16 @@ def resolve_runs(reader: YamlReader, bundle: Bundle, scenario: Any, grid: tuple[
           draws: tuple[Axis, ...], count: int, seed: int) -> list[RunSpec]:
     """Every run, in index order (grid point major, then draw), each validated."""
     base = dict(bundle.base)
-    points = list(itertools.product(*(a.values for a in grid))) if grid else [()]
     shared = bundle.digest
     runs = []
-    for index in range(len(points) * count):
-        point = points[index // count]
+    for index in range(run_count(grid, count)):
+        point = grid_point(grid, index // count)
         rng_seed = run_seed(seed, index)
         rng = np.random.default_rng(rng_seed)
         chosen = [*zip(grid, point, strict=True), *((a, a.sample(rng)) for a in draws)]
+        for axis, value in chosen[len(grid):]:
+            if not math.isfinite(value):
+                raise reader.error(axis.line, f'run {index}: {axis.column} drew {value!r}')
         overrides = {a.name: a.apply(base.get(a.name, _default(a.name)), v)
                      for a, v in chosen}
         _validate(reader, scenario, base, overrides, chosen, index)
@@ -41,6 +43,22 @@ def resolve_runs(reader: YamlReader, bundle: Bundle, scenario: Any, grid: tuple[
                        'overrides': overrides})
         runs.append(RunSpec(index, rng_seed, swept, tuple(plain(overrides).items()), key))
     return runs
+
+
+def run_count(grid: tuple[Axis, ...], count: int) -> int:
+    """The runs of a grid (every combination of its axes' values) with ``count`` draws
+    at each point, counted without building the grid."""
+    return math.prod(len(a.values) for a in grid) * count
+
+
+def grid_point(grid: tuple[Axis, ...], number: int) -> tuple[Any, ...]:
+    """The values of grid point ``number`` in :func:`itertools.product` order (the last
+    axis varies fastest), without building the grid."""
+    point = []
+    for axis in reversed(grid):
+        number, k = divmod(number, len(axis.values))
+        point.append(axis.values[k])
+    return tuple(reversed(point))
 
 
 def _default(name: str) -> Any:
@@ -90,4 +108,4 @@ def _validate(reader: YamlReader, scenario: Any, base: dict[str, Any],
                            f'table_sim: {exc}{hint}') from None
 
 
-__all__ = ['READ_ONLY', 'resolve_runs']
+__all__ = ['READ_ONLY', 'grid_point', 'resolve_runs', 'run_count']

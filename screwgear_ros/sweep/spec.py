@@ -11,42 +11,93 @@ No Dask here: this module runs anywhere the package does.
 
 from __future__ import annotations
 
+import math
+import sys
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import yaml
 
 from ..inprocess.metrics import Metrics
-from ..inprocess.scenario import ScenarioError, load_scenario
-from ..inprocess.simulation import ParameterFileError, file_values
 from ..params.declarations import declared
+from ..params.sets import default_values
 from ..params.table import SimSettings, TableParams
 from ..params.yaml_reader import YamlReader
 from . import model
+from .inputs import (
+    NODE_ONLY,
+    base_values,
+    controller_sources,
+    explicit_parameters,
+    plain_value,
+    scenario_of,
+)
 from .model import Sweep, SweepError, plain
-from .resolve import resolve_runs
+from .resolve import resolve_runs, run_count
 
 #: The top-level keys of a sweep file.
 KEYS = ('parameters', 'scenario', 'metrics', 'time_limit', 'grid', 'monte_carlo')
 MONTE_CARLO_KEYS = ('count', 'seed', 'parameters')
 #: The metrics a sweep can keep: the flat names of a run's metrics.
 METRICS = tuple(Metrics(0.0, None, (), (), (0.0, 0.0), None, 0).as_dict())
-#: Node settings that mean nothing for an in-process run (the node's pacing, clock, DDS
-#: lockstep and recorder): sweeping them would change no result.
-NODE_ONLY = ('record', 'real_time_factor', 'publish_clock', 'lockstep')
 #: Default wall-time limit of one run, s.
 TIME_LIMIT = 300.0
 #: Parameters that may be swept (read-only ones too: a run sets them at its start).
 SWEEPABLE = tuple(p.name for cls in (TableParams, SimSettings) for p in declared(cls)
                   if p.name not in NODE_ONLY)
+#: The most runs a sweep resolves unless its caller allows more (each run is resolved,
+#: validated and held before any starts: about a kB and 0.1 ms to 1 ms each).
+RUN_LIMIT = 100_000
 
 
+def load_sweep(path: str | Path, *, limit: int | None = RUN_LIMIT,
+               announce: Callable[[int, float], None] | None = None) -> Sweep:
+    """Read, resolve and validate a sweep file.
 
-def load_sweep(path: str | Path) -> Sweep:
-    """Read, resolve and validate a sweep file; :class:`SweepError` says what is wrong."""
+    Parameters
+    ----------
+    path
+        The sweep file.
+    limit
+        The most runs to resolve; a sweep of more is refused with its run count before
+        any is resolved (None: no limit).
+    announce
+        Called with the run count and the simulated seconds of all runs once they are
+        known, before the runs are resolved and validated.
+
+    Returns
+    -------
+    Sweep
+        Every run, resolved and validated.
+
+    Raises
+    ------
+    SweepError
+        What is wrong, with the file, the line and the entry; never another exception
+        for what a file holds.
+
+    Examples
+    --------
+    >>> load_sweep('docs/examples/tolerance_sweep.yaml').count  # doctest: +SKIP
+    300
+    """
     path = Path(path)
-    reader = YamlReader.open(path, SweepError)
+    try:
+        reader = YamlReader.open(path, SweepError)
+    except (yaml.YAMLError, RecursionError, ValueError) as exc:
+        if isinstance(exc, SweepError):
+            raise
+        raise SweepError(f'{path}: {_unreadable(path, exc)}') from None
+    try:
+        return _load(reader, path, limit, announce)
+    except RecursionError:
+        raise SweepError(f'{path}: nested too deeply') from None
+
+
+def _load(reader: YamlReader, path: Path, limit: int | None,
+          announce: Callable[[int, float], None] | None) -> Sweep:
     if reader.root is None:
         raise SweepError(f'{path}: empty; a sweep needs a scenario, metrics and a grid or '
                          'monte_carlo')
@@ -63,33 +114,15 @@ def load_sweep(path: str | Path) -> Sweep:
     base: dict[str, Any] = {}
     base_file = None
     if 'parameters' in top:
-        node = top['parameters'][1]
-        name = reader.value(node)
-        if not isinstance(name, str) or not name:
-            raise reader.error(node, 'parameters names a parameter file (path relative to '
-                               'the sweep file)')
-        base_file = str((here / name).resolve())
-        try:
-            base = file_values(base_file)
-        except ParameterFileError as exc:
-            raise reader.error(node, str(exc)) from None
-        for key in NODE_ONLY:
-            base.pop(key, None)              # the node's settings: no meaning in-process
-    node = top['scenario'][1]
-    name = reader.value(node)
-    if not isinstance(name, str) or not name:
-        raise reader.error(node, 'scenario names a scenario file (path relative to the '
-                           'sweep file)')
-    scenario_file = here / name
-    try:
-        scenario = load_scenario(scenario_file)
-        scenario_text = scenario_file.read_text(encoding='utf-8')
-    except (ScenarioError, OSError) as exc:
-        raise reader.error(node, f'scenario: {exc}') from None
-    explicit = (yaml.safe_load(scenario_text) or {}).get('parameters') or {}
+        base, base_file = base_values(reader, top['parameters'][1], here)
+    scenario, scenario_file, scenario_text = scenario_of(reader, top['scenario'][1], here)
     values = dict(scenario.values)
-    base = {**base, **{k: values[k] for k in explicit}}
-    sources = _controller_sources(scenario, scenario_file.resolve().parent)
+    base = {**base, **{k: values[k] for k in explicit_parameters(scenario_text)}}
+    try:
+        sources = controller_sources(scenario, scenario_file.resolve().parent)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise reader.error(top['scenario'][1], f'scenario: its controller module cannot '
+                           f'be read: {exc}') from None
 
     metrics = _metrics(reader, top['metrics'][1])
     time_limit = TIME_LIMIT
@@ -106,25 +139,50 @@ def load_sweep(path: str | Path) -> Sweep:
         if names.count(axis.name) > 1:
             raise reader.error(axis.line or None,
                                f'{axis.name} is swept twice (grid and monte_carlo)')
+        if axis.scale:
+            _scalable(reader, axis, base.get(axis.name, default_values().get(axis.name)))
 
+    total = run_count(grid, count)
+    simulated = float(scenario.duration) * min(total, 10 ** 300)     # no float overflow
+    if limit is not None and total > limit:
+        sizes = ' x '.join(str(len(a.values)) for a in grid) or '1'
+        raise SweepError(f'{path}: {total:,} runs (grid {sizes}, {count:,} draws each; '
+                         f'{simulated:.3g} s of simulation in all): more than the limit of '
+                         f'{limit:,} runs; a smaller sweep, or allow it (sweep '
+                         f'--allow-runs {total})')
+    if announce is not None:
+        announce(total, simulated)
     bundle = model.Bundle(scenario_file.name, scenario_text, sources,
-                    tuple(plain(base).items()), metrics, time_limit)
+                          tuple(plain(base).items()), metrics, time_limit)
     runs = resolve_runs(reader, bundle, scenario, grid, draws, count, seed)
     return Sweep(str(path), bundle, grid, draws, count, seed, tuple(runs), base_file,
                  str(scenario_file.resolve()))
 
 
-def _controller_sources(scenario: Any, directory: Path) -> tuple[tuple[str, str], ...]:
-    """The controller's module file when it sits beside the scenario (shipped to the
-    workers); an installed module is the workers' to have."""
-    spec = scenario.controller
-    if spec is None or spec.use == 'demo':
-        return ()
-    module = spec.use.partition(':')[0]
-    candidate = directory / (module.replace('.', '/') + '.py')
-    if '.' not in module and candidate.is_file():
-        return ((candidate.name, candidate.read_text(encoding='utf-8')),)
-    return ()
+def _unreadable(path: Path, exc: BaseException) -> str:
+    """Why the YAML of ``path`` cannot be composed, with its line where the reader
+    knows it (a control character is found before any line is composed)."""
+    if isinstance(exc, RecursionError):
+        return 'nested too deeply'
+    if isinstance(exc, yaml.reader.ReaderError):
+        try:
+            text = path.read_text(encoding='utf-8')
+            line = f'line {text[:exc.position].count(chr(10)) + 1}: '
+        except (OSError, UnicodeDecodeError):
+            line = ''
+        character = chr(exc.character) if isinstance(exc.character, int) else exc.character
+        return (f'{line}not valid YAML: character {character!r} is not allowed '
+                '(a control character)')
+    return f'not valid YAML: {str(exc).splitlines()[0]}'
+
+
+def _scalable(reader: YamlReader, axis: model.Axis, base: Any) -> None:
+    """A scaled axis multiplies a number or a list of numbers; nothing else scales."""
+    number = (lambda v: isinstance(v, (int, float)) and not isinstance(v, bool))
+    if number(base) or (isinstance(base, (list, tuple)) and all(map(number, base))):
+        return
+    raise reader.error(axis.line, f'{axis.name}: scale multiplies a number or a list of '
+                       f'numbers; {axis.name} is {base!r}: give its values instead')
 
 
 def _metrics(reader: YamlReader, node: yaml.Node) -> tuple[str, ...]:
@@ -172,9 +230,12 @@ def _grid(reader: YamlReader, node: yaml.Node) -> tuple[model.Axis, ...]:
         values = reader.value(values_node)
         if not isinstance(values_node, yaml.SequenceNode) or not values:
             raise reader.error(values_node, f'grid {name}: a non-empty list of values')
-        if scale:
-            for item in values_node.value:
+        for item, value in zip(values_node.value, values, strict=True):
+            if scale:
                 reader.number(item, f'grid {name}: a scale factor')
+            elif not plain_value(value):
+                raise reader.error(item, f'grid {name}: {value!r} is not a parameter value '
+                                   '(a number, a string, a bool or a list of them)')
         axes.append(model.Axis(name, key.start_mark.line + 1, scale, tuple(values)))
     if not axes:
         raise reader.error(node, 'grid: name at least one parameter with its values')
@@ -219,12 +280,32 @@ def _monte_carlo(reader: YamlReader,
         low_high = args[-2:] if law is not model.Law.NORMAL else None
         if low_high is not None and not low_high[0] < low_high[1]:
             raise reader.error(args_node, f'monte_carlo {name}: low must be below high')
+        _drawable(reader, args_node, f'monte_carlo {name}', law, args)
         axes.append(model.Axis(name, key.start_mark.line + 1, scale,
                                draw=model.Draw(law, args)))
     if not axes:
         raise reader.error(entries['parameters'][1], 'monte_carlo parameters: name at least '
                            'one parameter with its distribution')
     return count, seed, tuple(axes)
+
+
+def _drawable(reader: YamlReader, node: yaml.Node, what: str, law: model.Law,
+              args: tuple[float, ...]) -> None:
+    """Refuse a draw whose values cannot be finite floats: a range or spread wider than
+    the largest float, a truncated window so far out that it has no σ count."""
+    if law is model.Law.UNIFORM and not math.isfinite(args[1] - args[0]):
+        raise reader.error(node, f'{what}: high - low must be a finite number (at most '
+                           f'{sys.float_info.max:.4g}), not {args[1] - args[0]!r}')
+    if law is model.Law.NORMAL and not math.isfinite(abs(args[0]) + 40.0 * args[1]):
+        raise reader.error(node, f'{what}: mean and std so large that a draw overflows '
+                           'to infinity')
+    if law is model.Law.TRUNCATED_NORMAL:
+        mean, std, low, high = args
+        edges = ((low - mean) / std, (high - mean) / std)
+        if not all(math.isfinite(e) for e in edges):
+            raise reader.error(node, f'{what}: the window [low, high] lies {edges[0]:g} to '
+                               f'{edges[1]:g} std from the mean; it must be a finite number '
+                               'of std (a larger std)')
 
 
 #: The names that moved to :mod:`screwgear_ros.sweep.model`, kept here for one release.
@@ -239,5 +320,6 @@ def __getattr__(name: str) -> object:
     raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
-__all__ = ['KEYS', 'METRICS', 'MONTE_CARLO_KEYS', 'NODE_ONLY', 'SWEEPABLE', 'TIME_LIMIT',
+__all__ = ['KEYS', 'METRICS', 'MONTE_CARLO_KEYS', 'NODE_ONLY', 'RUN_LIMIT', 'SWEEPABLE',
+           'TIME_LIMIT',
            'Sweep', 'SweepError', 'load_sweep']

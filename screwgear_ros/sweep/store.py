@@ -68,18 +68,28 @@ class Store:
         self.directory = Path(directory)
         self.sweep = sweep
         self.runs = self.directory / RUNS
+        self.damaged: list[tuple[Path, str]] = []   # run files found damaged by finished()
 
     def open(self) -> dict[int, dict[str, Any]]:
         """Create DIR or check that it holds this sweep; the finished runs by index."""
         resolved = yaml.safe_load(yaml.safe_dump(self.sweep.resolved(), sort_keys=False))
         target = self.directory / RESOLVED
+        if self.directory.exists() and not self.directory.is_dir():
+            raise SweepError(f'{self.directory} is not a directory; --out names a results '
+                             'directory (new, or one of an earlier run of this sweep)')
         if target.exists():
             try:
                 old = yaml.safe_load(target.read_text(encoding='utf-8'))
-            except (OSError, yaml.YAMLError) as exc:
-                raise SweepError(f'{target}: cannot read the sweep of this directory: {exc}') \
-                    from None
-            old, new = dict(old or {}), dict(resolved)
+            except (OSError, UnicodeDecodeError, yaml.YAMLError, RecursionError) as exc:
+                why = 'nested too deeply' if isinstance(exc, RecursionError) else \
+                    str(exc).splitlines()[0]
+                raise SweepError(f'{target}: cannot read the sweep of this directory: '
+                                 f'{why}') from None
+            if not isinstance(old, dict):
+                raise SweepError(f'{self.directory} holds no sweep of this program '
+                                 f'({target} holds {type(old).__name__} {str(old)[:40]!r}, not '
+                                 'a resolved sweep); use a new --out directory')
+            old, new = dict(old), dict(resolved)
             for where in ('sweep_file', 'parameters_file', 'scenario_file'):
                 old.pop(where, None), new.pop(where, None)    # the same files may move
             change = _difference(old, new)
@@ -99,16 +109,31 @@ class Store:
         return self.finished()
 
     def finished(self) -> dict[int, dict[str, Any]]:
-        keys = {r.index: r.key for r in self.sweep.runs}
-        done = {}
+        """The finished runs by index: each run file that holds a whole row of this
+        sweep's run of its name. A damaged one (torn, edited, of another program) is
+        left for its run to redo it, and listed in :attr:`damaged`."""
+        runs = {r.index: r for r in self.sweep.runs}
+        metrics = len(self.sweep.bundle.metrics)
+        done: dict[int, dict[str, Any]] = {}
+        self.damaged = []
         for path in sorted(self.runs.glob('*.json')):
+            why = None
             try:
                 row = json.loads(path.read_text(encoding='utf-8'))
-                index = int(row['index'])
-            except (OSError, ValueError, KeyError, TypeError):
-                continue                    # a torn or foreign file: the run is redone
-            if keys.get(index) == row.get('key'):
-                done[index] = row
+            except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
+                row, why = None, f'not a JSON row ({type(exc).__name__})'
+            if why is None:
+                why = damage(row, metrics)
+            if why is None:
+                run = runs.get(row['index'])
+                if run is None or path.name != f'{run.index:06d}.json':
+                    why = f'names run {row["index"]}, not a run of this sweep by its name'
+                elif run.key != row['key']:
+                    continue                # a run of another sweep's key: redone silently
+            if why is not None:
+                self.damaged.append((path, why))
+                continue
+            done[row['index']] = row
         return done
 
     def add(self, outcome: Outcome) -> dict[str, Any]:
@@ -138,6 +163,19 @@ class Store:
         os.replace(part, target)
         return [target, *written]
 
+    def current(self, plot: bool) -> list[Path] | None:
+        """The results files (with summary.png if ``plot``) when each is newer than every
+        run file, so that they hold every finished run; else None."""
+        names = [f'{RESULTS}.csv', *((f'{RESULTS}.parquet',) if _has_pyarrow() else ()),
+                 *(('summary.png',) if plot else ())]
+        files = [self.directory / name for name in names]
+        try:
+            oldest = min(f.stat().st_mtime_ns for f in files)
+            newest = max((f.stat().st_mtime_ns for f in self.runs.glob('*.json')), default=0)
+        except OSError:
+            return None
+        return [f for f in files if f.suffix != '.png'] if oldest > newest else None
+
     def table(self, rows: dict[int, dict[str, Any]]) -> dict[str, list[Any]]:
         """Column → values of the finished runs, in run order: index, seed, the swept
         values, the metrics, status, reason."""
@@ -157,8 +195,36 @@ class Store:
         return table
 
 
+def _has_pyarrow() -> bool:
+    import importlib.util
+
+    try:
+        return importlib.util.find_spec('pyarrow') is not None
+    except (ImportError, ValueError):
+        return False
+
+
+def damage(row: Any, metrics: int) -> str | None:
+    """What is wrong with a run file's row (None: a whole row of ``metrics`` metrics)."""
+    if not isinstance(row, dict):
+        return f'holds {type(row).__name__}, not a row'
+    for name, kind in (('index', int), ('key', str), ('status', str), ('reason', str),
+                       ('metrics', list)):
+        if name not in row:
+            return f'has no {name!r}'
+        if not isinstance(row[name], kind) or isinstance(row[name], bool):
+            return f'{name!r} is {type(row[name]).__name__}, not {kind.__name__}'
+    if row['status'] not in {s.value for s in Status}:
+        return f'status {row["status"][:20]!r} is none of {", ".join(s.value for s in Status)}'
+    values = row['metrics']
+    if len(values) != metrics or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+        return f'metrics is not a list of {metrics} numbers'
+    return None
+
+
 def failures(rows: Iterable[dict[str, Any]]) -> int:
     return sum(1 for row in rows if row['status'] != Status.OK.value)
 
 
-__all__ = ['RESOLVED', 'RUNS', 'Store', 'failures']
+__all__ = ['RESOLVED', 'RUNS', 'Store', 'damage', 'failures']

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import os
+import signal
 import sys
 import tempfile
 import threading
@@ -69,10 +70,45 @@ class _Deadline:
         return self
 
     def __call__(self, observation: Any) -> Any:
+        self.time = observation.time
         if time.perf_counter() > self.deadline:
-            self.time = observation.time
             raise RunTimeout
         return None if self.controller is None else self.controller(observation)
+
+
+#: The longest in-process time limit the timer holds, s (a year).
+ALARM_MOST = 365.0 * 86400.0
+
+
+class _Alarm:
+    """SIGALRM at the run's deadline, when the run is in the main thread (``--workers
+    1``): the handler raises :class:`RunTimeout` wherever the run's Python code is (the
+    controller's factory, a controller that sleeps, the metrics), so its limit holds
+    during the whole run, not only between ticks. The timer fires once; :meth:`disarm`
+    makes a late one harmless, :meth:`restore` puts the old handler back."""
+
+    def __init__(self, seconds: float) -> None:
+        self.armed = (threading.current_thread() is threading.main_thread()
+                      and hasattr(signal, 'setitimer'))
+        self.old: Any = None
+        if self.armed:
+            self.old = signal.signal(signal.SIGALRM, self._fire)
+            # a limit past a year is no limit a timer needs to hold (nor can, on time_t)
+            signal.setitimer(signal.ITIMER_REAL, min(max(seconds, 1e-6), ALARM_MOST))
+
+    def _fire(self, signum: int, frame: Any) -> None:
+        if self.armed:
+            self.armed = False
+            raise RunTimeout
+
+    def disarm(self) -> None:
+        self.armed = False
+
+    def restore(self) -> None:
+        if self.old is not None:
+            signal.setitimer(signal.ITIMER_REAL, 0.0)
+            signal.signal(signal.SIGALRM, self.old)
+            self.old = None
 
 
 #: Scenarios materialized in this process, by bundle digest.
@@ -118,7 +154,8 @@ def execute(bundle: Bundle, spec: RunSpec) -> Outcome:
     """Run ``spec`` (never raises: a failure is an outcome with its reason). In a Dask
     worker, a run blocked past :func:`hard_limit` ends the worker process, which its
     nanny restarts (the run becomes a lost-worker row on the client): no worker stays
-    stuck. In the calling process the deadline check between ticks is all there is."""
+    stuck. In the main thread (``--workers 1``) a timer stops the run at its limit wherever
+    its Python code is (:class:`_Alarm`); elsewhere the check between ticks stops it."""
     watchdog = None
     if _in_dask_worker():
         watchdog = threading.Timer(hard_limit(bundle.time_limit), _end_process)
@@ -139,14 +176,19 @@ def _execute(bundle: Bundle, spec: RunSpec) -> Outcome:
     started, cpu = time.perf_counter(), time.thread_time()
     nothing = tuple(math.nan for _ in bundle.metrics)
     guard = _Deadline(None, started + bundle.time_limit)
+    alarm = _Alarm(bundle.time_limit)
     try:
-        scenario = _scenario(bundle)
-        simulation = Simulation.from_values(dict(bundle.base), **dict(spec.overrides))
-        run = scenario.run(simulation=simulation, guard=guard.around)
-        setpoint = scenario.setpoint
-        metrics = run_metrics(run, setpoint, setpoint.joint if setpoint else 'table').as_dict()
-        values = tuple(float(metrics[name]) for name in bundle.metrics)
-        status, reason = (Status.FAULT, run.fault) if run.fault else (Status.OK, '')
+        try:
+            scenario = _scenario(bundle)
+            simulation = Simulation.from_values(dict(bundle.base), **dict(spec.overrides))
+            run = scenario.run(simulation=simulation, guard=guard.around)
+            setpoint = scenario.setpoint
+            metrics = run_metrics(run, setpoint,
+                                  setpoint.joint if setpoint else 'table').as_dict()
+            values = tuple(float(metrics[name]) for name in bundle.metrics)
+            status, reason = (Status.FAULT, run.fault) if run.fault else (Status.OK, '')
+        finally:
+            alarm.disarm()
     except RunTimeout:
         values, status = nothing, Status.TIMEOUT
         reason = (f'over the time limit of {bundle.time_limit:g} s of wall time; stopped at '
@@ -157,6 +199,8 @@ def _execute(bundle: Bundle, spec: RunSpec) -> Outcome:
     except Exception as exc:  # noqa: BLE001 - any failure of one run is that run's row
         values, status = nothing, Status.ERROR
         reason = f'{type(exc).__name__}: {exc}'
+    finally:
+        alarm.restore()
     return Outcome(spec.index, spec.key, status, reason, values,
                    time.perf_counter() - started, time.thread_time() - cpu)
 
