@@ -22,9 +22,9 @@ import yaml
 
 from ..inprocess.metrics import Metrics
 from ..params.declarations import declared
-from ..params.sets import default_values
 from ..params.table import SimSettings, TableParams
 from ..params.yaml_reader import YamlReader
+from ..sim.parameter_set import default_values
 from . import model
 from .inputs import (
     NODE_ONLY,

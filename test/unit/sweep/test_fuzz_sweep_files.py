@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from screwgear_ros.params.sets import default_values
+from screwgear_ros.sim.parameter_set import default_values
 from screwgear_ros.sweep.model import SweepError
 from screwgear_ros.sweep.spec import SWEEPABLE, load_sweep
 from screwgear_ros.sweep.store import Store
