@@ -6,6 +6,7 @@ it until SIGINT or SIGTERM, then sends a zero effort, leaving the table unforced
 
 from __future__ import annotations
 
+import sys
 import warnings
 
 import rclpy
@@ -13,10 +14,16 @@ from rclpy.signals import SignalHandlerOptions
 
 from ..ros import demo_controller as _node
 from ..ros.shutdown import spin_until, stop_on_signals
+from . import EXIT_ERROR, RosArgumentsError, without_ros_args
 
 
 def main(args: list[str] | None = None) -> int:
-    """Run until SIGINT or SIGTERM; exit 0."""
+    """Run until SIGINT or SIGTERM; exit 0 (2: ROS arguments rcl cannot parse)."""
+    try:
+        without_ros_args(sys.argv if args is None else args)
+    except RosArgumentsError as error:
+        print(f'demo_controller: {error}', file=sys.stderr)
+        return EXIT_ERROR
     stop = stop_on_signals()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = None

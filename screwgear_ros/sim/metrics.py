@@ -106,12 +106,22 @@ def run_metrics(run: Any, setpoint: Callable[[float], float] | None = None,
     """The metrics of ``run`` (a :class:`~screwgear_ros.sim.simulation.Run`). ``setpoint``:
     t (s from the run's start) → target angle (rad) of ``joint`` (a joint_states name or
     index); ``jumps``: its steps as (time, before, after) (default: the setpoint's own
-    ``steps(duration)`` if it has them, else none)."""
+    ``steps(duration)`` if it has them, else none).
+
+    Raises
+    ------
+    ValueError
+        ``joint`` is not a joint of the run, or ``setpoint`` is a profile whose
+        ``check_tick`` refuses the run's tick (a square period under two ticks).
+    """
     if isinstance(joint, str):
         names = list(run.settings.joint_names)
         if joint not in names:
             raise ValueError(f'joint {joint!r} is not one of {names}')
         joint = names.index(joint)
+    check_tick = getattr(setpoint, 'check_tick', None)
+    if check_tick is not None:       # a profile faster than the ticks: bounded, refused
+        check_tick(run.settings.steps_per_publish * run.settings.dt)
     t = run.time - run.time[0]
     angle = run.true_position[:, joint]
     force = np.abs(run.mesh_force)

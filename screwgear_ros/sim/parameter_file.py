@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import yaml
@@ -13,6 +14,7 @@ import yaml
 from ..errors import ScrewgearError
 from ..params.sets import default_values, split_parameters
 from ..params.table import SimSettings, TableParams
+from ..params.yaml_reader import YamlReader
 
 #: Keys of a ROS 2 parameter file whose ``ros__parameters`` table_sim takes: any node
 #: (``/**``) and the node's own name, with or without its leading slash.
@@ -25,33 +27,43 @@ class ParameterFileError(ScrewgearError, ValueError):
 
 def file_values(path: str | os.PathLike[str]) -> dict[str, Any]:
     """The table_sim parameters of a ROS 2 parameter file (``/**:`` or node-name keys
-    with ``ros__parameters``, in file order; or a bare mapping of parameter names)."""
-    try:
-        with open(path, encoding='utf-8') as stream:
-            document = yaml.safe_load(stream)
-    except OSError as exc:
-        raise ParameterFileError(f'{path}: cannot read: {exc.strerror or exc}') from None
-    except yaml.YAMLError as exc:
-        raise ParameterFileError(f'{path}: not valid YAML: {exc}') from None
-    if document is None:
+    with ``ros__parameters``, in file order; or a bare mapping of parameter names).
+
+    Raises
+    ------
+    ParameterFileError
+        The file cannot be read, is not UTF-8 or not YAML, nests too deep, has a key that
+        is not a name, or holds no parameters for table_sim; the message names the file
+        and, where it is known, the line.
+    """
+    reader = YamlReader.open(Path(path), ParameterFileError)
+    root = reader.root
+    if root is None:
         return {}
-    if not isinstance(document, dict):
-        raise ParameterFileError(f'{path}: a parameter file is a mapping, not '
-                                 f'{type(document).__name__}')
-    sections = {k: v for k, v in document.items()
-                if isinstance(v, dict) and 'ros__parameters' in v}
+    if not isinstance(root, yaml.MappingNode):
+        raise reader.error(root, f'a parameter file is a mapping, not '
+                           f'{type(reader.value(root)).__name__}')
+    top = reader.mapping(root, 'a parameter file')
+    sections = {name: value for name, (_, value) in top.items()
+                if isinstance(value, yaml.MappingNode)
+                and any(isinstance(key, yaml.ScalarNode) and key.value == 'ros__parameters'
+                        for key, _ in value.value)}
     if not sections:
-        return dict(document)
+        return {name: reader.value(value) for name, (_, value) in top.items()}
     values: dict[str, Any] = {}
-    for key, section in sections.items():
-        if key in NODE_KEYS:
-            entries = section['ros__parameters'] or {}
-            if not isinstance(entries, dict):
-                raise ParameterFileError(f'{path}: {key}: ros__parameters must be a mapping')
-            values.update(entries)
-    if not any(key in NODE_KEYS for key in sections):
+    for name, section in sections.items():
+        if name not in NODE_KEYS:
+            continue
+        entries = reader.mapping(section, name)['ros__parameters'][1]
+        if reader.value(entries) is None:
+            continue
+        if not isinstance(entries, yaml.MappingNode):
+            raise reader.error(entries, f'{name}: ros__parameters must be a mapping')
+        values.update({key: reader.value(value) for key, (_, value)
+                       in reader.mapping(entries, f'{name}: ros__parameters').items()})
+    if not any(name in NODE_KEYS for name in sections):
         raise ParameterFileError(f'{path}: no parameters for table_sim (keys '
-                                 f'{", ".join(NODE_KEYS)}); found {", ".join(map(str, sections))}')
+                                 f'{", ".join(NODE_KEYS)}); found {", ".join(sections)}')
     return values
 
 

@@ -24,8 +24,9 @@ import yaml
 
 from ..errors import ScrewgearError
 from ..interface import Input
+from ..params.declarations import declared
 from ..params.sets import default_values, split_parameters
-from ..params.table import ParameterError
+from ..params.table import ParameterError, SimSettings, TableParams
 from ..params.yaml_reader import YamlReader
 from .commands import INPUT_TOPICS, InputRejected, apply_command
 from .control import TABLE_JOINT, DemoController, DemoGains
@@ -42,6 +43,10 @@ KEYS = ('parameters', 'duration', 'actions', 'controller', 'setpoint')
 ACTIONS = (*INPUT_TOPICS, 'parameters', 'reset')
 #: A scenario's controller: its keys.
 CONTROLLER_KEYS = ('use', 'parameters')
+#: Parameters the node refuses to change while it runs (read-only): an action may not
+#: change them, whatever the value.
+READ_ONLY = frozenset(p.name for cls in (TableParams, SimSettings) for p in declared(cls)
+                      if p.declaration.read_only)
 
 
 class ScenarioError(ScrewgearError, ValueError):
@@ -271,6 +276,7 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
             line = item.start_mark.line + 1
             if kind == 'parameters':
                 before = values
+                _changeable(reader, value_node, f'parameters at {t:g} s')
                 values = _parameters(reader, value_node, values, f'parameters at {t:g} s')
                 change = {k: v for k, v in values.items() if before.get(k) != v}
                 actions.append(Action(t, kind, change, line))
@@ -292,6 +298,13 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
     if setpoint is not None and setpoint.joint not in values['joint_names']:
         raise reader.error(top['setpoint'][1], f'setpoint joint {setpoint.joint!r} is not one '
                            f'of the joint_states names {values["joint_names"]}')
+    if setpoint is not None:
+        settings = split_parameters(start)[1]
+        try:
+            setpoint.check_tick(settings.steps_per_publish * settings.dt)
+        except ValueError as exc:
+            node = reader.mapping(top['setpoint'][1], 'setpoint').get('period')
+            raise reader.error(node[1] if node else top['setpoint'][1], str(exc)) from None
     return Scenario(str(path), tuple(start.items()), duration, tuple(actions), controller,
                     setpoint)
 
@@ -308,6 +321,16 @@ def _parameters(reader: YamlReader, node: yaml.Node, values: dict[str, Any],
         key = entries.get(exc.name)
         raise reader.error(key[0] if key is not None else node, f'{what}: {exc}') from None
     return merged
+
+
+def _changeable(reader: YamlReader, node: yaml.Node, what: str) -> None:
+    """Refuse a read-only parameter in an action's parameters, at its line: the node
+    refuses to change it while it runs."""
+    for name, (key, _) in reader.mapping(node, what).items():
+        if name in READ_ONLY:
+            raise reader.error(key, f'{what}: {name} is read-only: the node refuses to '
+                               'change it while it runs; set it under the scenario\'s '
+                               'parameters')
 
 
 def _command(reader: YamlReader, topic: str, node: yaml.Node) -> Any:
@@ -348,6 +371,7 @@ __all__ = [
     'ACTIONS',
     'KEYS',
     'PROFILES',
+    'READ_ONLY',
     'Action',
     'ControllerSpec',
     'Scenario',

@@ -34,6 +34,30 @@ class SetpointProfile:
     phase: float = 0.0
     joint: str = 'table'
 
+    def __post_init__(self) -> None:
+        """Refuse what no profile can be (ValueError): an unknown profile, a period or
+        frequency that is not a finite number > 0, steps or ramps without points."""
+        if self.profile not in PROFILES:
+            raise ValueError(f'unknown setpoint profile {self.profile!r} (known: '
+                             f'{", ".join(PROFILES)})')
+        if self.profile == 'square' and not (_positive(self.period) and 0.5 * self.period):
+            raise ValueError(f'a square setpoint period must be a finite number of '
+                             f'seconds > 0, not {self.period!r}')
+        if self.profile == 'sine' and not _positive(self.frequency):
+            raise ValueError(f'a sine setpoint frequency must be a finite number of '
+                             f'hertz > 0, not {self.frequency!r}')
+        if self.profile in ('steps', 'ramps') and not self.points:
+            raise ValueError(f'a {self.profile} setpoint needs points')
+
+    def check_tick(self, tick: float) -> None:
+        """Refuse (ValueError, with the bound) a square period shorter than two ticks of
+        ``tick`` s: a wave that flips within a tick is not sampled, and its jumps would
+        number one per half period over the run."""
+        if self.profile == 'square' and self.period < 2.0 * tick:
+            raise ValueError(f'a square setpoint period must be at least two ticks '
+                             f'({2.0 * tick:g} s at this publish_rate and dt), not '
+                             f'{self.period:g} s')
+
     def __call__(self, t: float) -> float:
         p = self.profile
         if p == 'sine':
@@ -65,6 +89,11 @@ class SetpointProfile:
             return [(k * half, self((k - 0.5) * half), self(k * half))
                     for k in range(1, int(duration / half) + 1) if k * half <= duration]
         return []
+
+
+def _positive(value: float) -> bool:
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value) and value > 0.0)
 
 
 def read_setpoint(reader: YamlReader, node: yaml.Node) -> SetpointProfile:
