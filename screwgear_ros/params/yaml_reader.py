@@ -9,6 +9,7 @@ readers and callers see one exception, whatever the reader found.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,40 @@ ErrorType = Callable[[str], ValueError]
 #: What a refusal of deep nesting says: PyYAML composes recursively, so the interpreter's
 #: recursion limit (a few hundred levels below its default of 1000) is the real bound.
 TOO_DEEP = 'nested deeper than the reader follows (a few hundred levels)'
+
+
+#: Deepest flow nesting ([ and {) a file may have: PyYAML's scanner slows down
+#: quadratically with it (seconds at a thousand levels) before its composer gives up.
+MAX_FLOW_DEPTH = 64
+_FLOW = re.compile(r'[\[\]{}"\'#\n]')
+
+
+def flow_depth_line(text: str, limit: int = MAX_FLOW_DEPTH) -> int | None:
+    """The line (1-based) where ``text``'s flow collections nest deeper than ``limit``,
+    or None; quoted strings and comments are skipped (a cheap scan before the parser)."""
+    depth, line, quote = 0, 1, ''
+    comment = False
+    for match in _FLOW.finditer(text):
+        char = match.group()
+        if char == '\n':
+            line += 1
+            comment = False
+        elif comment:
+            continue
+        elif quote:
+            if char == quote:
+                quote = ''
+        elif char in '"\'':
+            quote = char
+        elif char == '#':
+            comment = True
+        elif char in '[{':
+            depth += 1
+            if depth > limit:
+                return line
+        else:
+            depth = max(0, depth - 1)
+    return None
 
 
 def decode(path: Path, data: bytes, error_type: ErrorType = ValueError) -> str:
@@ -43,6 +78,10 @@ class YamlReader:
     def __init__(self, path: Path, text: str, error_type: ErrorType = ValueError) -> None:
         self.path = path
         self.error_type = error_type
+        deep = flow_depth_line(text)
+        if deep is not None:
+            raise error_type(f'{path}: line {deep}: [ and {{ nest deeper '
+                             f'than {MAX_FLOW_DEPTH} levels')
         try:
             # The reader refuses a control character as the loader is made.
             self._loader = yaml.SafeLoader(text)
@@ -121,4 +160,4 @@ class YamlReader:
         return float(value)
 
 
-__all__ = ['TOO_DEEP', 'ErrorType', 'YamlReader', 'decode']
+__all__ = ['MAX_FLOW_DEPTH', 'TOO_DEEP', 'ErrorType', 'YamlReader', 'decode', 'flow_depth_line']

@@ -71,7 +71,8 @@ def _shown(value: Any, width: int = 60) -> str:
     try:
         text = repr(value)
     except ValueError:                 # an int past the interpreter's digit limit
-        return f'an int of {value.bit_length()} bits'
+        return (f'an int of {value.bit_length()} bits' if isinstance(value, int)
+                else f'a {type(value).__name__} holding an int of over 4300 digits')
     return text if len(text) <= width else f'{text[:width - 3]}...'
 
 
@@ -188,7 +189,9 @@ class Simulation:
             for topic, value in commands:        # all or nothing (InputRejected)
                 try:
                     drive = apply_command(drive, topic, value, params, names)
-                except (TypeError, OverflowError):
+                except InputRejected:
+                    raise
+                except (TypeError, ValueError, OverflowError):
                     # no message of the topic can carry it (an int beyond float64, an array)
                     raise InputRejected(topic, _shown(value), 'a message of this topic '
                                         'cannot carry it') from None
@@ -234,9 +237,9 @@ class Simulation:
             raise ValueError('every event of a run needs the step it takes effect at')
         ticks = round(duration / self.tick_period)
         if ticks * BYTES_PER_TICK > memory_bytes():
-            raise ValueError(f'duration {duration:g} s is {ticks:,} ticks, about '
-                             f'{ticks * BYTES_PER_TICK / 2**30:,.0f} GiB of samples; this '
-                             f'machine has {memory_bytes() / 2**30:,.1f} GiB: run it in '
+            raise ValueError(f'duration {duration:g} s is {ticks:.3g} ticks, about '
+                             f'{ticks * BYTES_PER_TICK / 2**30:.3g} GiB of samples; this '
+                             f'machine has {memory_bytes() / 2**30:.3g} GiB: run it in '
                              'parts (step(), or run() over shorter durations)')
         first = self.reset()
         session = self.session
