@@ -127,7 +127,10 @@ def read_setpoint(reader: YamlReader, node: yaml.Node) -> SetpointProfile:
             positive = name in ('period', 'frequency')
             values[name] = reader.number(value, f'setpoint {name}', low=0.0 if positive else None,
                                          strict=positive)
-    return SetpointProfile(profile, **values)
+    try:
+        return SetpointProfile(profile, **values)
+    except ValueError as exc:
+        raise reader.error(entries.get('period', (None, node))[1], str(exc)) from None
 
 
 def _points(reader: YamlReader, node: yaml.Node) -> tuple[tuple[float, float], ...]:
