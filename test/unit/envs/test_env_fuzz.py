@@ -14,8 +14,8 @@ import pytest
 
 gymnasium = pytest.importorskip('gymnasium')
 
-from screwgear_ros.envs.table_env import InvalidAction, ScrewgearTableEnv  # noqa: E402
-from screwgear_ros.sim.setpoint_profile import SetpointProfile  # noqa: E402
+from screwgear_ros.envs.table_env import InvalidAction, ScrewgearTableEnv
+from screwgear_ros.sim.setpoint_profile import SetpointProfile
 
 SEED = 3706
 CASES = 300
