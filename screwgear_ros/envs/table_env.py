@@ -132,6 +132,7 @@ class ScrewgearTableEnv(gymnasium.Env):
         self.error_scale = _setting('error_scale', error_scale, 0.0, strict=True)
         self.effort_weight = _setting('effort_weight', effort_weight, 0.0, strict=False)
         limit = base.params.max_torque
+        self._limit = float(limit)
         self.action_space = spaces.Box(-limit, limit, shape=(1,), dtype=np.float64)
         self.observation_space = spaces.Box(-np.inf, np.inf, shape=(len(OBSERVATION),),
                                             dtype=np.float64)
@@ -153,7 +154,7 @@ class ScrewgearTableEnv(gymnasium.Env):
                  for name, (lo, hi) in self.randomize.items()}
         self.simulation = self.base.with_values(**drawn) if drawn else self.base
         limit = self.simulation.params.max_torque
-        if limit != self.action_space.high[0]:
+        if limit != self._limit:
             raise ValueError('randomize must not change max_torque (it is the action space)')
         first = self.simulation.reset()
         self._t0 = first.time
@@ -162,7 +163,7 @@ class ScrewgearTableEnv(gymnasium.Env):
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         u = _action(action)
-        limit = float(self.action_space.high[0])
+        limit = self._limit
         u = min(limit, max(-limit, u))
         o = self.simulation.step(u)
         self._steps += 1
