@@ -11,12 +11,9 @@ the tool's own line for each and keeps its exit code.
 from __future__ import annotations
 
 import functools
-import re
 import sys
 from collections.abc import Callable, Mapping
 from typing import Self
-
-from ..errors import ScrewgearError
 
 #: The tools' exit code for work done (and, where a tool gives a verdict, a good one).
 EXIT_OK = 0
@@ -48,54 +45,6 @@ def interruptible(tool: str, unfinished: str) -> Callable[[Callable[..., int]], 
                 return EXIT_INTERRUPTED
         return run
     return wrap
-
-
-class RosArgumentsError(ScrewgearError, ValueError):
-    """A command line whose ROS arguments (after ``--ros-args``) rcl cannot parse; the
-    message is rcl's reason, in one line."""
-
-
-#: rcl's source locations in its error text (``, at /project/src/rcl/arguments.c:352``).
-_RCL_WHERE = re.compile(r',? at \S+:\d+')
-
-
-def without_ros_args(argv: list[str]) -> list[str]:
-    """``argv`` (program name first) without its ROS arguments, as rclpy's
-    ``remove_ros_args`` gives it, once rcl has parsed them all.
-
-    Parameters
-    ----------
-    argv : list of str
-        The command line, program name first.
-
-    Returns
-    -------
-    list of str
-        The arguments that are not ROS arguments, program name first.
-
-    Raises
-    ------
-    RosArgumentsError
-        rcl cannot parse a ROS argument (``-p name:=`` with no value, ``-r x``, a
-        ``--params-file`` that is missing or not a parameter file, an unknown flag):
-        rcl's reason in one line, before anything has started.
-
-    Examples
-    --------
-    >>> without_ros_args(['table_sim', '--dump-params', 'p.yaml', '--ros-args', '-p', 'dt:=1e-4'])
-    ['table_sim', '--dump-params', 'p.yaml']
-    """
-    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
-    from rclpy.utilities import remove_ros_args
-    try:
-        return remove_ros_args(argv)
-    except _rclpy.UnknownROSArgsError as exc:
-        raise RosArgumentsError(f'unknown ROS arguments: {exc}') from None
-    except _rclpy.RCLError as exc:
-        reason = _RCL_WHERE.sub('', str(exc)).replace('. Error: error not set', '')
-        reason = reason.removeprefix('Failed to parse ROS arguments: ')
-        raise RosArgumentsError('invalid ROS arguments: '
-                                + ' '.join(reason.split())) from None
 
 
 class Failures:
@@ -148,4 +97,4 @@ class Failures:
 
 
 __all__ = ['EXIT_ERROR', 'EXIT_INTERRUPTED', 'EXIT_OK', 'Errors', 'Failures', 'Message',
-           'RosArgumentsError', 'interruptible', 'without_ros_args']
+           'interruptible']

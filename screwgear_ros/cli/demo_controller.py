@@ -13,8 +13,8 @@ import rclpy
 from rclpy.signals import SignalHandlerOptions
 
 from ..ros import demo_controller as _node
-from ..ros.shutdown import spin_until, stop_on_signals
-from . import EXIT_ERROR, RosArgumentsError, without_ros_args
+from ..ros.shutdown import RosArgumentsError, spin_until, stop_on_signals, without_ros_args
+from . import EXIT_ERROR
 
 
 def main(args: list[str] | None = None) -> int:

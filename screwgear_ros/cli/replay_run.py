@@ -75,12 +75,12 @@ from ..ros.node_replay import (
     stop_node,
 )
 from ..ros.replay_client import Interrupted, ReplayClient, ReplayError
-from ..ros.shutdown import STOP_SIGNALS, stop_on_signals
+from ..ros.shutdown import STOP_SIGNALS, RosArgumentsError, stop_on_signals, without_ros_args
 from ..runs.compare import compare_runs, exact_comparison, format_comparison, format_exact
 from ..runs.lockstep_plan import LockstepPlan, plan_from_run, plan_from_schedule
 from ..runs.replay_in_process import schedule_from_run, schedule_from_scenario
 from ..sim.schedule import Schedule, differences
-from . import EXIT_ERROR, EXIT_OK, RosArgumentsError, without_ros_args
+from . import EXIT_ERROR, EXIT_OK
 
 #: ``--compare`` found a difference.
 EXIT_DIFFERENT = 1

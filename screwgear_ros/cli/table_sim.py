@@ -18,8 +18,8 @@ from rclpy.signals import SignalHandlerOptions
 from ..ros import node as _node
 from ..ros import param_dump
 from ..ros.node import EXIT_RECORDING_FAILED, NODE_EXECUTOR
-from ..ros.shutdown import spin_until, stop_on_signals
-from . import EXIT_ERROR, RosArgumentsError, without_ros_args
+from ..ros.shutdown import RosArgumentsError, spin_until, stop_on_signals, without_ros_args
+from . import EXIT_ERROR
 
 #: The interpreter's switch interval in the node's process, s (Python's default: 5 ms).
 #: Flat out the pacing thread holds the interpreter lock; a thread that wants it back

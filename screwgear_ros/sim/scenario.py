@@ -294,17 +294,13 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
                                        f'{exc}') from None
                 actions.append(Action(t, kind, command, line))
     controller = _controller(reader, top['controller'][1]) if 'controller' in top else None
-    setpoint = read_setpoint(reader, top['setpoint'][1]) if 'setpoint' in top else None
+    first = split_parameters(start)[1]
+    tick = first.steps_per_publish * first.dt
+    written = top.get('setpoint')       # the scenario key, not the input topic of that name
+    setpoint = read_setpoint(reader, written[1], tick) if written is not None else None
     if setpoint is not None and setpoint.joint not in values['joint_names']:
         raise reader.error(top['setpoint'][1], f'setpoint joint {setpoint.joint!r} is not one '
                            f'of the joint_states names {values["joint_names"]}')
-    if setpoint is not None:
-        settings = split_parameters(start)[1]
-        try:
-            setpoint.check_tick(settings.steps_per_publish * settings.dt)
-        except ValueError as exc:
-            node = reader.mapping(top['setpoint'][1], 'setpoint').get('period')
-            raise reader.error(node[1] if node else top['setpoint'][1], str(exc)) from None
     return Scenario(str(path), tuple(start.items()), duration, tuple(actions), controller,
                     setpoint)
 

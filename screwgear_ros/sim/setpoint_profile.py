@@ -96,8 +96,11 @@ def _positive(value: float) -> bool:
             and math.isfinite(value) and value > 0.0)
 
 
-def read_setpoint(reader: YamlReader, node: yaml.Node) -> SetpointProfile:
-    """The scenario file's ``setpoint`` mapping at ``node``, checked (errors name its line)."""
+def read_setpoint(reader: YamlReader, node: yaml.Node,
+                  tick: float | None = None) -> SetpointProfile:
+    """The scenario file's ``setpoint`` mapping at ``node``, checked (errors name its line);
+    ``tick``: the run's tick, s, which a square period must span twice
+    (:meth:`SetpointProfile.check_tick`)."""
     entries = reader.mapping(node, 'setpoint')
     if 'profile' not in entries:
         raise reader.error(node, f'setpoint needs a profile: one of {", ".join(PROFILES)}')
@@ -128,9 +131,12 @@ def read_setpoint(reader: YamlReader, node: yaml.Node) -> SetpointProfile:
             values[name] = reader.number(value, f'setpoint {name}', low=0.0 if positive else None,
                                          strict=positive)
     try:
-        return SetpointProfile(profile, **values)
+        setpoint = SetpointProfile(profile, **values)
+        if tick is not None:
+            setpoint.check_tick(tick)
     except ValueError as exc:
         raise reader.error(entries.get('period', (None, node))[1], str(exc)) from None
+    return setpoint
 
 
 def _points(reader: YamlReader, node: yaml.Node) -> tuple[tuple[float, float], ...]:
