@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from typing import Any, ClassVar
+from typing import Any
 
 import gymnasium
 import numpy as np
@@ -101,7 +101,7 @@ def _action(action: Any) -> float:
 class ScrewgearTableEnv(gymnasium.Env):
     """The table as a Gymnasium environment; see the module docstring."""
 
-    metadata: ClassVar[dict[str, Any]] = {'render_modes': []}
+    metadata: dict[str, Any] = {'render_modes': []}  # noqa: RUF012 - gymnasium.Env's own declaration
 
     def __init__(self, simulation: Simulation | None = None, *, duration: float = 3.0,
                  target: Callable[[float], float] | None = None,
