@@ -12,11 +12,11 @@ import warnings
 
 import rclpy
 from rclpy.signals import SignalHandlerOptions
-from rclpy.utilities import remove_ros_args
 
 from ..ros import demo_controller as _node
-from ..ros.shutdown import spin_until, stop_on_signals
+from ..ros.shutdown import RosArgumentsError, spin_until, stop_on_signals, without_ros_args
 from ..sim.control import DemoGains
+from . import EXIT_ERROR
 
 
 def _options(args: list[str] | None) -> argparse.Namespace:
@@ -32,7 +32,7 @@ def _options(args: list[str] | None) -> argparse.Namespace:
                         'at or after SECONDS is not answered and the controller exits 0. '
                         'With table_sim in lockstep the run stops exactly at that stamp '
                         '(default: until SIGINT or SIGTERM)')
-    return parser.parse_args(remove_ros_args(sys.argv if args is None else args)[1:])
+    return parser.parse_args(without_ros_args(sys.argv if args is None else args)[1:])
 
 
 def _seconds(text: str) -> float:
@@ -43,8 +43,13 @@ def _seconds(text: str) -> float:
 
 
 def main(args: list[str] | None = None) -> int:
-    """Run until SIGINT or SIGTERM, or until ``--duration`` simulated seconds; exit 0."""
-    options = _options(args)
+    """Run until SIGINT or SIGTERM, or until ``--duration`` simulated seconds; exit 0 (2:
+    ROS arguments rcl cannot parse)."""
+    try:
+        options = _options(args)
+    except RosArgumentsError as error:
+        print(f'demo_controller: {error}', file=sys.stderr)
+        return EXIT_ERROR
     stop = stop_on_signals()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = None

@@ -64,8 +64,6 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from rclpy.utilities import remove_ros_args
-
 from ..bag.errors import BagError
 from ..bag.reader import RecordedRun, read_run
 from ..inprocess.scenario import schedule_from_scenario
@@ -80,7 +78,7 @@ from ..ros.node_replay import (
     stop_node,
 )
 from ..ros.replay_client import Interrupted, ReplayClient, ReplayError
-from ..ros.shutdown import STOP_SIGNALS, stop_on_signals
+from ..ros.shutdown import STOP_SIGNALS, RosArgumentsError, stop_on_signals, without_ros_args
 from ..runs.compare import compare_runs, exact_comparison, format_comparison, format_exact
 from ..runs.lockstep_plan import LockstepPlan, plan_from_run, plan_from_schedule
 from ..runs.replay_in_process import schedule_from_run
@@ -120,7 +118,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def _arguments(argv: list[str]) -> argparse.Namespace:
     parser = _parser()
-    args = parser.parse_args(remove_ros_args(['replay_run', *argv])[1:])
+    args = parser.parse_args(without_ros_args(['replay_run', *argv])[1:])
     if args.compare and (args.record is None or args.bag is None):
         parser.error('--compare needs a BAG and --record (the new run is compared from its '
                      'own recording)')
@@ -247,7 +245,11 @@ def _compare(original: RecordedRun, record: str, lockstep: bool) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = _arguments(list(sys.argv[1:] if argv is None else argv))
+    try:
+        args = _arguments(list(sys.argv[1:] if argv is None else argv))
+    except RosArgumentsError as exc:
+        print(f'replay_run: {exc}', file=sys.stderr)
+        return EXIT_ERROR
     stop = stop_on_signals()
     progress = Progress()
     what = 'reading the recording'

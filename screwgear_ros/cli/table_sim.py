@@ -14,12 +14,12 @@ import rclpy
 import rclpy.logging
 from rclpy.exceptions import ParameterException
 from rclpy.signals import SignalHandlerOptions
-from rclpy.utilities import remove_ros_args
 
 from ..ros import node as _node
 from ..ros import param_dump
 from ..ros.node import EXIT_RECORDING_FAILED, NODE_EXECUTOR
-from ..ros.shutdown import spin_until, stop_on_signals
+from ..ros.shutdown import RosArgumentsError, spin_until, stop_on_signals, without_ros_args
+from . import EXIT_ERROR
 
 #: The interpreter's switch interval in the node's process, s (Python's default: 5 ms).
 #: Flat out the pacing thread holds the interpreter lock; a thread that wants it back
@@ -36,13 +36,18 @@ def _options(args: list[str] | None) -> argparse.Namespace:
     parser.add_argument('--dump-params', metavar='FILE', help='write the parameters in '
                         'force to FILE at start and after every accepted change, as a '
                         'file --params-file reads back exactly')
-    return parser.parse_args(remove_ros_args(sys.argv if args is None else args)[1:])
+    return parser.parse_args(without_ros_args(sys.argv if args is None else args)[1:])
 
 
 def main(args: list[str] | None = None) -> int:
-    """Run the node until SIGINT or SIGTERM; 0 on a clean stop, 2 on bad parameters,
-    3 when the recording failed (EXIT_RECORDING_FAILED)."""
-    options = _options(args)
+    """Run the node until SIGINT or SIGTERM; 0 on a clean stop, 2 on bad parameters
+    or ROS arguments rcl cannot parse, 3 when the recording failed
+    (EXIT_RECORDING_FAILED)."""
+    try:
+        options = _options(args)
+    except RosArgumentsError as error:
+        print(f'table_sim: {error}', file=sys.stderr)
+        return EXIT_ERROR
     sys.setswitchinterval(SWITCH_INTERVAL)
     stop = stop_on_signals()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..interface import Input
+from ..sim.commands import InputRejected
 from ..sim.control import SetpointNotes
 from ..sim.events import Event, ParameterChange, Setpoint
 from ..sim.session import Session, Tick
@@ -58,8 +59,8 @@ def closed_loop(session: Session, controller: Controller | None, first: Observat
                 session.submit(Setpoint(target))
         effort = None if controller is None else controller(observation)
         if effort is not None:
-            if type(effort) is not float and isinstance(effort, np.generic):
-                effort = effort.item()
+            if type(effort) is not float:
+                effort = _plain(effort)
             command[i - 1] = effort
         return effort
 
@@ -99,6 +100,20 @@ def closed_loop(session: Session, controller: Controller | None, first: Observat
     session.advance(ticks, events=events, controller=answer, monitor=observe,
                     every_tick=recording is not None,
                     changes=change if recording is not None else None)
+
+
+def _plain(effort: Any) -> Any:
+    """A controller's answer as the session judges it: a NumPy scalar as its Python
+    value; an int beyond float64 refused here, as no cmd_effort message carries it."""
+    if isinstance(effort, np.generic):
+        effort = effort.item()
+    if isinstance(effort, int) and not isinstance(effort, bool):
+        try:
+            float(effort)
+        except OverflowError:
+            raise InputRejected(Input.CMD_EFFORT, f'an int of {effort.bit_length()} bits',
+                                'beyond float64: no message can carry it') from None
+    return effort
 
 
 def _refused(tick: Tick, effort: Any, rejected: list[tuple[int, str]]) -> None:

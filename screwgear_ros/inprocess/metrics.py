@@ -146,7 +146,8 @@ def run_metrics(run: Any, setpoint: Callable[[float], float] | None = None,
     Raises
     ------
     ValueError
-        ``joint`` is not one of the run's joint names.
+        ``joint`` is not a joint of the run, or ``setpoint`` is a profile whose
+        ``check_tick`` refuses the run's tick (a square period under two ticks).
 
     Examples
     --------
@@ -161,6 +162,9 @@ def run_metrics(run: Any, setpoint: Callable[[float], float] | None = None,
         if joint not in names:
             raise ValueError(f'joint {joint!r} is not one of {names}')
         joint = names.index(joint)
+    check_tick = getattr(setpoint, 'check_tick', None)
+    if check_tick is not None:       # a profile faster than the ticks: bounded, refused
+        check_tick(run.settings.steps_per_publish * run.settings.dt)
     t = run.time - run.time[0]
     angle = run.true_position[:, joint]
     force = np.abs(run.mesh_force)

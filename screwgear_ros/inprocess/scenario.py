@@ -22,7 +22,8 @@ import yaml
 
 from ..errors import ScrewgearError
 from ..interface import Input
-from ..params.table import ParameterError
+from ..params.declarations import declared
+from ..params.table import ParameterError, SimSettings, TableParams
 from ..params.yaml_reader import YamlReader
 from ..sim.commands import INPUT_TOPICS, InputRejected, apply_command
 from ..sim.control import TABLE_JOINT, DemoController
@@ -39,6 +40,10 @@ KEYS = ('parameters', 'duration', 'actions', 'controller', 'setpoint')
 #: What an action can do besides its ``time``: a command on an input topic, a parameter
 #: change, a reset.
 ACTIONS = (*INPUT_TOPICS, 'parameters', 'reset')
+#: Parameters the node refuses to change while it runs (read-only): an action may not
+#: change them, whatever the value.
+READ_ONLY = frozenset(p.name for cls in (TableParams, SimSettings) for p in declared(cls)
+                      if p.declaration.read_only)
 
 
 class ScenarioError(ScrewgearError, ValueError):
@@ -285,6 +290,7 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
             line = item.start_mark.line + 1
             if kind == 'parameters':
                 before = values
+                _changeable(reader, value_node, f'parameters at {t:g} s')
                 values = _parameters(reader, value_node, values, f'parameters at {t:g} s')
                 change = {k: v for k, v in values.items() if before.get(k) != v}
                 actions.append(Action(t, kind, change, line))
@@ -302,8 +308,10 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
                                        f'{exc}') from None
                 actions.append(Action(t, kind, command, line))
     controller = read_controller(reader, top['controller'][1]) if 'controller' in top else None
-    setpoint = (read_setpoint(reader, top[Input.SETPOINT][1]) if Input.SETPOINT in top
-                else None)
+    first = split_parameters(start)[1]
+    tick = first.steps_per_publish * first.dt
+    written = top.get(Input.SETPOINT)   # the setpoint input's profile
+    setpoint = read_setpoint(reader, written[1], tick) if written is not None else None
     if setpoint is not None and setpoint.joint not in values['joint_names']:
         raise reader.error(top[Input.SETPOINT][1], f'setpoint joint {setpoint.joint!r} is not one '
                            f'of the joint_states names {values["joint_names"]}')
@@ -323,6 +331,16 @@ def _parameters(reader: YamlReader, node: yaml.Node, values: dict[str, Any],
         key = entries.get(exc.name)
         raise reader.error(key[0] if key is not None else node, f'{what}: {exc}') from None
     return merged
+
+
+def _changeable(reader: YamlReader, node: yaml.Node, what: str) -> None:
+    """Refuse a read-only parameter in an action's parameters, at its line: the node
+    refuses to change it while it runs."""
+    for name, (key, _) in reader.mapping(node, what).items():
+        if name in READ_ONLY:
+            raise reader.error(key, f'{what}: {name} is read-only: the node refuses to '
+                               'change it while it runs; set it under the scenario\'s '
+                               'parameters')
 
 
 def _command(reader: YamlReader, topic: str, node: yaml.Node) -> Any:
@@ -390,6 +408,7 @@ __all__ = [
     'ACTIONS',
     'KEYS',
     'PROFILES',
+    'READ_ONLY',
     'Action',
     'ControllerSpec',
     'Scenario',

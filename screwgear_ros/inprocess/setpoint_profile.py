@@ -34,6 +34,30 @@ class SetpointProfile:
     phase: float = 0.0
     joint: str = 'table'
 
+    def __post_init__(self) -> None:
+        """Refuse what no profile can be (ValueError): an unknown profile, a period or
+        frequency that is not a finite number > 0, steps or ramps without points."""
+        if self.profile not in PROFILES:
+            raise ValueError(f'unknown setpoint profile {self.profile!r} (known: '
+                             f'{", ".join(PROFILES)})')
+        if self.profile == 'square' and not (_positive(self.period) and 0.5 * self.period):
+            raise ValueError(f'a square setpoint period must be a finite number of '
+                             f'seconds > 0, not {self.period!r}')
+        if self.profile == 'sine' and not _positive(self.frequency):
+            raise ValueError(f'a sine setpoint frequency must be a finite number of '
+                             f'hertz > 0, not {self.frequency!r}')
+        if self.profile in ('steps', 'ramps') and not self.points:
+            raise ValueError(f'a {self.profile} setpoint needs points')
+
+    def check_tick(self, tick: float) -> None:
+        """Refuse (ValueError, with the bound) a square period shorter than two ticks of
+        ``tick`` s: a wave that flips within a tick is not sampled, and its jumps would
+        number one per half period over the run."""
+        if self.profile == 'square' and self.period < 2.0 * tick:
+            raise ValueError(f'a square setpoint period must be at least two ticks '
+                             f'({2.0 * tick:g} s at this publish_rate and dt), not '
+                             f'{self.period:g} s')
+
     def __call__(self, t: float) -> float:
         p = self.profile
         if p == 'sine':
@@ -67,8 +91,16 @@ class SetpointProfile:
         return []
 
 
-def read_setpoint(reader: YamlReader, node: yaml.Node) -> SetpointProfile:
-    """The scenario file's ``setpoint`` mapping at ``node``, checked (errors name its line)."""
+def _positive(value: float) -> bool:
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value) and value > 0.0)
+
+
+def read_setpoint(reader: YamlReader, node: yaml.Node,
+                  tick: float | None = None) -> SetpointProfile:
+    """The scenario file's ``setpoint`` mapping at ``node``, checked (errors name its line);
+    ``tick``: the run's tick, s, which a square period must span twice
+    (:meth:`SetpointProfile.check_tick`)."""
     entries = reader.mapping(node, 'setpoint')
     if 'profile' not in entries:
         raise reader.error(node, f'setpoint needs a profile: one of {", ".join(PROFILES)}')
@@ -98,7 +130,13 @@ def read_setpoint(reader: YamlReader, node: yaml.Node) -> SetpointProfile:
             positive = name in ('period', 'frequency')
             values[name] = reader.number(value, f'setpoint {name}', low=0.0 if positive else None,
                                          strict=positive)
-    return SetpointProfile(profile, **values)
+    try:
+        setpoint = SetpointProfile(profile, **values)
+        if tick is not None:
+            setpoint.check_tick(tick)
+    except ValueError as exc:
+        raise reader.error(entries.get('period', (None, node))[1], str(exc)) from None
+    return setpoint
 
 
 def _points(reader: YamlReader, node: yaml.Node) -> tuple[tuple[float, float], ...]:

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ScrewgearError
 from ..interface import Input
 from ..numerics.integrator import OBSERVED
 from ..params.table import ParameterError, SimSettings, TableParams
@@ -49,6 +50,31 @@ from .samples import (
     Run,
     observation_of,
 )
+
+#: Bytes a run holds per tick, an upper estimate: the observed row (15 float64), the
+#: measured one (6), the command and the step, path and direction columns as Python
+#: objects in their lists.
+BYTES_PER_TICK = 15 * 8 + 6 * 8 + 4 * 40
+
+
+class RunInProgress(ScrewgearError, RuntimeError):
+    """:meth:`Simulation.reset` called while :meth:`Simulation.run` drives the session
+    (from its controller, say): a run restarts only between runs."""
+
+
+def memory_bytes() -> int:
+    """The machine's physical memory, bytes (what a run must fit in)."""
+    return os.sysconf('SC_PHYS_PAGES') * os.sysconf('SC_PAGE_SIZE')
+
+
+def _shown(value: Any, width: int = 60) -> str:
+    """``repr(value)`` cut to ``width`` characters (an int of 400 digits, say)."""
+    try:
+        text = repr(value)
+    except ValueError:                 # an int past the interpreter's digit limit
+        return (f'an int of {value.bit_length()} bits' if isinstance(value, int)
+                else f'a {type(value).__name__} holding an int of over 4300 digits')
+    return text if len(text) <= width else f'{text[:width - 3]}...'
 
 
 class Simulation:
@@ -89,6 +115,7 @@ class Simulation:
                             '(Simulation.from_values builds them from parameter names)')
         self.params, self.settings = resolve({**params.as_dict(), **settings.as_dict()})
         self._session: Session | None = None
+        self._running = False
 
     @classmethod
     def from_values(cls, values: Mapping[str, Any] | None = None, /,
@@ -152,6 +179,7 @@ class Simulation:
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.params, self.settings = state['params'], state['settings']
         self._session = None
+        self._running = False
 
     def with_values(self, **overrides: Any) -> Simulation:
         """A new simulation with some parameters changed (validated).
@@ -189,7 +217,17 @@ class Simulation:
         -------
         Observation
             The first observation: what the node publishes before its first tick.
+
+        Raises
+        ------
+        RunInProgress
+            Called while :meth:`run` drives the session (from its controller): a run's
+            samples and recording are one session's, so the run ends with this error
+            rather than go on as if the reset had not been asked for.
         """
+        if self._running:
+            raise RunInProgress('reset() during run(): a run cannot restart itself; end '
+                                'the run (return from run()) and call run() again')
         self._session = session = Session(self.params, self.settings)
         return observation_of(session.last_outputs, session.plant.fault, session.measured)
 
@@ -240,7 +278,14 @@ class Simulation:
             drive, params = session.plant.input, session.plant.params
             names = session.settings.joint_names
             for topic, value in commands:        # all or nothing (InputRejected)
-                drive = apply_command(drive, topic, value, params, names)
+                try:
+                    drive = apply_command(drive, topic, value, params, names)
+                except InputRejected:
+                    raise
+                except (TypeError, ValueError, OverflowError):
+                    # no message of the topic can carry it (an int beyond float64, an array)
+                    raise InputRejected(topic, _shown(value), 'a message of this topic '
+                                        'cannot carry it') from None
             for topic, value in commands:
                 session.submit(Command(topic, value))
         tick = session.tick()
@@ -303,13 +348,22 @@ class Simulation:
             A duration that is not a finite number of seconds >= 0, or an event
             without its step.
         """
-        if isinstance(duration, bool) or not (isinstance(duration, (int, float))
-                                              and math.isfinite(duration) and duration >= 0.0):
+        try:
+            valid = (not isinstance(duration, bool) and isinstance(duration, (int, float))
+                     and math.isfinite(duration) and duration >= 0.0)
+        except OverflowError:                  # an int beyond float64
+            valid = False
+        if not valid:
             raise ValueError(f'duration must be a finite number of seconds >= 0, '
-                             f'got {duration!r}')
+                             f'got {_shown(duration)}')
         if any(event.step is None for event in events):
             raise ValueError('every event of a run needs the step it takes effect at')
         ticks = round(duration / self.tick_period)
+        if ticks * BYTES_PER_TICK > memory_bytes():
+            raise ValueError(f'duration {duration:g} s is {ticks:.3g} ticks, about '
+                             f'{ticks * BYTES_PER_TICK / 2**30:.3g} GiB of samples; this '
+                             f'machine has {memory_bytes() / 2**30:.3g} GiB: run it in '
+                             'parts (step(), or run() over shorter durations)')
         if record is not None and overwrite:
             remove_recording(Path(record))
         first = self.reset()
@@ -323,6 +377,7 @@ class Simulation:
         command: list[Any] = [math.nan] * (ticks + 1)
         columns: tuple[list[int], list[int], list[int]] = ([], [], [])
         rejected: list[tuple[int, str]] = []
+        self._running = True
         try:
             if record is not None:
                 from ..runs.session_record import SessionRecording  # the bag writer: to record
@@ -331,6 +386,7 @@ class Simulation:
                         sorted(events, key=lambda e: e.step or 0), recording, rejected,
                         measured, setpoint if recording is not None else None)
         finally:
+            self._running = False
             if recording is not None:
                 recording.close()
         steps, paths, directions = columns
@@ -359,6 +415,7 @@ def stamp_ns(observation: Observation, dt: float) -> int:
 
 
 __all__ = [
+    'BYTES_PER_TICK',
     'DELTA',
     'DELTA_RATE',
     'JOINTS',
@@ -371,6 +428,7 @@ __all__ = [
     'Observation',
     'ParameterFileError',
     'Run',
+    'RunInProgress',
     'Simulation',
     'file_values',
     'remove_recording',

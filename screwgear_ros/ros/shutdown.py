@@ -14,11 +14,16 @@ from __future__ import annotations
 
 import atexit
 import os
+import re
 import signal
 import threading
 
 from rclpy.executors import Executor, SingleThreadedExecutor
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
+from rclpy.utilities import remove_ros_args
+
+from ..errors import ScrewgearError
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -75,6 +80,52 @@ def _ignore_stop_signals() -> None:
         signal.signal(signum, signal.SIG_IGN)
 
 
+class RosArgumentsError(ScrewgearError, ValueError):
+    """A command line whose ROS arguments (after ``--ros-args``) rcl cannot parse; the
+    message is rcl's reason, in one line."""
+
+
+#: rcl's source locations in its error text (``, at /project/src/rcl/arguments.c:352``).
+_RCL_WHERE = re.compile(r',? at \S+:\d+')
+
+
+def without_ros_args(argv: list[str]) -> list[str]:
+    """``argv`` (program name first) without its ROS arguments, as rclpy's
+    ``remove_ros_args`` gives it, once rcl has parsed them all.
+
+    Parameters
+    ----------
+    argv : list of str
+        The command line, program name first.
+
+    Returns
+    -------
+    list of str
+        The arguments that are not ROS arguments, program name first.
+
+    Raises
+    ------
+    RosArgumentsError
+        rcl cannot parse a ROS argument (``-p name:=`` with no value, ``-r x``, a
+        ``--params-file`` that is missing or not a parameter file, an unknown flag):
+        rcl's reason in one line, before anything has started.
+
+    Examples
+    --------
+    >>> without_ros_args(['table_sim', '--dump-params', 'p.yaml', '--ros-args', '-p', 'dt:=1e-4'])
+    ['table_sim', '--dump-params', 'p.yaml']
+    """
+    try:
+        return remove_ros_args(argv)
+    except _rclpy.UnknownROSArgsError as exc:
+        raise RosArgumentsError(f'unknown ROS arguments: {exc}') from None
+    except _rclpy.RCLError as exc:
+        reason = _RCL_WHERE.sub('', str(exc)).replace('. Error: error not set', '')
+        reason = reason.removeprefix('Failed to parse ROS arguments: ')
+        raise RosArgumentsError('invalid ROS arguments: '
+                                + ' '.join(reason.split())) from None
+
+
 def spin_until(node: Node, stop: threading.Event, period: float = 0.1,
                executor: Executor | None = None) -> None:
     """Serve ``node``'s callbacks until ``stop`` is set (checked every ``period`` s), on
@@ -93,4 +144,5 @@ def spin_executor_until(executor: Executor, stop: threading.Event,
         executor.spin_once(timeout_sec=period)
 
 
-__all__ = ['STOP_SIGNALS', 'spin_executor_until', 'spin_until', 'stop_on_signals']
+__all__ = ['STOP_SIGNALS', 'RosArgumentsError', 'spin_executor_until', 'spin_until',
+           'stop_on_signals', 'without_ros_args']

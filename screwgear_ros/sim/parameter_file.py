@@ -6,12 +6,14 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import yaml
 
 from ..errors import ScrewgearError
 from ..params.table import SimSettings, TableParams
+from ..params.yaml_reader import YamlReader
 from .parameter_set import default_values, split_parameters
 
 #: Keys of a ROS 2 parameter file whose ``ros__parameters`` table_sim takes: any node
@@ -30,15 +32,43 @@ def file_values(path: str | os.PathLike[str]) -> dict[str, Any]:
     The one reader of a parameter file: the node's ``--params-file`` semantics, used by
     :meth:`~screwgear_ros.inprocess.simulation.Simulation.from_yaml`, sweeps and the design
     tools alike.
+
+    Raises
+    ------
+    ParameterFileError
+        The file cannot be read, is not UTF-8 or not YAML, nests too deep, has a key that
+        is not a name, or holds no parameters for table_sim; the message names the file
+        and, where it is known, the line.
     """
-    try:
-        with open(path, encoding='utf-8') as stream:
-            document = yaml.safe_load(stream)
-    except OSError as exc:
-        raise ParameterFileError(f'{path}: cannot read: {exc.strerror or exc}') from None
-    except yaml.YAMLError as exc:
-        raise ParameterFileError(f'{path}: not valid YAML: {exc}') from None
-    return document_values(document, str(path))
+    reader = YamlReader.open(Path(path), ParameterFileError)
+    root = reader.root
+    if root is None:
+        return {}
+    if not isinstance(root, yaml.MappingNode):
+        raise reader.error(root, f'a parameter file is a mapping, not '
+                           f'{type(reader.value(root)).__name__}')
+    top = reader.mapping(root, 'a parameter file')
+    sections = {name: value for name, (_, value) in top.items()
+                if isinstance(value, yaml.MappingNode)
+                and any(isinstance(key, yaml.ScalarNode) and key.value == 'ros__parameters'
+                        for key, _ in value.value)}
+    if not sections:
+        return {name: reader.value(value) for name, (_, value) in top.items()}
+    values: dict[str, Any] = {}
+    for name, section in sections.items():
+        if name not in NODE_KEYS:
+            continue
+        entries = reader.mapping(section, name)['ros__parameters'][1]
+        if reader.value(entries) is None:
+            continue
+        if not isinstance(entries, yaml.MappingNode):
+            raise reader.error(entries, f'{name}: ros__parameters must be a mapping')
+        values.update({key: reader.value(value) for key, (_, value)
+                       in reader.mapping(entries, f'{name}: ros__parameters').items()})
+    if not any(name in NODE_KEYS for name in sections):
+        raise ParameterFileError(f'{path}: no parameters for table_sim (keys '
+                                 f'{", ".join(NODE_KEYS)}); found {", ".join(sections)}')
+    return values
 
 
 def document_values(document: Any, source: str = 'the document') -> dict[str, Any]:

@@ -62,9 +62,12 @@ class CheckReport:
 
     @property
     def ok(self) -> bool:
+        """Every signal within tolerance and every recorded output what the recorded
+        inputs make: the in-process replay gives the recording's bits (the node's own
+        tick), whatever the reference's tolerance would allow."""
         return (self.samples > 0 and all(s.ok for s in self.signals)
                 and not self.stamp_mismatches and self.path_mismatch is None
-                and self.sensor_mismatch is None)
+                and self.sensor_mismatch is None and self.replay_identical)
 
     @property
     def table_angle(self) -> SignalError | None:
@@ -75,7 +78,8 @@ class CheckReport:
     def undecided(self) -> list[SignalError]:
         """The signals the reference cannot judge, if nothing else fails: then no verdict."""
         if (any(not s.ok and not s.undecided for s in self.signals) or self.stamp_mismatches
-                or self.path_mismatch is not None or self.sensor_mismatch is not None):
+                or self.path_mismatch is not None or self.sensor_mismatch is not None
+                or not self.replay_identical):
             return []
         return [s for s in self.signals if s.undecided]
 
@@ -119,6 +123,29 @@ def require_samples(run: RecordedRun) -> None:
     if not np.array_equal(run.mesh_state.steps, run.true_joint_states.steps[:len(run.mesh_state)]):
         raise InvalidBag(f'{run.path}: mesh_state and joint_states samples are not '
                        'published at the same steps')
+    _require_measured_aligned(run)
+
+
+def _require_measured_aligned(run: RecordedRun) -> None:
+    """Raise :class:`InvalidBag` when the measured joint_states are not one per
+    true_joint_states at its step (a message missing, duplicated, or moved to another
+    topic): the node publishes both every tick, so that is a damaged bag, not physics."""
+    measured = run.measured
+    if measured is None:
+        return
+    topic = run.names.get('joint_states', 'joint_states')
+    exact = run.joint_states
+    n = min(len(exact), len(measured))
+    if len(exact) != len(measured) and not run.truncated:
+        raise InvalidBag(f'{run.path}: {topic} has {len(measured)} samples, '
+                         f'true_joint_states {len(exact)}: the node publishes both every '
+                         'tick, so a message is missing, extra or on another topic')
+    off = np.flatnonzero(exact.steps[:n] != measured.steps[:n])
+    if len(off):
+        i = int(off[0])
+        raise InvalidBag(f'{run.path}: {topic} sample {i} is at step {measured.steps[i]}, '
+                         f'true_joint_states at step {exact.steps[i]}: the node publishes '
+                         'both at every tick\'s step')
 
 
 def path_changes(run: RecordedRun, replayed: ReplayedOutputs) -> list[tuple[int, int]]:
@@ -177,22 +204,16 @@ def sensor_rows(run: RecordedRun) -> np.ndarray:
 def sensor_mismatch(run: RecordedRun) -> tuple[int, str | None]:
     """(samples compared, where the recorded joint_states first differ from
     :func:`sensor_rows` bit for bit, or None); (0, None) for a bag whose joint_states
-    are the exact state."""
+    are the exact state. :class:`InvalidBag` when they are not one per true_joint_states
+    sample (:func:`require_samples` refuses such a bag first)."""
     measured = run.measured
     if measured is None:
         return 0, None
     topic = run.names.get('joint_states', 'joint_states')
     exact = run.true_joint_states
     n = min(len(exact), len(measured))
-    if len(exact) != len(measured) and not run.truncated:
-        return n, (f'{topic} has {len(measured)} samples, true_joint_states '
-                   f'{len(exact)}: the node publishes both every tick')
+    _require_measured_aligned(run)
     steps = exact.steps[:n]
-    off = np.flatnonzero(steps != measured.steps[:n])
-    if len(off):
-        i = int(off[0])
-        return n, (f'{topic} sample {i} is at step {measured.steps[i]}, true_joint_states '
-                   f'at step {steps[i]}')
     expected = sensor_rows(run)[:n]
     differs = np.flatnonzero(np.any(expected.view(np.int64)
                                     != measured.values[:n].view(np.int64), axis=1))
@@ -337,6 +358,9 @@ def format_report(report: CheckReport) -> str:
     if report.sensor_mismatch is not None:
         problems.append('joint_states do not follow from true_joint_states by the sensor '
                         'model')
+    if not report.replay_identical:
+        problems.append('the recording is not what its recorded inputs make (the in-process '
+                        f'replay differs by up to {report.replay_max_diff:.3e})')
     if not report.samples:
         problems.append('nothing compared')
     lines.append('  RESULT: ' + ('PASS: every signal within its tolerance' if not problems

@@ -12,7 +12,7 @@ gymnasium = pytest.importorskip('gymnasium')
 from gymnasium.utils.env_checker import check_env
 
 from screwgear_ros import Simulation
-from screwgear_ros.envs.table_env import ENV_ID, OBSERVATION, ScrewgearTableEnv
+from screwgear_ros.envs.table_env import ENV_ID, OBSERVATION, InvalidAction, ScrewgearTableEnv
 from screwgear_ros.inprocess.scenario import SetpointProfile
 
 
@@ -39,7 +39,8 @@ def test_the_env_steps_the_simulation_tick_by_tick():
         o = sim.step(max(-400.0, u))
         assert obs[:6].tolist() == [*o.position, *o.velocity]
         error = 0.02 - o.position[1]
-        assert reward == pytest.approx(-(error / 1e-3) ** 2 - 1e-3 * (max(-400.0, u) / 400.0) ** 2,
+        assert reward == pytest.approx(-(1.0 - math.exp(-0.5 * (error / 1e-2) ** 2))
+                                       - 1e-3 * (max(-400.0, u) / 400.0) ** 2,
                                        rel=1e-12)
         assert not terminated and truncated == (k == len(actions) - 1)
     assert info['time'] == pytest.approx(0.02)
@@ -69,6 +70,5 @@ def test_bad_settings_are_refused():
         ScrewgearTableEnv(randomize={'no_such': (0.0, 1.0)})
     env = ScrewgearTableEnv()
     env.reset(seed=0)
-    from screwgear_ros import InputRejected
-    with pytest.raises(InputRejected):
+    with pytest.raises(InvalidAction):
         env.step(np.array([math.nan]))
