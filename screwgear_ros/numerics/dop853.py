@@ -29,7 +29,8 @@ frozen (its slope is exactly 0). A step may also leave a piece and come back to 
 speed through zero and back, a holding torque beyond τ_S and back) while the pieces at
 its end match those of its start; the error control sees neither (the law is smooth on
 each piece, a holding torque is no state). So an accepted step is searched inside for
-both (:func:`_inside`) and such an event located the same way.
+both (:func:`_inside`) and such an event located the same way. With no bearing
+friction on any body neither search can find anything, and neither runs.
 
 Failure is a status, never an exception from compiled code: the step size collapsing
 below 10 × the spacing of floating-point numbers at t (the solution changes faster
@@ -244,6 +245,14 @@ def _inside(t: float, y: np.ndarray, h: float, k: np.ndarray, tableau: Tableau, 
 
 
 @inline_kernel
+def _frictional(held: Pieces) -> bool:
+    """Whether any body of ``held`` has bearing friction (a piece other than NONE)."""
+    none = FrictionPiece.NONE
+    return not (held.friction_1 == none and held.friction_2 == none
+                and held.friction_3 == none)
+
+
+@inline_kernel
 def _store(out: np.ndarray, tau_out: np.ndarray, done: int, tau: float, y: np.ndarray) -> int:
     """Every output time not after ``tau`` (elapsed from the start) still to fill gets the
     state ``y``; returns how many are filled."""
@@ -296,6 +305,10 @@ def integrate(t0: float, y0: np.ndarray, tau_out: np.ndarray, out: np.ndarray, m
         return OK, t, 0.0, 0, 0, done
     tau_end = tau_out[n_out - 1]
     held = _law(t, y, model, drive, BY_LAW)
+    # With no bearing friction every piece is NONE for the whole call (the static torques
+    # are the model's, fixed here): no step can leave its pieces, so the searches at each
+    # accepted step's end and inside it would only confirm ``held``.
+    frictional = _frictional(held)
     _f(t, y, k, 0, model, drive, held)
     for i in range(N):
         if not (math.isfinite(y[i]) and math.isfinite(k[0, i])):
@@ -344,11 +357,13 @@ def integrate(t0: float, y0: np.ndarray, tau_out: np.ndarray, out: np.ndarray, m
             err = math.inf
         last_non_finite = not finite
         if err <= 1.0:
-            after = _law(t_new, y_new, model, drive, held)
+            after = held
             top = 1.0
-            if after == held:           # a piece left and regained inside the step?
-                top, after = _inside(t, y, h_step, k, tableau, y_stage, y_new, model,
-                                     drive, held)
+            if frictional:
+                after = _law(t_new, y_new, model, drive, held)
+                if after == held:       # a piece left and regained inside the step?
+                    top, after = _inside(t, y, h_step, k, tableau, y_stage, y_new, model,
+                                         drive, held)
             if after != held:
                 # a bearing sticks or breaks away inside the step: end the step there
                 # (its length the float difference of its ends, as every step's), stop a
