@@ -17,7 +17,8 @@ copy whose run_parameters leave those out, message for message the same otherwis
 must pass. Each figure is the best of ``--repeat`` timings, taken in turns (anchor,
 new, ...) so a change of load hits both; the figure is simulated seconds per wall
 second and the ratio to the anchor's, with the load average at the start and the end.
-With ``--stages`` it also times this package's stages in-process (reading the bag,
+``--before-src`` adds a source tree of the code before a change on both runs. With
+``--stages`` it also times this package's stages in-process (reading the bag,
 the RK4 replay at dt, the reference solve, the RK4 replay at dt/2, one after the other).
 """
 
@@ -48,15 +49,15 @@ SECONDS = 60.0
 DT = 50e-6
 RATE = 1000.0
 #: Bearing friction of config/realistic.yaml.
-FRICTION = dict(table_coulomb_torque=3.0, table_static_torque=4.0, table_stribeck_speed=0.005,
-                pinion_coulomb_torque=0.05, pinion_static_torque=0.07,
-                pinion_stribeck_speed=0.5)
+FRICTION = {'table_coulomb_torque': 3.0, 'table_static_torque': 4.0,
+            'table_stribeck_speed': 0.005, 'pinion_coulomb_torque': 0.05,
+            'pinion_static_torque': 0.07, 'pinion_stribeck_speed': 0.5}
 
 
 def schedule(friction: bool) -> Schedule:
     """400 N·m, a reversal every 5 s, a load step 2.5 s after each reversal."""
     settings = SimSettings(dt=DT, publish_rate=RATE, command_timeout=0.0)
-    steps = int(round(1.0 / DT))
+    steps = round(1.0 / DT)
     events = [Command(Input.CMD_TORQUE, 400.0, 0)]
     for k in range(1, 12):
         events.append(Command(Input.CMD_DIRECTION, -1 if k % 2 else 1, k * 5 * steps))
@@ -67,13 +68,14 @@ def schedule(friction: bool) -> Schedule:
     params = TableParams(table_damping=8867.0)
     if friction:
         params = replace(params, **FRICTION)
-    return Schedule(params, settings, events, end_step=int(round(SECONDS / DT)))
+    return Schedule(params, settings, events, end_step=round(SECONDS / DT))
 
 
 def once(command: list[str], env: dict[str, str] | None = None) -> tuple[float, str]:
     """Wall time of one check (it must pass) and its report."""
     start = time.perf_counter()
-    result = subprocess.run(command, capture_output=True, text=True, env=env, cwd='/')
+    result = subprocess.run(command, capture_output=True, text=True, env=env, cwd='/',
+                            check=False)
     elapsed = time.perf_counter() - start
     if result.returncode != 0:
         sys.exit(f'{command} exited {result.returncode}:\n{result.stdout}{result.stderr}')
@@ -147,6 +149,8 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--anchor-src', default='/tmp/anchor_fcb5436',
                         help='source tree of the anchor commit (git archive of it)')
+    parser.add_argument('--before-src', help='also time this source tree (the code before '
+                        'a change) on both runs')
     parser.add_argument('--repeat', type=int, default=3, help='timings per check (best kept)')
     parser.add_argument('--stages', action='store_true', help='also time the stages in-process')
     args = parser.parse_args()
@@ -169,6 +173,11 @@ def main() -> int:
             'new, no friction': ([exe, '--no-progress', str(bags[False])], None),
             'new, friction': ([exe, '--no-progress', str(bags[True])], None),
         }
+        if args.before_src:
+            before_env = {**os.environ, 'PYTHONPATH': args.before_src}
+            for friction, label in ((False, 'no friction'), (True, 'friction')):
+                runs[f'before, {label}'] = ([sys.executable, '-m', 'screwgear_ros.cli.check_run',
+                                             '--no-progress', str(bags[friction])], before_env)
         best = dict.fromkeys(runs, float('inf'))
         reports = {}
         for _ in range(args.repeat):
