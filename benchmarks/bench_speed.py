@@ -30,7 +30,7 @@ stood beside an anchor measured the same way in the same run:
 * check_run against commit fcb5436's, with and without bearing friction, with
   ``--check``: runs ``benchmarks/bench_check.py`` (it needs the anchor's source tree it
   documents) and puts its times in the table.
-* ``--starts-only``: the starts alone.
+* ``--starts-only``: the starts alone; ``--no-cold``: no cold starts.
 
 The node scenarios are repeated ``--repeat`` times, interleaved; the table shows the
 median and the JSON every value. Timings on a shared machine are noisy: compare ratios.
@@ -453,6 +453,8 @@ def main() -> int:
     parser.add_argument('--starts', type=int, default=5,
                         help='starts of each process for the time to first joint_states')
     parser.add_argument('--no-floquet', action='store_true', help='skip the Floquet map')
+    parser.add_argument('--no-cold', action='store_true',
+                        help='no cold starts (each needs a warmup into a fresh cache)')
     parser.add_argument('--starts-only', action='store_true',
                         help='only the starts (time to first joint_states)')
     parser.add_argument('--check', action='store_true',
@@ -483,7 +485,7 @@ def main() -> int:
 
     # starts ---------------------------------------------------------------------------
     print(f'time to first joint_states, {args.starts} starts each', flush=True)
-    colds = min(COLD_STARTS, args.starts - 1)     # rounds 2, 3, ... (none with one start)
+    colds = 0 if args.no_cold else min(COLD_STARTS, args.starts - 1)   # rounds 2, 3, ...
     warmup_s = math.nan
     with contextlib.ExitStack() as caches:
         # An install: an empty numba cache, then the warmup; a cold start uses that cache.
