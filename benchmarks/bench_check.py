@@ -159,7 +159,7 @@ def main() -> int:
     if exe is None or not (anchor / 'screwgear_ros').is_dir():
         sys.exit(f'need check_run on PATH ({exe}) and a source tree at {anchor}')
     anchor_env = {**os.environ, 'PYTHONPATH': str(anchor)}
-    print(f'load at the start: {load()}')
+    print(f'load at the start: {load()}', flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         bags = {}
         for friction in (False, True):
@@ -184,6 +184,7 @@ def main() -> int:
             for name, (command, env) in runs.items():
                 elapsed, reports[name] = once(command, env)
                 best[name] = min(best[name], elapsed)
+                print(f'  {name}: {elapsed:.2f} s (load {load()})', flush=True)
         if args.stages:
             for friction, bag in bags.items():
                 print(f'stages, friction {friction}:',
