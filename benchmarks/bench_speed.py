@@ -131,7 +131,7 @@ def bare(argv: list[str]) -> int:
 # --------------------------------------------------------------------- measurements
 
 sys.path.insert(0, str(HERE.parent))
-sys.path.insert(0, str(ROOT / 'test'))
+sys.path.insert(0, str(ROOT / 'test' / 'support'))
 
 
 def _bench_node() -> Any:
