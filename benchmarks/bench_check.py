@@ -42,32 +42,30 @@ from bag_runs import copy_bag, record_session
 from screwgear_ros.bag.format import typestore
 from screwgear_ros.interface import Input
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.sim.events import Command
+from screwgear_ros.sim.events import Command, Event
 from screwgear_ros.sim.schedule import Schedule
 
 SECONDS = 60.0
 DT = 50e-6
 RATE = 1000.0
-#: Bearing friction of config/realistic.yaml.
-FRICTION = {'table_coulomb_torque': 3.0, 'table_static_torque': 4.0,
-            'table_stribeck_speed': 0.005, 'pinion_coulomb_torque': 0.05,
-            'pinion_static_torque': 0.07, 'pinion_stribeck_speed': 0.5}
 
 
 def schedule(friction: bool) -> Schedule:
     """400 N·m, a reversal every 5 s, a load step 2.5 s after each reversal."""
     settings = SimSettings(dt=DT, publish_rate=RATE, command_timeout=0.0)
     steps = round(1.0 / DT)
-    events = [Command(Input.CMD_TORQUE, 400.0, 0)]
+    events: list[Event] = [Command(Input.CMD_TORQUE, 400.0, 0)]
     for k in range(1, 12):
         events.append(Command(Input.CMD_DIRECTION, -1 if k % 2 else 1, k * 5 * steps))
     for k in range(12):
         load = (150.0, -150.0, 0.0)[k % 3]
         events.append(Command(Input.LOAD_TORQUE, load, int((k * 5 + 2.5) * steps)))
-    events.sort(key=lambda e: e.step)
+    events.sort(key=lambda e: e.step or 0)
     params = TableParams(table_damping=8867.0)
-    if friction:
-        params = replace(params, **FRICTION)
+    if friction:                        # config/realistic.yaml's bearing friction
+        params = replace(params, table_coulomb_torque=3.0, table_static_torque=4.0,
+                         table_stribeck_speed=0.005, pinion_coulomb_torque=0.05,
+                         pinion_static_torque=0.07, pinion_stribeck_speed=0.5)
     return Schedule(params, settings, events, end_step=round(SECONDS / DT))
 
 

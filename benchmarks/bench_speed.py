@@ -154,7 +154,7 @@ def start_bare(workdir: Path, rate: float) -> Any:
 def start_table(workdir: Path, dt: float, factor: float, record: bool,
                 env: dict[str, str] | None = None) -> Any:
     from ros_procs import start_process
-    params = {'dt': dt, 'publish_rate': 1000.0, 'real_time_factor': factor}
+    params: dict[str, float | str] = {'dt': dt, 'publish_rate': 1000.0, 'real_time_factor': factor}
     if record:
         params['record'] = str(workdir / 'bag')
     return start_process('table_sim', params=params, workdir=workdir / 'proc', env=env)
