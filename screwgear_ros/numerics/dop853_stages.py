@@ -22,7 +22,7 @@ N = N_STATE
 
 @kernel
 def slope(t: float, y: np.ndarray, out: np.ndarray, k: int, model: PackedModel, drive: Drive,
-       held: Pieces) -> None:
+          held: Pieces) -> None:
     """out[k, :] = f(t, y) through the model's compiled equations of motion and current
     loops, each body's bearing friction on the piece ``held`` names (the contact law and
     the drive line pick theirs from the state, as in the model's rhs)."""
@@ -39,8 +39,8 @@ def slope(t: float, y: np.ndarray, out: np.ndarray, k: int, model: PackedModel, 
 
 
 @kernel
-def slope_and_law(t: float, y: np.ndarray, out: np.ndarray, k: int, model: PackedModel, drive: Drive,
-           held: Pieces) -> Pieces:
+def slope_and_law(t: float, y: np.ndarray, out: np.ndarray, k: int, model: PackedModel,
+                  drive: Drive, held: Pieces) -> Pieces:
     """:func:`slope`, and what :func:`law` says at (t, y) coming from ``held``, from one
     evaluation of the torques (``held``'s contact branches and drive piece are those of
     :data:`BY_LAW`, as every piece a step holds here)."""
