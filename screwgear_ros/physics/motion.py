@@ -262,7 +262,6 @@ __all__ = [
     'friction_pieces',
     'motion',
     'pieces',
-    'rate_and_friction',
     'rhs',
     'rhs_vector',
     'state_rate',
