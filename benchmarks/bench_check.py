@@ -1,45 +1,48 @@
-"""check_run's wall time, old against new, on the same recording: prints both and the ratio.
+"""check_run's wall time against an anchor commit's, on the same recordings, in one run.
 
-    SCREWGEAR_VENV=/tmp/venv_check . scripts/env.sh
-    python benchmarks/bench_check.py --old-venv /tmp/venv_old [--repeat 2] [--keep DIR]
+    . /tmp/helper_env.sh   # or SCREWGEAR_VENV=... . scripts/env.sh
+    git archive fcb5436 | tar -x -C /tmp/anchor_fcb5436
+    python benchmarks/bench_check.py [--anchor-src /tmp/anchor_fcb5436] [--repeat 3] [--stages]
 
-The run: 60 s of simulation at dt = 50 µs, 1 kHz publishing (60 000 samples), the
+The runs: 60 s of simulation at dt = 50 µs, 1 kHz publishing (60 000 samples), the
 paper's table damping, 400 N·m with a reversal every 5 s and load steps of ±150 N·m in
 between, recorded in-process by the node's own Session and RunIO
-(``test/bag_runs.record_session``) into a temporary directory. ``check_run
---no-progress`` of this environment (PATH) and of ``--old-venv`` (a venv with the
-package as it was before the compiled reference: make one with
-``git worktree add /tmp/old <commit>`` and, from /tmp/old,
-``SCREWGEAR_VENV=/tmp/venv_old bash scripts/setup_venv.sh``) each check that bag; both
-must pass; the new one is also timed with ``--serial`` (its replay at dt/2 in the same
-process, not in a second one meanwhile). The old package does not know the parameters
-added since (it refuses a run_parameters naming one: ``contact_location``), so it checks
-a copy of the bag whose run_parameters leave those out, message for message the same
-otherwise; it then replays with its own RK4 (fixed step), which is the work it did on
-such a run. With ``--repeat N`` each is timed N times and the best is kept. With
-``--stages`` it also times check_run's stages in-process in each venv (reading the bag,
-the RK4 replay at dt, the reference solve, the RK4 replay at dt/2, one after the other),
-which shows where the remaining time goes.
+(``bag_runs.record_session``); once without bearing friction and once with the
+realistic set's (config/realistic.yaml: the table and the pinions stick at every
+reversal). ``check_run --no-progress`` of this environment checks each; the anchor
+(the package source at ``--anchor-src``, run as ``python -m screwgear_ros.cli.check_run``
+by this interpreter with that tree first on PYTHONPATH) checks the friction-free run (it
+has no bearing friction): it does not know the parameters added since, so it checks a
+copy whose run_parameters leave those out, message for message the same otherwise. All
+must pass. Each figure is the best of ``--repeat`` timings, taken in turns (anchor,
+new, ...) so a change of load hits both; the figure is simulated seconds per wall
+second and the ratio to the anchor's, with the load average at the start and the end.
+``--before-src`` adds a source tree of the code before a change on both runs. With
+``--stages`` it also times this package's stages in-process (reading the bag,
+the RK4 replay at dt, the reference solve, the RK4 replay at dt/2, one after the other).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test' / 'support'))
 import yaml
 from bag_runs import copy_bag, record_session
 
 from screwgear_ros.bag.format import typestore
+from screwgear_ros.interface import Input
 from screwgear_ros.params.table import SimSettings, TableParams
-from screwgear_ros.sim.events import Command
+from screwgear_ros.sim.events import Command, Event
 from screwgear_ros.sim.schedule import Schedule
 
 SECONDS = 60.0
@@ -47,45 +50,43 @@ DT = 50e-6
 RATE = 1000.0
 
 
-def schedule() -> Schedule:
+def schedule(friction: bool) -> Schedule:
     """400 N·m, a reversal every 5 s, a load step 2.5 s after each reversal."""
     settings = SimSettings(dt=DT, publish_rate=RATE, command_timeout=0.0)
     steps = round(1.0 / DT)
-    events = [Command('cmd_torque', 400.0, 0)]
+    events: list[Event] = [Command(Input.CMD_TORQUE, 400.0, 0)]
     for k in range(1, 12):
-        events.append(Command('cmd_direction', -1 if k % 2 else 1, k * 5 * steps))
+        events.append(Command(Input.CMD_DIRECTION, -1 if k % 2 else 1, k * 5 * steps))
     for k in range(12):
         load = (150.0, -150.0, 0.0)[k % 3]
-        events.append(Command('load_torque', load, int((k * 5 + 2.5) * steps)))
-    events.sort(key=lambda e: e.step)
-    return Schedule(TableParams(table_damping=8867.0), settings, events,
-                    end_step=round(SECONDS / DT))
+        events.append(Command(Input.LOAD_TORQUE, load, int((k * 5 + 2.5) * steps)))
+    events.sort(key=lambda e: e.step or 0)
+    params = TableParams(table_damping=8867.0)
+    if friction:                        # config/realistic.yaml's bearing friction
+        params = replace(params, table_coulomb_torque=3.0, table_static_torque=4.0,
+                         table_stribeck_speed=0.005, pinion_coulomb_torque=0.05,
+                         pinion_static_torque=0.07, pinion_stribeck_speed=0.5)
+    return Schedule(params, settings, events, end_step=round(SECONDS / DT))
 
 
-def timed(exe: str, bag: Path, repeat: int, *options: str) -> tuple[float, str]:
-    """Best wall time of ``exe --no-progress [options] bag`` over ``repeat`` runs; the
-    last report."""
-    best = float('inf')
-    out = ''
-    for _ in range(repeat):
-        start = time.perf_counter()
-        result = subprocess.run([exe, '--no-progress', *options, str(bag)],
-                                capture_output=True, text=True, check=False)
-        elapsed = time.perf_counter() - start
-        if result.returncode != 0:
-            sys.exit(f'{exe} exited {result.returncode}:\n{result.stdout}{result.stderr}')
-        best = min(best, elapsed)
-        out = result.stdout
-    return best, out
+def once(command: list[str], env: dict[str, str] | None = None) -> tuple[float, str]:
+    """Wall time of one check (it must pass) and its report."""
+    start = time.perf_counter()
+    result = subprocess.run(command, capture_output=True, text=True, env=env, cwd='/',
+                            check=False)
+    elapsed = time.perf_counter() - start
+    if result.returncode != 0:
+        sys.exit(f'{command} exited {result.returncode}:\n{result.stdout}{result.stderr}')
+    return elapsed, result.stdout
 
 
-#: Times check_run's stages in-process; run by each venv's python with the bag's path.
+#: Times check_run's stages in-process; run with the bag's path.
 STAGES = r"""
 import sys, time
 t0 = time.perf_counter()
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.replay_in_process import replay_in_process
-from screwgear_ros.runs import check
+from screwgear_ros.runs.check import reference as check
 t = {'import': time.perf_counter() - t0}
 s = time.perf_counter(); run = read_run(sys.argv[1]); t['read bag'] = time.perf_counter() - s
 s = time.perf_counter(); rk4 = replay_in_process(run, 1); t['RK4 replay dt'] = time.perf_counter() - s
@@ -100,22 +101,23 @@ print(repr(t))
 """
 
 
-#: The run_parameters keys a venv's package reads; run by that venv's python.
+#: The run_parameters keys the anchor's package reads; run with its tree on PYTHONPATH.
 KNOWN_KEYS = r"""
 import json
 try:
     from screwgear_ros.sim.parameter_set import default_values
-except ImportError:                     # an older package: the set lived in params
-    from screwgear_ros.sim.parameter_set import default_values
-from screwgear_ros.sim.run_file import EXTRA_KEYS
+    from screwgear_ros.params.run_file import EXTRA_KEYS
+except ImportError:                     # an older package: one params module
+    from screwgear_ros.params import default_values
+    from screwgear_ros.run_parameters import EXTRA_KEYS
 print(json.dumps([*default_values(), *EXTRA_KEYS]))
 """
 
 
-def for_old(bag: Path, dst: Path, python: str) -> Path:
-    """A copy of ``bag`` whose run_parameters hold only the keys ``python``'s package knows."""
-    out = subprocess.run([python, '-P', '-c', KNOWN_KEYS], capture_output=True, text=True,
-                         check=True).stdout
+def for_anchor(bag: Path, dst: Path, env: dict[str, str]) -> Path:
+    """A copy of ``bag`` whose run_parameters hold only the keys the anchor knows."""
+    out = subprocess.run([sys.executable, '-c', KNOWN_KEYS], capture_output=True, text=True,
+                         check=True, env=env, cwd='/').stdout
     known = set(json.loads(out.strip().splitlines()[-1]))
     store = typestore()
 
@@ -131,49 +133,66 @@ def for_old(bag: Path, dst: Path, python: str) -> Path:
     return dst
 
 
-def stages(python: str, bag: Path) -> dict[str, float]:
-    out = subprocess.run([python, '-P', '-c', STAGES, str(bag)], capture_output=True,
+def stages(bag: Path) -> dict[str, float]:
+    out = subprocess.run([sys.executable, '-P', '-c', STAGES, str(bag)], capture_output=True,
                          text=True, check=True).stdout
     return eval(out.strip().splitlines()[-1])
 
 
+def load() -> str:
+    return ' '.join(f'{x:.1f}' for x in os.getloadavg())
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    parser.add_argument('--old-venv', default='/tmp/venv_old',
-                        help='venv holding the check_run to compare with')
-    parser.add_argument('--repeat', type=int, default=1, help='timings per check_run (best kept)')
-    parser.add_argument('--keep', metavar='DIR', help='record the bag here and keep it')
-    parser.add_argument('--stages', action='store_true',
-                        help='also time the stages in-process, old and new side by side')
+    parser.add_argument('--anchor-src', default='/tmp/anchor_fcb5436',
+                        help='source tree of the anchor commit (git archive of it)')
+    parser.add_argument('--before-src', help='also time this source tree (the code before '
+                        'a change) on both runs')
+    parser.add_argument('--repeat', type=int, default=3, help='timings per check (best kept)')
+    parser.add_argument('--stages', action='store_true', help='also time the stages in-process')
     args = parser.parse_args()
-    new_exe = shutil.which('check_run')
-    old_exe = Path(args.old_venv) / 'bin' / 'check_run'
-    if new_exe is None or not old_exe.exists():
-        sys.exit(f'need check_run on PATH ({new_exe}) and in {old_exe}')
+    exe = shutil.which('check_run')
+    anchor = Path(args.anchor_src)
+    if exe is None or not (anchor / 'screwgear_ros').is_dir():
+        sys.exit(f'need check_run on PATH ({exe}) and a source tree at {anchor}')
+    anchor_env = {**os.environ, 'PYTHONPATH': str(anchor)}
+    print(f'load at the start: {load()}', flush=True)
     with tempfile.TemporaryDirectory() as tmp:
-        bag = Path(args.keep) if args.keep else Path(tmp) / 'run60'
-        start = time.perf_counter()
-        record_session(bag, schedule())
-        size = sum(f.stat().st_size for f in bag.iterdir()) / 1e6
-        print(f'recorded {SECONDS:g} s at dt = {DT * 1e6:g} µs, {RATE:g} Hz '
-              f'({size:.1f} MB) in {time.perf_counter() - start:.1f} s')
-        old_python = str(Path(args.old_venv) / 'bin' / 'python')
-        old_bag = for_old(bag, Path(tmp) / 'run60_old', old_python)
-        t_new, report = timed(new_exe, bag, args.repeat)
-        t_serial, _ = timed(new_exe, bag, args.repeat, '--serial')
-        t_old, _ = timed(str(old_exe), old_bag, args.repeat)
+        bags = {}
+        for friction in (False, True):
+            bag = Path(tmp) / f'run60_{"friction" if friction else "plain"}'
+            record_session(bag, schedule(friction))
+            bags[friction] = bag
+        old_bag = for_anchor(bags[False], Path(tmp) / 'run60_anchor', anchor_env)
+        runs = {
+            'anchor, no friction': ([sys.executable, '-m', 'screwgear_ros.cli.check_run',
+                                     '--no-progress', str(old_bag)], anchor_env),
+            'new, no friction': ([exe, '--no-progress', str(bags[False])], None),
+            'new, friction': ([exe, '--no-progress', str(bags[True])], None),
+        }
+        if args.before_src:
+            before_env = {**os.environ, 'PYTHONPATH': args.before_src}
+            for friction, label in ((False, 'no friction'), (True, 'friction')):
+                runs[f'before, {label}'] = ([sys.executable, '-m', 'screwgear_ros.cli.check_run',
+                                             '--no-progress', str(bags[friction])], before_env)
+        best = dict.fromkeys(runs, float('inf'))
+        reports = {}
+        for _ in range(args.repeat):
+            for name, (command, env) in runs.items():
+                elapsed, reports[name] = once(command, env)
+                best[name] = min(best[name], elapsed)
+                print(f'  {name}: {elapsed:.2f} s (load {load()})', flush=True)
         if args.stages:
-            new_st = stages(sys.executable, bag)
-            old_st = stages(old_python, old_bag)
-            print(f'{"stage (in-process)":<22}{"old [s]":>9}{"new [s]":>9}{"old/new":>9}')
-            for name in new_st:
-                print(f'{name:<22}{old_st[name]:>9.2f}{new_st[name]:>9.2f}'
-                      f'{old_st[name] / new_st[name]:>9.1f}')
-    reference = next((line.strip() for line in report.splitlines() if 'reference:' in line), '')
-    print(f'check_run, new ({new_exe}): {t_new:8.2f} s   [{reference}]')
-    print(f'check_run --serial, new (replay at dt/2 in the same process): {t_serial:8.2f} s')
-    print(f'check_run, old ({old_exe}): {t_old:8.2f} s')
-    print(f'speed-up old/new: {t_old / t_new:.1f}x')
+            for friction, bag in bags.items():
+                print(f'stages, friction {friction}:',
+                      {k: round(v, 2) for k, v in stages(bag).items()})
+    print(f'load at the end: {load()}')
+    for name, t in best.items():
+        ref = next((line.strip() for line in reports[name].splitlines()
+                    if 'reference:' in line), '')
+        print(f'check_run, {name:<22} {t:7.2f} s  {SECONDS / t:6.1f} sim s/s  '
+              f'x{best["anchor, no friction"] / t:5.1f} of the anchor   [{ref}]')
     return 0
 
 

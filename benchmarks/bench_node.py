@@ -34,7 +34,7 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import JointState
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test' / 'support'))
 from ros_procs import STARTUP_TIMEOUT, Peer, RosProcess, stamp_ns, start_process
 
 WINDOW = 10.0      # s of wall time measured per node scenario

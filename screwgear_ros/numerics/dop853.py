@@ -29,7 +29,8 @@ frozen (its slope is exactly 0). A step may also leave a piece and come back to 
 speed through zero and back, a holding torque beyond τ_S and back) while the pieces at
 its end match those of its start; the error control sees neither (the law is smooth on
 each piece, a holding torque is no state). So an accepted step is searched inside for
-both (:func:`_inside`) and such an event located the same way.
+both (:func:`_inside`) and such an event located the same way. With no bearing
+friction on any body neither search can find anything, and neither runs.
 
 Failure is a status, never an exception from compiled code: the step size collapsing
 below 10 × the spacing of floating-point numbers at t (the solution changes faster
@@ -45,8 +46,9 @@ import numpy as np
 
 from ..physics.friction import FrictionPiece, speed_dip
 from ..physics.jit import allocating_kernel, inline_kernel, kernel
-from ..physics.motion import BY_LAW, Pieces, pieces, state_rate
+from ..physics.motion import BY_LAW, Pieces
 from ..physics.packed import N_MECHANICAL, N_STATE, TAU, Drive, PackedModel
+from .dop853_stages import law, slope, slope_and_law, stage_state, stages
 from .dop853_tableau import E3, E5, TABLEAU, A, B, C, Tableau
 
 #: Error exponent: 1/(order of the error estimator + 1), Hairer's choice for DOP853.
@@ -64,24 +66,6 @@ N = N_STATE
 #: Bisection on a step's length for a friction event: the instant to 1e-15 of the step.
 EVENT_TOLERANCE = 1e-15
 EVENT_BISECTIONS = 60
-
-
-@kernel
-def _f(t: float, y: np.ndarray, out: np.ndarray, k: int, model: PackedModel, drive: Drive,
-       held: Pieces) -> None:
-    """out[k, :] = f(t, y) through the model's compiled equations of motion and current
-    loops, each body's bearing friction on the piece ``held`` names (the contact law and
-    the drive line pick theirs from the state, as in the model's rhs)."""
-    d = state_rate(t, (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]), model, drive,
-                   held)[0]
-    out[k, 0] = d[0]
-    out[k, 1] = d[1]
-    out[k, 2] = d[2]
-    out[k, 3] = d[3]
-    out[k, 4] = d[4]
-    out[k, 5] = d[5]
-    out[k, 6] = d[6]
-    out[k, 7] = d[7]
 
 
 @kernel
@@ -116,7 +100,7 @@ def _initial_step(t0: float, y0: np.ndarray, k: np.ndarray, t_span: float, model
     h0 = min(h0, t_span)
     for i in range(N):
         y1[i] = y0[i] + h0 * k[0, i]
-    _f(t0 + h0, y1, k, 1, model, drive, held)
+    slope(t0 + h0, y1, k, 1, model, drive, held)
     d2 = 0.0
     for i in range(n):
         sc = atol + rtol * abs(y0[i])
@@ -128,47 +112,6 @@ def _initial_step(t0: float, y0: np.ndarray, k: np.ndarray, t_span: float, model
     if not (h > 0.0) or not math.isfinite(h):
         h = t_span
     return h
-
-
-@inline_kernel
-def _stage_state(y: np.ndarray, h: float, k: np.ndarray, a: np.ndarray, s: int, y_stage: np.ndarray) -> None:
-    """y_stage = the state of stage s of a step of h from y (slopes k[0:s] given)."""
-    for i in range(N):
-        acc = 0.0
-        for j in range(s):
-            acc += a[s, j] * k[j, i]
-        y_stage[i] = y[i] + h * acc
-
-
-@kernel
-def _stages(t: float, y: np.ndarray, h: float, k: np.ndarray, tableau: Tableau, y_stage: np.ndarray, y_new: np.ndarray,
-            model: PackedModel, drive: Drive, held: Pieces) -> bool:
-    """Stages 2..12 of a step of h from (t, y), k[0] = f(t, y) given, into k; the new
-    state into y_new. Returns whether it is finite."""
-    a, b, c = tableau[0], tableau[1], tableau[2]
-    n_stages = b.shape[0]
-    for s in range(1, n_stages):
-        _stage_state(y, h, k, a, s, y_stage)
-        _f(t + c[s] * h, y_stage, k, s, model, drive, held)
-    finite = True
-    for i in range(N):
-        acc = 0.0
-        for j in range(n_stages):
-            acc += b[j] * k[j, i]
-        y_new[i] = y[i] + h * acc
-        if not math.isfinite(y_new[i]):
-            finite = False
-    return finite
-
-
-@kernel
-def _law(t: float, y: np.ndarray, model: PackedModel, drive: Drive, held: Pieces) -> Pieces:
-    """What a step holds at (t, y) coming from ``held``: each bearing's friction piece
-    (:func:`~screwgear_ros.physics.motion.pieces`), the contact law and the drive line by the
-    state (FROM_STATE)."""
-    now = pieces(t, (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]), model, drive, held)
-    return Pieces(BY_LAW.branch_1, BY_LAW.branch_3, BY_LAW.drive, now.friction_1,
-                  now.friction_2, now.friction_3)
 
 
 @kernel
@@ -184,8 +127,8 @@ def _event(t: float, y: np.ndarray, h: float, k: np.ndarray, tableau: Tableau, y
         if hi - lo <= EVENT_TOLERANCE:
             break
         mid = 0.5 * (lo + hi)
-        _stages(t, y, mid * h, k, tableau, y_stage, y_new, model, drive, held)
-        now = _law(t + mid * h, y_new, model, drive, held)
+        stages(t, y, mid * h, k, tableau, y_stage, y_new, model, drive, held)
+        now = law(t + mid * h, y_new, model, drive, held)
         if now == held:
             lo = mid
         else:
@@ -215,8 +158,8 @@ def _inside(t: float, y: np.ndarray, h: float, k: np.ndarray, tableau: Tableau, 
     stuck = FrictionPiece.STUCK
     if held.friction_1 == stuck or held.friction_2 == stuck or held.friction_3 == stuck:
         for s in range(1, e):
-            _stage_state(y, h, k, a, s, y_stage)
-            if _law(t + c[s] * h, y_stage, model, drive, held) != held:
+            stage_state(y, h, k, a, s, y_stage)
+            if law(t + c[s] * h, y_stage, model, drive, held) != held:
                 flagged |= 1 << s
     if dip >= 1.0 and flagged == 0:
         return 1.0, held
@@ -232,15 +175,23 @@ def _inside(t: float, y: np.ndarray, h: float, k: np.ndarray, tableau: Tableau, 
             dip = 1.0
         else:
             flagged &= ~(1 << pick)
-        _stages(t, y, top * h, k, tableau, y_stage, y_new, model, drive, held)
-        now = _law(t + top * h, y_new, model, drive, held)
+        stages(t, y, top * h, k, tableau, y_stage, y_new, model, drive, held)
+        now = law(t + top * h, y_new, model, drive, held)
         if now != held:
             found = top
             break
-    _stages(t, y, h, k, tableau, y_stage, y_new, model, drive, held)   # the step's end again
+    stages(t, y, h, k, tableau, y_stage, y_new, model, drive, held)   # the step's end again
     if found >= 1.0:
         return 1.0, held        # no candidate was the step's own
     return found, now
+
+
+@inline_kernel
+def _frictional(held: Pieces) -> bool:
+    """Whether any body of ``held`` has bearing friction (a piece other than NONE)."""
+    none = FrictionPiece.NONE
+    return not (held.friction_1 == none and held.friction_2 == none
+                and held.friction_3 == none)
 
 
 @inline_kernel
@@ -295,8 +246,12 @@ def integrate(t0: float, y0: np.ndarray, tau_out: np.ndarray, out: np.ndarray, m
     if done == n_out:
         return OK, t, 0.0, 0, 0, done
     tau_end = tau_out[n_out - 1]
-    held = _law(t, y, model, drive, BY_LAW)
-    _f(t, y, k, 0, model, drive, held)
+    held = law(t, y, model, drive, BY_LAW)
+    # With no bearing friction every piece is NONE for the whole call (the static torques
+    # are the model's, fixed here): no step can leave its pieces, so the searches at each
+    # accepted step's end and inside it would only confirm ``held``.
+    frictional = _frictional(held)
+    slope(t, y, k, 0, model, drive, held)
     for i in range(N):
         if not (math.isfinite(y[i]) and math.isfinite(k[0, i])):
             return NON_FINITE, t, 0.0, 0, 0, done
@@ -316,11 +271,15 @@ def integrate(t0: float, y0: np.ndarray, tau_out: np.ndarray, out: np.ndarray, m
         # cut the step to land on the next output time exactly
         lands = tau + h >= target - min_step
         h_step = target - tau if lands else (tau + h) - tau
-        finite = _stages(t, y, h_step, k, tableau, y_stage, y_new, model, drive, held)
+        finite = stages(t, y, h_step, k, tableau, y_stage, y_new, model, drive, held)
         tau_new = target if lands else tau + h_step
         t_new = t0 + tau_new
+        at_end = held
         if finite:
-            _f(t_new, y_new, k, n_stages, model, drive, held)
+            if frictional:          # the slope at the end, and the pieces there
+                at_end = slope_and_law(t_new, y_new, k, n_stages, model, drive, held)
+            else:
+                slope(t_new, y_new, k, n_stages, model, drive, held)
             for i in range(N):
                 if not math.isfinite(k[n_stages, i]):
                     finite = False
@@ -344,11 +303,13 @@ def integrate(t0: float, y0: np.ndarray, tau_out: np.ndarray, out: np.ndarray, m
             err = math.inf
         last_non_finite = not finite
         if err <= 1.0:
-            after = _law(t_new, y_new, model, drive, held)
+            after = held
             top = 1.0
-            if after == held:           # a piece left and regained inside the step?
-                top, after = _inside(t, y, h_step, k, tableau, y_stage, y_new, model,
-                                     drive, held)
+            if frictional:
+                after = at_end
+                if after == held:       # a piece left and regained inside the step?
+                    top, after = _inside(t, y, h_step, k, tableau, y_stage, y_new, model,
+                                         drive, held)
             if after != held:
                 # a bearing sticks or breaks away inside the step: end the step there
                 # (its length the float difference of its ends, as every step's), stop a
@@ -356,7 +317,7 @@ def integrate(t0: float, y0: np.ndarray, tau_out: np.ndarray, out: np.ndarray, m
                 s_event, after = _event(t, y, h_step, k, tableau, y_stage, y_new, model,
                                         drive, held, top, after)
                 tau_new = tau + s_event * h_step
-                _stages(t, y, tau_new - tau, k, tableau, y_stage, y_new, model, drive, held)
+                stages(t, y, tau_new - tau, k, tableau, y_stage, y_new, model, drive, held)
                 stuck = FrictionPiece.STUCK
                 if after.friction_1 == stuck and held.friction_1 != stuck:
                     y_new[3] = 0.0
@@ -369,7 +330,7 @@ def integrate(t0: float, y0: np.ndarray, tau_out: np.ndarray, out: np.ndarray, m
                 for i in range(N):
                     y[i] = y_new[i]
                 held = after
-                _f(t, y, k, 0, model, drive, held)
+                slope(t, y, k, 0, model, drive, held)
                 accepted += 1
                 last_rejected = False
                 done = _store(out, tau_out, done, tau, y)

@@ -23,7 +23,8 @@ from typing import Any
 
 #: The modules holding the core's compiled functions.
 _MODULES = ('physics.friction', 'physics.mesh', 'physics.drive', 'physics.motion',
-            'numerics.integrator', 'paper.normalized', 'numerics.dop853', 'paper.floquet')
+            'numerics.integrator', 'paper.normalized', 'numerics.dop853',
+            'numerics.dop853_stages', 'paper.floquet')
 
 
 def kernels(imported_only: bool = False) -> list[Any]:

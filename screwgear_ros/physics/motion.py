@@ -14,7 +14,7 @@ import numpy as np
 from ..params.table import Mode, TableParams, effective_stiffness, ste_slope
 from .drive import DrivePiece, lag_rates, pinion_torques
 from .friction import FrictionPiece, friction_on, friction_piece
-from .jit import kernel
+from .jit import inline_kernel, kernel
 from .mesh import ContactBranch, contact_branch, mesh_load_on, mesh_motion
 from .packed import (
     CP,
@@ -124,9 +124,14 @@ def motion(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
     Returns (θ̈1, θ̈2, θ̈3 in rad/s², T1, net table torque (its friction included), T3
     in N·m, F1, F3 in N, the pieces the law was on).
     """
-    p = model.p
-    tau1, tau2, tau3, t1, t3, f1, f3, branch_1, branch_3, piece = body_torques(
-        t, y, model, drive, held)
+    return _accelerations(y, body_torques(t, y, model, drive, held), model.p, held)
+
+
+@inline_kernel
+def _accelerations(y: tuple, torques: tuple, p: np.ndarray, held: Pieces
+                   ) -> tuple[float, float, float, float, float, float, float, float, Pieces]:
+    """:func:`motion` from the torques of :func:`body_torques` at state y."""
+    tau1, tau2, tau3, t1, t3, f1, f3, branch_1, branch_3, piece = torques
     friction_1, friction_2, friction_3 = held.friction_1, held.friction_2, held.friction_3
     if friction_1 == FrictionPiece.FROM_STATE:
         friction_1 = friction_piece(friction_1, y[3], tau1, p[TSP])
@@ -150,6 +155,20 @@ def state_rate(t: float, y: tuple, model: PackedModel, drive: Drive, held: Piece
     m = motion(t, y, model, drive, held)
     l1, l3 = lag_rates(y, drive.torque, drive.direction, m[8].drive, model.p)
     return (y[3], y[4], y[5], m[0], m[1], m[2], l1, l3), m[8]
+
+
+@kernel
+def rate_and_friction(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
+                      ) -> tuple[tuple, tuple[FrictionPiece, FrictionPiece, FrictionPiece]]:
+    """:func:`state_rate`'s dy/dt, and the bearings' friction pieces at y coming from those
+    ``held`` names (:func:`friction_pieces`), from one evaluation of the torques: what
+    :func:`pieces` says of them when ``held``'s contact branches and drive piece are
+    FROM_STATE (the reference solver's), without evaluating the torques again."""
+    torques = body_torques(t, y, model, drive, held)
+    m = _accelerations(y, torques, model.p, held)
+    l1, l3 = lag_rates(y, drive.torque, drive.direction, m[8].drive, model.p)
+    return ((y[3], y[4], y[5], m[0], m[1], m[2], l1, l3),
+            friction_pieces(y, torques[0], torques[1], torques[2], model.p, held))
 
 
 @kernel

@@ -22,7 +22,8 @@ import pytest
 #: Loaded by the tools (check_run, plot_run, recording), never by a start that does not
 #: record.
 TOOLS_ONLY = ('scipy.integrate', 'scipy.optimize', 'rosbags', 'mcap', 'matplotlib',
-              'screwgear_ros.runs', 'screwgear_ros.numerics.dop853', 'screwgear_ros.paper.normalized',
+              'screwgear_ros.runs', 'screwgear_ros.numerics.dop853',
+              'screwgear_ros.numerics.dop853_stages', 'screwgear_ros.paper.normalized',
               'screwgear_ros.numerics.reference', 'screwgear_ros.paper.floquet')
 
 START = '''
@@ -90,7 +91,9 @@ def test_warmup_finds_every_kernel_module_and_compiled_now_imports_none():
             'from screwgear_ros.numerics import kernels as warmup\n'
             'warmup.compiled_now()\n'
             'before = {k.py_func.__module__ for k in warmup.kernels(imported_only=True)}\n'
-            'unloaded = [m for m in ("screwgear_ros.numerics.dop853", "screwgear_ros.paper.normalized",\n'
+            'unloaded = [m for m in ("screwgear_ros.numerics.dop853",\n'
+            '                        "screwgear_ros.numerics.dop853_stages",\n'
+            '                        "screwgear_ros.paper.normalized",\n'
             '                        "screwgear_ros.paper.floquet") if m not in sys.modules]\n'
             'every = {k.py_func.__module__ for k in warmup.kernels()}\n'
             'print(json.dumps([sorted(before), unloaded, sorted(every)]))\n')
@@ -98,9 +101,10 @@ def test_warmup_finds_every_kernel_module_and_compiled_now_imports_none():
     assert before == sorted(f'screwgear_ros.{m}'
                             for m in ('physics.friction', 'physics.mesh', 'physics.drive',
                                       'physics.motion', 'numerics.integrator'))
-    assert unloaded == ['screwgear_ros.numerics.dop853', 'screwgear_ros.paper.normalized',
-                        'screwgear_ros.paper.floquet']
+    assert unloaded == ['screwgear_ros.numerics.dop853', 'screwgear_ros.numerics.dop853_stages',
+                        'screwgear_ros.paper.normalized', 'screwgear_ros.paper.floquet']
     assert every == sorted(f'screwgear_ros.{m}'
                            for m in ('physics.friction', 'physics.mesh', 'physics.drive',
                                      'physics.motion', 'numerics.integrator', 'paper.normalized',
-                                     'numerics.dop853', 'paper.floquet'))
+                                     'numerics.dop853', 'numerics.dop853_stages',
+                                     'paper.floquet'))

@@ -11,6 +11,7 @@ own friction events (check_run on a recorded run).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -27,6 +28,8 @@ from screwgear_ros.physics.friction import (
     friction_piece,
     sliding_torque,
 )
+from screwgear_ros.physics.motion import BY_LAW, Pieces, pieces, rate_and_friction, state_rate
+from screwgear_ros.physics.packed import Drive, pack
 from screwgear_ros.runs.check import check_run, format_report
 from screwgear_ros.runs.session_record import record_session
 from screwgear_ros.sim.control import DemoController, DemoGains
@@ -335,3 +338,28 @@ def test_a_sticking_episode_inside_one_reference_step_is_located(tmp_path):
     print(format_report(report))
     assert stuck > 20
     assert report.ok, format_report(report)
+
+
+@pytest.mark.parametrize('seed', [0, 1, 2])
+def test_rate_and_friction_is_state_rate_and_pieces_from_one_evaluation(seed):
+    """The reference's fused evaluation gives the bits of the two it replaces: the slope
+    of ``state_rate`` and the friction pieces of ``pieces``, on random states near rest
+    (where the pieces change) coming from every piece a step can hold."""
+    rng = np.random.default_rng(seed)
+    params = replace(TableParams(), table_coulomb_torque=3.0, table_static_torque=4.0,
+                      table_stribeck_speed=0.005, pinion_coulomb_torque=0.05,
+                      pinion_static_torque=0.07, pinion_stribeck_speed=0.5)
+    model = pack(params)
+    kinds = [FrictionPiece.SLIP_FORWARD, FrictionPiece.STUCK, FrictionPiece.SLIP_BACKWARD]
+    for _ in range(200):
+        y = tuple(float(v) for v in np.concatenate([rng.normal(0.0, 1e-4, 3),
+                                                    rng.normal(0.0, 1e-3, 3),
+                                                    rng.normal(0.0, 10.0, 2)]))
+        held = Pieces(BY_LAW.branch_1, BY_LAW.branch_3, BY_LAW.drive,
+                      *(kinds[int(k)] for k in rng.integers(0, 3, 3)))
+        drive = Drive(float(rng.uniform(0.0, 400.0)), float(rng.choice([-1.0, 1.0])),
+                      float(rng.normal(0.0, 50.0)))
+        rate, friction = rate_and_friction(0.01, y, model, drive, held)
+        law = pieces(0.01, y, model, drive, held)
+        assert rate == state_rate(0.01, y, model, drive, held)[0], f'seed {seed}'
+        assert friction == (law.friction_1, law.friction_2, law.friction_3), f'seed {seed}'
