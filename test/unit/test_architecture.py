@@ -245,3 +245,26 @@ def test_the_tools_hold_only_their_main_functions(name):
     tree = ast.parse(MODULES[name].read_text(encoding='utf-8'))
     classes = {node.name for node in tree.body if isinstance(node, ast.ClassDef)}
     assert classes <= CLI_CLASSES.get(name, set()), f'{name} defines {sorted(classes)}'
+
+
+def test_the_package_imports_no_old_path():
+    """The old module paths (``_moved.MOVED``) are for users, for one release: the package
+    itself imports every module where it lives, so no edge hides behind an alias."""
+    from screwgear_ros._moved import MOVED
+    old = {f'{PACKAGE}.{name}' for name in MOVED}
+    found = []
+    for name, path in MODULES.items():
+        package = name if path.name == '__init__.py' else name.rpartition('.')[0]
+        for node in ast.walk(ast.parse(path.read_text(encoding='utf-8'))):
+            if isinstance(node, ast.ImportFrom):
+                base = node.module or ''
+                if node.level:
+                    anchor = package.split('.')
+                    base = '.'.join(anchor[:len(anchor) - node.level + 1] + ([base] if base else []))
+                targets = [base, *(f'{base}.{a.name}' for a in node.names)]
+            elif isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            else:
+                continue
+            found += [f'{name}:{node.lineno}: {t}' for t in targets if t in old]
+    assert not found, 'import from where the module lives now:\n' + '\n'.join(found)

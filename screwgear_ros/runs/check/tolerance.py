@@ -34,7 +34,7 @@ import numpy as np
 from ...bag.errors import BagError
 from ...bag.reader import RecordedRun
 from ...numerics.reference import RTOL
-from ..replay import replay_in_process
+from ..replay_in_process import replay_in_process
 
 #: Tolerance = SAFETY × Richardson estimate of RK4's error (contact changes located).
 SAFETY = 1.5

@@ -20,7 +20,7 @@ from ...physics.drive import active_path
 from ...physics.sensors import SensorChain
 from ...sim.events import ParameterChange, Reset
 from ...sim.plant import DriveInput
-from ..replay import ReplayedOutputs, replay_in_process
+from ..replay_in_process import ReplayedOutputs, replay_in_process
 from .reference import mesh_of, reference_outputs, signal_names
 from .tolerance import (
     FLOOR_ABS,
