@@ -102,16 +102,13 @@ def damaged_copy(src: Path, dst: Path, keep: int | None = None,
     return mcap_file
 
 
-def copy_bag(src: Path, dst: Path, edit: Edit | None = None) -> int:
-    """Rewrite the bag ``src`` to ``dst`` message by message, in file order.
-
-    ``edit(topic, type, log_time, cdr)`` returns the (log_time, cdr) to write, or
-    None to drop the message. Returns the number of messages written.
-    """
+def bag_messages(src: Path) -> tuple[dict[int, TopicSpec], list[tuple[int, int, bytes]]]:
+    """The topics of the bag ``src`` by channel id, and its messages as (channel id, log
+    time, CDR) in file order."""
     mcap_file, = Path(src).glob('*.mcap')
     schemas: dict[int, str] = {}
     channels: dict[int, TopicSpec] = {}
-    messages: list[tuple[str, int, bytes]] = []
+    messages: list[tuple[int, int, bytes]] = []
     with open(mcap_file, 'rb') as stream:
         for record in StreamReader(stream).records:
             if isinstance(record, Schema):
@@ -121,21 +118,42 @@ def copy_bag(src: Path, dst: Path, edit: Edit | None = None) -> int:
                 channels[record.id] = TopicSpec(record.topic, schemas[record.schema_id],
                                                 qos[0]['durability'] == 'transient_local')
             elif isinstance(record, Message):
-                spec = channels[record.channel_id]
-                kept = (record.log_time, record.data) if edit is None else edit(
-                    spec.name, spec.msgtype, record.log_time, record.data)
-                if kept is not None:
-                    messages.append((spec.name, *kept))
-    recorder = RunRecorder(dst, list(channels.values()), bytes,
-                           queue_size=len(messages) + 1)     # all in memory already
+                messages.append((record.channel_id, record.log_time, record.data))
+    return channels, messages
+
+
+def write_bag(dst: Path, specs: list[TopicSpec],
+              messages: list[tuple[str, int, bytes]]) -> Path:
+    """A bag at ``dst`` of ``messages`` (topic, log time, CDR), every one written by the
+    node's recorder; ``dst``."""
+    recorder = RunRecorder(dst, specs, bytes, queue_size=len(messages) + 1)  # all in memory
     for topic, log_time, data in messages:
         recorder.write(topic, log_time, data)
     recorder.close()
-    assert recorder.dropped == 0
-    return recorder.written
+    assert recorder.dropped == 0 and recorder.written == len(messages)
+    return dst
+
+
+def copy_bag(src: Path, dst: Path, edit: Edit | None = None) -> int:
+    """Rewrite the bag ``src`` to ``dst`` message by message, in file order.
+
+    ``edit(topic, type, log_time, cdr)`` returns the (log_time, cdr) to write, or
+    None to drop the message. Returns the number of messages written.
+    """
+    channels, recorded = bag_messages(src)
+    messages: list[tuple[str, int, bytes]] = []
+    for channel, log_time, data in recorded:
+        spec = channels[channel]
+        kept = (log_time, data) if edit is None else edit(spec.name, spec.msgtype, log_time,
+                                                          data)
+        if kept is not None:
+            messages.append((spec.name, *kept))
+    write_bag(dst, list(channels.values()), messages)
+    return len(messages)
 
 
 __all__ = [
+    'bag_messages',
     'copy_bag',
     'damaged_copy',
     'installed',
@@ -144,6 +162,7 @@ __all__ = [
     'record_session',
     'reversal_run',
     'truncated_copy',
+    'write_bag',
 ]
 
 def record_topic(specs: dict[int, TopicSpec], record: Message) -> str:

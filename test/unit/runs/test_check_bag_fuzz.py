@@ -10,12 +10,10 @@ import time
 from pathlib import Path
 
 import pytest
-import yaml
-from mcap.records import Channel, Message, Schema
-from mcap.stream_reader import StreamReader
+from bag_runs import bag_messages, write_bag
 from rosbags.typesys import Stores, get_typestore
 
-from screwgear_ros.bag import RunRecorder, TopicSpec
+from screwgear_ros.bag import TopicSpec
 from screwgear_ros.bag.errors import BagError, InvalidBag
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.inprocess.simulation import Simulation
@@ -38,34 +36,8 @@ def noisy_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return bag
 
 
-def _messages(bag: Path) -> tuple[dict[int, TopicSpec], list[tuple[int, int, bytes]]]:
-    mcap_file, = bag.glob('*.mcap')
-    schemas: dict[int, str] = {}
-    channels: dict[int, TopicSpec] = {}
-    messages = []
-    with open(mcap_file, 'rb') as stream:
-        for record in StreamReader(stream).records:
-            if isinstance(record, Schema):
-                schemas[record.id] = record.name
-            elif isinstance(record, Channel):
-                qos = yaml.safe_load(record.metadata['offered_qos_profiles'])
-                channels[record.id] = TopicSpec(record.topic, schemas[record.schema_id],
-                                                qos[0]['durability'] == 'transient_local')
-            elif isinstance(record, Message):
-                messages.append((record.channel_id, record.log_time, record.data))
-    return channels, messages
-
-
-def _write(dst: Path, specs: list[TopicSpec], messages: list[tuple[str, int, bytes]]) -> Path:
-    recorder = RunRecorder(dst, specs, bytes, queue_size=len(messages) + 1)
-    for topic, log_time, data in messages:
-        recorder.write(topic, log_time, data)
-    recorder.close()
-    return dst
-
-
 def test_a_damaged_joint_states_stream_is_a_damaged_bag(noisy_bag: Path, tmp_path: Path) -> None:
-    channels, messages = _messages(noisy_bag)
+    channels, messages = bag_messages(noisy_bag)
     joint_states = [i for i, (c, _, _) in enumerate(messages)
                     if channels[c].name.endswith('/joint_states')]
     assert len(joint_states) > 20
@@ -85,7 +57,7 @@ def test_a_damaged_joint_states_stream_is_a_damaged_bag(noisy_bag: Path, tmp_pat
             other = topic.replace('joint_states', rng.choice(('joint_statez', 'js', 'joint')))
             specs.append(TopicSpec(other, channels[messages[k][0]].msgtype, False))
             out[k] = (other, log_time, data)
-        bag = _write(tmp_path / f'b{case}', specs, out)
+        bag = write_bag(tmp_path / f'b{case}', specs, out)
         try:
             require_samples(read_run(bag))
         except BagError as exc:
@@ -100,14 +72,14 @@ def test_a_damaged_joint_states_stream_is_a_damaged_bag(noisy_bag: Path, tmp_pat
     doubled = [(channels[c].name, t, d) for c, t, d in messages]
     doubled.insert(joint_states[5] + 1, doubled[joint_states[5]])
     with pytest.raises(InvalidBag, match='missing, extra or on another topic'):
-        require_samples(read_run(_write(tmp_path / 'doubled', channels_out, doubled)))
+        require_samples(read_run(write_bag(tmp_path / 'doubled', channels_out, doubled)))
 
 
 def test_a_recording_its_inputs_do_not_make_is_not_passed(noisy_bag: Path,
                                                          tmp_path: Path) -> None:
     """An edit of the table's recorded effort (true_joint_states) by -0.01 N·m at one
     sample: within the reference's tolerance, but not what the recorded inputs make."""
-    channels, messages = _messages(noisy_bag)
+    channels, messages = bag_messages(noisy_bag)
     rng = random.Random(SEED + 1)
     exact = [i for i, (c, _, _) in enumerate(messages)
              if channels[c].name.endswith('/true_joint_states')]
@@ -121,7 +93,7 @@ def test_a_recording_its_inputs_do_not_make_is_not_passed(noisy_bag: Path,
         effort[1] -= 0.01
         msg.effort = effort
         out[k] = (topic, log_time, bytes(STORE.serialize_cdr(msg, msgtype)))
-        report = check_run(read_run(_write(tmp_path / f'e{case}', list(channels.values()), out)),
+        report = check_run(read_run(write_bag(tmp_path / f'e{case}', list(channels.values()), out)),
                            parallel=False)
         assert not report.replay_identical, f'seed {SEED + 1} case {case}'
         assert not report.ok and not report.undecided, f'seed {SEED + 1} case {case}'
