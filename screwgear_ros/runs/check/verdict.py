@@ -134,7 +134,7 @@ def _require_measured_aligned(run: RecordedRun) -> None:
     if measured is None:
         return
     topic = run.names.get('joint_states', 'joint_states')
-    exact = run.joint_states
+    exact = run.true_joint_states
     n = min(len(exact), len(measured))
     if len(exact) != len(measured) and not run.truncated:
         raise InvalidBag(f'{run.path}: {topic} has {len(measured)} samples, '
