@@ -216,7 +216,6 @@ class DriveInput:
 
 
 __all__ = [
-    'DriveInput',
     'DrivePiece',
     'active_path',
     'active_speed',

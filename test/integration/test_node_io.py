@@ -251,9 +251,11 @@ def test_parameter_changes_take_effect_or_are_refused_with_a_reason(table):
         assert _param(table, 'ste_phases', [0.0, 1.0]).successful
         assert table.peer.get_parameters(NODE, HARMONICS) == {
             'ste_amplitudes': [1.5384e-3, 0.0], 'ste_phases': [0.0, 1.0]}
-        assert _param(table, 'ste_amplitudes', [1.5384e-3]).successful
+        # a shorter array that would cut a nonzero value of the other is refused: no
+        # silent data loss, both arrays stay as they were
+        assert not _param(table, 'ste_amplitudes', [1.5384e-3]).successful
         assert table.peer.get_parameters(NODE, HARMONICS) == {
-            'ste_amplitudes': [1.5384e-3], 'ste_phases': [0.0]}
+            'ste_amplitudes': [1.5384e-3, 0.0], 'ste_phases': [0.0, 1.0]}
         assert 'ste_amplitudes set to [0.0015384, 0.0] to match 2 STE harmonics' in \
             table.proc.output()[1]
         result = _param(table, 'inertia_table', 'heavy')

@@ -20,9 +20,11 @@ import sys
 import pytest
 
 #: Loaded by the tools (check_run, plot_run, recording), never by a start that does not
-#: record.
+#: record (runs.run_io, which makes a tick's messages, is the node's own).
 TOOLS_ONLY = ('scipy.integrate', 'scipy.optimize', 'rosbags', 'mcap', 'matplotlib',
-              'screwgear_ros.runs', 'screwgear_ros.numerics.dop853',
+              'screwgear_ros.runs.check', 'screwgear_ros.runs.plot',
+              'screwgear_ros.runs.compare', 'screwgear_ros.runs.replay_in_process',
+              'screwgear_ros.runs.session_record', 'screwgear_ros.numerics.dop853',
               'screwgear_ros.numerics.dop853_stages', 'screwgear_ros.paper.normalized',
               'screwgear_ros.numerics.reference', 'screwgear_ros.paper.floquet')
 
@@ -89,6 +91,7 @@ def test_the_start_without_jit_loads_no_tool_module_either():
 def test_warmup_finds_every_kernel_module_and_compiled_now_imports_none():
     code = ('import json, sys\n'
             'from screwgear_ros.numerics import kernels as warmup\n'
+            'import screwgear_ros.sim.session  # the kernels a node start loads\n'
             'warmup.compiled_now()\n'
             'before = {k.py_func.__module__ for k in warmup.kernels(imported_only=True)}\n'
             'unloaded = [m for m in ("screwgear_ros.numerics.dop853",\n'

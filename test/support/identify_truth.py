@@ -82,6 +82,8 @@ def write_base(path: Path, fit: Sequence[str], extra: dict[str, Any] | None = No
     lines = PRESET.read_text(encoding='utf-8').rstrip('\n').splitlines()
     values = {**{k: v for k, v in TRUTH.items() if k not in fit}, 'command_timeout': 0.0,
               **(extra or {})}
+    # a parameter file names each parameter once: the preset's line gives way to ours
+    lines = [line for line in lines if line.strip().split(':')[0] not in values]
     lines += [f'    {name}: {yaml.safe_dump(value).splitlines()[0]}'
               for name, value in values.items()]
     path.write_text('\n'.join(lines) + '\n', encoding='utf-8')

@@ -47,7 +47,8 @@ def _landed_late(run: RecordedRun) -> RecordedRun:
     late = shift_event(run, index, run.parameters.settings.steps_per_publish)
     made = replay_in_process(late)
     return dataclasses.replace(
-        late, joint_states=dataclasses.replace(late.joint_states, values=made.joint_states),
+        late, true_joint_states=dataclasses.replace(late.true_joint_states,
+                                                     values=made.joint_states),
         transmission_error=dataclasses.replace(late.transmission_error,
                                                values=made.transmission_error[:, None]))
 
