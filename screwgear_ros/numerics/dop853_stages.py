@@ -20,14 +20,9 @@ from .dop853_tableau import Tableau
 N = N_STATE
 
 
-@kernel
-def slope(t: float, y: np.ndarray, out: np.ndarray, k: int, model: PackedModel, drive: Drive,
-          held: Pieces) -> None:
-    """out[k, :] = f(t, y) through the model's compiled equations of motion and current
-    loops, each body's bearing friction on the piece ``held`` names (the contact law and
-    the drive line pick theirs from the state, as in the model's rhs)."""
-    d = state_rate(t, (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]), model, drive,
-                   held)[0]
+@inline_kernel
+def _store(out: np.ndarray, k: int, d: tuple[float, ...]) -> None:
+    """out[k, :] = d, the 8 rates of the state (unrolled: ``d`` is a tuple)."""
     out[k, 0] = d[0]
     out[k, 1] = d[1]
     out[k, 2] = d[2]
@@ -36,6 +31,17 @@ def slope(t: float, y: np.ndarray, out: np.ndarray, k: int, model: PackedModel, 
     out[k, 5] = d[5]
     out[k, 6] = d[6]
     out[k, 7] = d[7]
+
+
+@kernel
+def slope(t: float, y: np.ndarray, out: np.ndarray, k: int, model: PackedModel, drive: Drive,
+          held: Pieces) -> None:
+    """out[k, :] = f(t, y) through the model's compiled equations of motion and current
+    loops, each body's bearing friction on the piece ``held`` names (the contact law and
+    the drive line pick theirs from the state, as in the model's rhs)."""
+    d = state_rate(t, (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]), model, drive,
+                   held)[0]
+    _store(out, k, d)
 
 
 @kernel
@@ -46,14 +52,7 @@ def slope_and_law(t: float, y: np.ndarray, out: np.ndarray, k: int, model: Packe
     :data:`BY_LAW`, as every piece a step holds here)."""
     d, (friction_1, friction_2, friction_3) = rate_and_friction(
         t, (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]), model, drive, held)
-    out[k, 0] = d[0]
-    out[k, 1] = d[1]
-    out[k, 2] = d[2]
-    out[k, 3] = d[3]
-    out[k, 4] = d[4]
-    out[k, 5] = d[5]
-    out[k, 6] = d[6]
-    out[k, 7] = d[7]
+    _store(out, k, d)
     return Pieces(BY_LAW.branch_1, BY_LAW.branch_3, BY_LAW.drive, friction_1, friction_2,
                   friction_3)
 
