@@ -107,15 +107,20 @@ class Overlay:
         return done
 
 
-    def ask(self, *args: str, timeout: float = 30.0) -> subprocess.CompletedProcess:
+    def ask(self, *args: str, timeout: float = 90.0) -> subprocess.CompletedProcess:
         """Like :meth:`run` (checked), again until the ``ros2`` process, a new DDS
         participant each time, has discovered the node it asks (``--no-daemon``: no
         daemon outlives a test)."""
+        # The CLI's own discovery windows (0.5 s spin, 1 s for ``param``) are shorter
+        # than a new participant needs on a busy machine. ``param`` waits for its node
+        # and returns when found; the others spin their whole window, so it stays short.
+        wait = ['--timeout', '15'] if args and args[0] == 'param' else ['--spin-time', '2']
         deadline = time.monotonic() + timeout
         while True:
-            done = self.run(*args, '--no-daemon', check=False)
+            done = self.run(*args, '--no-daemon', *wait, check=False)
             said = done.stdout + done.stderr
-            lost = ('Node not found' in said or 'not available' in said
+            lost = ('Node not found' in said or 'Unable to find node' in said
+                    or 'not available' in said
                     or 'Could not find' in said)
             if not lost or time.monotonic() > deadline:
                 break
