@@ -11,6 +11,7 @@ the tool's own line for each and keeps its exit code.
 from __future__ import annotations
 
 import functools
+import os
 import sys
 from collections.abc import Callable, Mapping
 from typing import Self
@@ -21,6 +22,9 @@ EXIT_OK = 0
 EXIT_INTERRUPTED = 130
 #: The tools' documented exit code for work they could not do.
 EXIT_ERROR = 2
+#: 128 + SIGPIPE: what a shell reports for a command whose output's reader left
+#: (``| head``).
+EXIT_BROKEN_PIPE = 141
 
 #: An exception type, or a tuple of them, as ``except`` takes it.
 Errors = type[BaseException] | tuple[type[BaseException], ...]
@@ -32,7 +36,8 @@ Message = str | Callable[[BaseException], str]
 
 def interruptible(tool: str, unfinished: str) -> Callable[[Callable[..., int]], Callable[..., int]]:
     """Decorate a tool's ``main`` so that SIGINT ends it with one line naming what it had
-    ``unfinished`` (and what it keeps), exit :data:`EXIT_INTERRUPTED`. Python raises
+    ``unfinished`` (and what it keeps), exit :data:`EXIT_INTERRUPTED`; a reader of its
+    output that leaves (``| head``) ends it quietly, exit :data:`EXIT_BROKEN_PIPE`. Python raises
     KeyboardInterrupt between bytecodes, so a tool stops as soon as its compiled call of
     the moment returns."""
     def wrap(main: Callable[..., int]) -> Callable[..., int]:
@@ -43,6 +48,11 @@ def interruptible(tool: str, unfinished: str) -> Callable[[Callable[..., int]], 
             except KeyboardInterrupt:
                 print(f'{tool}: interrupted (SIGINT): {unfinished}', file=sys.stderr)
                 return EXIT_INTERRUPTED
+            except BrokenPipeError:
+                # the reader of stdout left: end quietly, as a shell's tools do, and
+                # keep the interpreter's last flush from failing again at exit
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+                return EXIT_BROKEN_PIPE
         return run
     return wrap
 
@@ -96,5 +106,5 @@ class Failures:
         return True
 
 
-__all__ = ['EXIT_ERROR', 'EXIT_INTERRUPTED', 'EXIT_OK', 'Errors', 'Failures', 'Message',
-           'interruptible']
+__all__ = ['EXIT_BROKEN_PIPE', 'EXIT_ERROR', 'EXIT_INTERRUPTED', 'EXIT_OK', 'Errors', 'Failures',
+           'Message', 'interruptible']

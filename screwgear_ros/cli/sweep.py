@@ -93,11 +93,11 @@ def main(argv: list[str] | None = None) -> int:
     from ..sweep.progress import run_pending
     from ..sweep.report import report
     from ..sweep.spec import RUN_LIMIT, SweepError, load_sweep
-    from ..sweep.store import Store
+    from ..sweep.store import Store, finished_keys
 
     try:
         sweep = load_sweep(args.sweep, limit=args.allow_runs or RUN_LIMIT,
-                           announce=_announce)
+                           announce=_announce, validated=finished_keys(args.out))
         store = Store(args.out, sweep)
         done = store.open()
     except SweepError as exc:

@@ -12,6 +12,7 @@ Rules that relate several parameters stay in the classes' ``__post_init__``.
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 from collections.abc import Iterator
@@ -156,13 +157,22 @@ def kind_of(default: Any) -> Kind:
 
 def declared(cls: type) -> Iterator[Parameter]:
     """The declared parameters of a dataclass, in declaration order."""
+    return iter(_declared(cls))
+
+
+@functools.cache
+def _declared(cls: type) -> tuple[Parameter, ...]:
+    # every construction of a parameter set validates through this list: built once
+    # per class (a class's fields and their frozen declarations never change)
+    found = []
     for f in fields(cls):
         declaration = f.metadata.get('declaration')
         if declaration is None:
             raise TypeError(f'{cls.__name__}.{f.name} has no declaration (use parameter())')
         default = _default(f)
         choices = tuple(m.value for m in type(default)) if isinstance(default, Enum) else ()
-        yield Parameter(f.name, default, kind_of(default), declaration, choices)
+        found.append(Parameter(f.name, default, kind_of(default), declaration, choices))
+    return tuple(found)
 
 
 def _default(f: Field) -> Any:

@@ -6,6 +6,7 @@ parameter changes on top), before any run starts.
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 from typing import Any
 
 import numpy as np
@@ -13,7 +14,7 @@ import numpy as np
 from ..params.declarations import ParameterError, declared
 from ..params.table import SimSettings, TableParams
 from ..params.yaml_reader import YamlReader
-from ..sim.parameter_set import split_parameters
+from ..sim.parameter_set import default_values, split_parameters
 from .model import Axis, Bundle, RunSpec, digest, plain, run_seed
 
 #: Parameters the node refuses to change while it runs.
@@ -22,9 +23,13 @@ READ_ONLY = frozenset(p.name for cls in (TableParams, SimSettings) for p in decl
 
 
 def resolve_runs(reader: YamlReader, bundle: Bundle, scenario: Any, grid: tuple[Axis, ...],
-          draws: tuple[Axis, ...], count: int, seed: int) -> list[RunSpec]:
-    """Every run, in index order (grid point major, then draw), each validated."""
+                 draws: tuple[Axis, ...], count: int, seed: int,
+                 validated: Collection[str] = frozenset()) -> list[RunSpec]:
+    """Every run, in index order (grid point major, then draw), each validated but those
+    whose key is in ``validated`` (a key digests everything a run depends on, so a run
+    finished before under it was validated then, by the same rules)."""
     base = dict(bundle.base)
+    start = {**default_values(), **base}      # what each swept value applies to
     shared = bundle.digest
     runs = []
     for index in range(run_count(grid, count)):
@@ -35,12 +40,13 @@ def resolve_runs(reader: YamlReader, bundle: Bundle, scenario: Any, grid: tuple[
         for axis, value in chosen[len(grid):]:
             if not math.isfinite(value):
                 raise reader.error(axis.line, f'run {index}: {axis.column} drew {value!r}')
-        overrides = {a.name: a.apply(base.get(a.name, _default(a.name)), v)
+        overrides = {a.name: a.apply(start[a.name], v)
                      for a, v in chosen}
-        _validate(reader, scenario, base, overrides, chosen, index)
-        swept = tuple((a.column, plain(v)) for a, v in chosen)
         key = digest({'bundle': shared, 'index': index, 'seed': rng_seed,
                        'overrides': overrides})
+        if key not in validated:
+            _validate(reader, scenario, base, overrides, chosen, index)
+        swept = tuple((a.column, plain(v)) for a, v in chosen)
         runs.append(RunSpec(index, rng_seed, swept, tuple(plain(overrides).items()), key))
     return runs
 
@@ -59,11 +65,6 @@ def grid_point(grid: tuple[Axis, ...], number: int) -> tuple[Any, ...]:
         number, k = divmod(number, len(axis.values))
         point.append(axis.values[k])
     return tuple(reversed(point))
-
-
-def _default(name: str) -> Any:
-    from ..sim.parameter_set import default_values
-    return default_values()[name]
 
 
 def _validate(reader: YamlReader, scenario: Any, base: dict[str, Any],

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import sys
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from pathlib import Path
 from typing import Any
 
@@ -53,7 +53,8 @@ RUN_LIMIT = 100_000
 
 
 def load_sweep(path: str | Path, *, limit: int | None = RUN_LIMIT,
-               announce: Callable[[int, float], None] | None = None) -> Sweep:
+               announce: Callable[[int, float], None] | None = None,
+               validated: Collection[str] = frozenset()) -> Sweep:
     """Read, resolve and validate a sweep file.
 
     Parameters
@@ -66,6 +67,9 @@ def load_sweep(path: str | Path, *, limit: int | None = RUN_LIMIT,
     announce
         Called with the run count and the simulated seconds of all runs once they are
         known, before the runs are resolved and validated.
+    validated
+        Keys of runs validated before (the finished runs of a results directory,
+        :func:`~screwgear_ros.sweep.store.finished_keys`): not validated again.
 
     Returns
     -------
@@ -91,13 +95,14 @@ def load_sweep(path: str | Path, *, limit: int | None = RUN_LIMIT,
             raise
         raise SweepError(f'{path}: {_unreadable(path, exc)}') from None
     try:
-        return _load(reader, path, limit, announce)
+        return _load(reader, path, limit, announce, validated)
     except RecursionError:
         raise SweepError(f'{path}: nested too deeply') from None
 
 
 def _load(reader: YamlReader, path: Path, limit: int | None,
-          announce: Callable[[int, float], None] | None) -> Sweep:
+          announce: Callable[[int, float], None] | None,
+          validated: Collection[str]) -> Sweep:
     if reader.root is None:
         raise SweepError(f'{path}: empty; a sweep needs a scenario, metrics and a grid or '
                          'monte_carlo')
@@ -154,7 +159,7 @@ def _load(reader: YamlReader, path: Path, limit: int | None,
         announce(total, simulated)
     bundle = model.Bundle(scenario_file.name, scenario_text, sources,
                           tuple(plain(base).items()), metrics, time_limit)
-    runs = resolve_runs(reader, bundle, scenario, grid, draws, count, seed)
+    runs = resolve_runs(reader, bundle, scenario, grid, draws, count, seed, validated)
     return Sweep(str(path), bundle, grid, draws, count, seed, tuple(runs), base_file,
                  str(scenario_file.resolve()))
 

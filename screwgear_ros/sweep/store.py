@@ -28,6 +28,17 @@ RUNS = 'runs'
 RESULTS = 'results'
 
 
+#: The resolved sweep holds every run's values and is read on every rerun: libyaml's
+#: parser and emitter where PyYAML was built with them (the same documents, much faster:
+#: ``benchmarks/bench_sweep_example.py``'s rerun), PyYAML's own otherwise.
+_LOADER = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
+_DUMPER = getattr(yaml, 'CSafeDumper', yaml.SafeDumper)
+
+
+def _dump(document: Any) -> str:
+    return yaml.dump(document, Dumper=_DUMPER, sort_keys=False, allow_unicode=True)
+
+
 def _write(path: Path, text: str) -> None:
     part = path.with_name(path.name + '.part')
     part.write_text(text, encoding='utf-8')
@@ -61,6 +72,26 @@ def _difference(old: Any, new: Any, where: str = '') -> str | None:
     return None
 
 
+def finished_keys(directory: str | os.PathLike[str]) -> frozenset[str]:
+    """The keys of the run files in a results directory, read leniently (what cannot be
+    read is left out): the runs a rerun need not validate again.
+
+    Examples
+    --------
+    >>> finished_keys('/nonexistent/results')
+    frozenset()
+    """
+    keys = set()
+    for path in Path(directory, RUNS).glob('*.json'):
+        try:
+            row = json.loads(path.read_text(encoding='utf-8'))
+        except (OSError, UnicodeDecodeError, ValueError, RecursionError):
+            continue
+        if isinstance(row, dict) and isinstance(row.get('key'), str):
+            keys.add(row['key'])
+    return frozenset(keys)
+
+
 class Store:
     """The results directory of ``sweep`` (module docstring)."""
 
@@ -72,14 +103,15 @@ class Store:
 
     def open(self) -> dict[int, dict[str, Any]]:
         """Create DIR or check that it holds this sweep; the finished runs by index."""
-        resolved = yaml.safe_load(yaml.safe_dump(self.sweep.resolved(), sort_keys=False))
+        text = _dump(self.sweep.resolved())
+        resolved = yaml.load(text, Loader=_LOADER)
         target = self.directory / RESOLVED
         if self.directory.exists() and not self.directory.is_dir():
             raise SweepError(f'{self.directory} is not a directory; --out names a results '
                              'directory (new, or one of an earlier run of this sweep)')
         if target.exists():
             try:
-                old = yaml.safe_load(target.read_text(encoding='utf-8'))
+                old = yaml.load(target.read_text(encoding='utf-8'), Loader=_LOADER)
             except (OSError, UnicodeDecodeError, yaml.YAMLError, RecursionError) as exc:
                 why = 'nested too deeply' if isinstance(exc, RecursionError) else \
                     str(exc).splitlines()[0]
@@ -102,7 +134,7 @@ class Store:
         try:
             self.runs.mkdir(parents=True, exist_ok=True)
             if not target.exists():
-                _write(target, yaml.safe_dump(resolved, sort_keys=False, allow_unicode=True))
+                _write(target, text)
         except OSError as exc:
             raise SweepError(f'{self.directory}: cannot write: {exc.strerror or exc}') \
                 from None
@@ -227,4 +259,4 @@ def failures(rows: Iterable[dict[str, Any]]) -> int:
     return sum(1 for row in rows if row['status'] != Status.OK.value)
 
 
-__all__ = ['RESOLVED', 'RUNS', 'Store', 'damage', 'failures']
+__all__ = ['RESOLVED', 'RUNS', 'Store', 'damage', 'failures', 'finished_keys']

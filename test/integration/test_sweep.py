@@ -453,3 +453,33 @@ def test_the_worked_example_covers_its_tolerance_band_and_runs(tmp_path):
     proc = installed('sweep', path, '--out', tmp_path / 'out', '--workers', '1',
                      '--max-runs', '2', '--no-plot')
     assert proc.returncode == 1 and set(_table(tmp_path / 'out')['status']) == {'ok'}
+
+
+@pytest.mark.ros
+def test_a_rerun_validates_only_the_runs_it_has_not_finished(tmp_path):
+    """The finished runs' keys are exactly the sweep's; given them, the sweep resolves to
+    the same runs; a run whose key is not among them is still validated and refused."""
+    from screwgear_ros.sweep import SweepError, load_sweep
+    from screwgear_ros.sweep.store import finished_keys
+
+    path = _sweep_dir(tmp_path, SWEEP.replace('count: 5', 'count: 1'),
+                      SCENARIO.replace('duration: 0.3', 'duration: 0.02'))
+    proc = installed('sweep', path, '--out', tmp_path / 'out', '--workers', '1', '--no-plot')
+    assert proc.returncode == 0, proc.stderr
+    keys = finished_keys(tmp_path / 'out')
+    sweep = load_sweep(path)
+    assert keys == {r.key for r in sweep.runs} and len(keys) == 2
+    assert load_sweep(path, validated=keys).runs == sweep.runs
+    bad = _sweep_dir(tmp_path, SWEEP.replace('[150.0, 350.0]', '[150.0, 350.0, -1.0]')
+                     .replace('count: 5', 'count: 1'), name='bad')
+    with pytest.raises(SweepError, match='run 2 .*preload_torque'):
+        load_sweep(bad, validated=keys)
+    assert finished_keys(tmp_path / 'nothing here') == frozenset()
+
+    # its report piped into a reader that leaves at once (``| head``): a quiet end
+    cli = Path(sys.executable).with_name('sweep')
+    rerun = subprocess.Popen([str(cli), str(path), '--out', str(tmp_path / 'out'),
+                              '--no-plot'], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    rerun.stdout.close()
+    said = rerun.stderr.read().decode()
+    assert rerun.wait(timeout=60) == 141 and 'Traceback' not in said, said
