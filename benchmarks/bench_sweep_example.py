@@ -80,7 +80,7 @@ def main() -> None:
     print(f'{"figure":44s} {"wall":>8s} {"vs anchor":>10s}  load before  goal')
     rows = [
         ('--workers 1 (anchor)', one, 1.0, load_one, ''),
-        (f'--workers {n}', many, one / many, load_many, f'>= 1.8x faster (idle)'),
+        (f'--workers {n}', many, one / many, load_many, '>= 1.8x faster (idle)'),
         (f'--workers auto (picked {picked.group(1) if picked else "?"})', auto, one / auto,
          load_auto, 'never slower than 1 worker'),
         (f'rerun of the finished {n}-worker sweep', again, again / many, load_again,
