@@ -7,7 +7,7 @@ values, so remote workers need the package installed but no shared filesystem.
 Worker processes, not threads: ``benchmarks/bench_sweep.py`` runs the same short runs in N
 threads of one process and in N processes; the compiled kernels hold the GIL and every tick
 passes through Python (the controller, the deadline check), so threads share one core.
-``--workers auto`` (:func:`free_workers`) counts the cores free now, so that a busy
+``--workers auto`` (:func:`free_workers`) counts the cores free now (the run queue), so that a busy
 machine gets one worker here rather than a cluster that competes with the load.
 """
 
@@ -16,8 +16,10 @@ from __future__ import annotations
 import logging
 import math
 import os
+import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from .model import Bundle, RunSpec
@@ -40,17 +42,46 @@ class Workers:
     why: str
 
 
+#: /proc/loadavg's fourth field: the tasks running or waiting for a core right now.
+_RUN_QUEUE = Path('/proc/loadavg')
+
+
+def load_now(samples: int = 10, interval: float = 0.02) -> float:
+    """The load on the cores now: the tasks running or waiting for one (the kernel's run
+    queue, this process left out), the mean of ``samples`` readings ``interval`` s apart.
+    The 1-minute load average where the kernel shows no run queue (not Linux): that
+    average also remembers the last minute, so that a machine that has just finished a
+    sweep would look busy for a minute after it.
+
+    Examples
+    --------
+    >>> load_now() >= 0.0
+    True
+    """
+    try:
+        seen = []
+        for k in range(samples):
+            if k:
+                time.sleep(interval)
+            running = int(_RUN_QUEUE.read_text().split()[3].split('/')[0])
+            seen.append(max(running - 1, 0))           # this process reads it, running
+        return sum(seen) / len(seen)
+    except (OSError, IndexError, ValueError):
+        return os.getloadavg()[0]
+
+
 def free_workers(runs: int, load: float | None = None, allowed: int | None = None) -> Workers:
     """The workers for ``runs`` runs on the cores that are free now: the cores this
-    process may run on (its affinity) less the 1-minute load average, rounded; at least
-    1, and never more than the runs. One worker runs here, with no cluster to start.
+    process may run on (its affinity) less the load on them now (:func:`load_now`),
+    rounded; at least 1, and never more than the runs. One worker runs here, with no
+    cluster to start.
 
     Parameters
     ----------
     runs
         The runs to place.
     load, allowed
-        The load average and the cores this process may use (default: measured now).
+        The load and the cores this process may use (default: measured now).
 
     Returns
     -------
@@ -65,9 +96,9 @@ def free_workers(runs: int, load: float | None = None, allowed: int | None = Non
     2
     """
     allowed = cores() if allowed is None else allowed
-    load = os.getloadavg()[0] if load is None else load
+    load = load_now() if load is None else load
     free = max(1, min(allowed, math.floor(allowed - load + 0.5)))
-    why = f'{allowed} cores, load average {load:.1f}'
+    why = f'{allowed} cores, {load:.1f} busy now'
     if runs <= 1:
         return Workers(1, f'{runs} run to do')
     if free == 1 and allowed > 1:
@@ -221,4 +252,5 @@ def describe(workers: int, scheduler: str | None) -> str:
     return f'a Dask LocalCluster of {workers} worker processes'
 
 
-__all__ = ['Workers', 'cores', 'describe', 'free_workers', 'in_process', 'on_dask', 'outcomes']
+__all__ = ['Workers', 'cores', 'describe', 'free_workers', 'in_process', 'load_now', 'on_dask',
+           'outcomes']
