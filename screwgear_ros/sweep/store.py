@@ -92,6 +92,15 @@ def finished_keys(directory: str | os.PathLike[str]) -> frozenset[str]:
     return frozenset(keys)
 
 
+def _change(old: dict[str, Any], new: dict[str, Any]) -> str | None:
+    """The first entry where two resolved sweeps differ, but for where their files lie
+    (the same files may move)."""
+    old, new = dict(old), dict(new)
+    for where in ('sweep_file', 'parameters_file', 'scenario_file'):
+        old.pop(where, None), new.pop(where, None)
+    return _difference(old, new)
+
+
 class Store:
     """The results directory of ``sweep`` (module docstring)."""
 
@@ -104,27 +113,26 @@ class Store:
     def open(self) -> dict[int, dict[str, Any]]:
         """Create DIR or check that it holds this sweep; the finished runs by index."""
         text = _dump(self.sweep.resolved())
-        resolved = yaml.load(text, Loader=_LOADER)
         target = self.directory / RESOLVED
         if self.directory.exists() and not self.directory.is_dir():
             raise SweepError(f'{self.directory} is not a directory; --out names a results '
                              'directory (new, or one of an earlier run of this sweep)')
         if target.exists():
             try:
-                old = yaml.load(target.read_text(encoding='utf-8'), Loader=_LOADER)
+                written = target.read_text(encoding='utf-8')
+                # the same text: this sweep, written by this program (no parse needed)
+                same = written == text
+                old = None if same else yaml.load(written, Loader=_LOADER)
             except (OSError, UnicodeDecodeError, yaml.YAMLError, RecursionError) as exc:
                 why = 'nested too deeply' if isinstance(exc, RecursionError) else \
                     str(exc).splitlines()[0]
                 raise SweepError(f'{target}: cannot read the sweep of this directory: '
                                  f'{why}') from None
-            if not isinstance(old, dict):
+            if not same and not isinstance(old, dict):
                 raise SweepError(f'{self.directory} holds no sweep of this program '
                                  f'({target} holds {type(old).__name__} {str(old)[:40]!r}, not '
                                  'a resolved sweep); use a new --out directory')
-            old, new = dict(old), dict(resolved)
-            for where in ('sweep_file', 'parameters_file', 'scenario_file'):
-                old.pop(where, None), new.pop(where, None)    # the same files may move
-            change = _difference(old, new)
+            change = None if same else _change(old, yaml.load(text, Loader=_LOADER))
             if change:
                 raise SweepError(f'{self.directory} holds another sweep ({target}): '
                                  f'{change}. Use a new --out directory (or delete this one)')

@@ -485,29 +485,19 @@ def test_a_rerun_validates_only_the_runs_it_has_not_finished(tmp_path):
     assert rerun.wait(timeout=60) == 141 and 'Traceback' not in said, said
 
 
-def _spin(seconds: float) -> None:
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        pass
-
-
 @pytest.mark.ros
 def test_the_load_now_counts_busy_processes_as_they_run():
     """Two processes that spin are two tasks on the run queue the moment they run, which
     the 1-minute load average would show only a minute later."""
-    import multiprocessing
-
     from screwgear_ros.sweep.engine import free_workers, load_now
 
-    spinners = [multiprocessing.get_context('spawn').Process(target=_spin, args=(30.0,))
+    spinners = [subprocess.Popen([sys.executable, '-c', 'while True: pass'])
                 for _ in range(2)]
-    for spinner in spinners:
-        spinner.start()
     try:
-        time.sleep(1.0)                  # spawned and spinning
+        time.sleep(1.0)                  # started and spinning
         assert load_now() >= 1.5
         assert free_workers(300, allowed=2).count == 1
     finally:
         for spinner in spinners:
-            spinner.terminate()
-            spinner.join()
+            spinner.kill()
+            spinner.wait()
