@@ -62,6 +62,8 @@ class Outputs:
 #: and of path 3).
 OBSERVED_JOINTS = slice(0, 9)
 OBSERVED_DELTA = {1: 9, 3: 12}
+#: Columns of a mesh_state row (δ1, δ3, δ̇1, δ̇3, F1, F3) in the observed vector.
+OBSERVED_MESH = [9, 12, 10, 13, 11, 14]
 
 
 class Plant:
@@ -86,6 +88,7 @@ class Plant:
         # Scratch of the compiled calls: the state before a tick, the outputs after it.
         self._backup = np.empty(N_STATE)
         self._observed = np.empty(OBSERVED)
+        self._observe: Callable[..., None] | None = None     # observe_state's entry
 
     @property
     def state(self) -> np.ndarray:
@@ -115,7 +118,7 @@ class Plant:
     def __getstate__(self) -> dict[str, Any]:
         """The plant as a value: its compiled entry (:func:`compiled_entry`) belongs to
         this process, and a copy finds its own at its first advance."""
-        return {**self.__dict__, '_advance': None}
+        return {**self.__dict__, '_advance': None, '_observe': None}
 
     @property
     def params(self) -> TableParams:
@@ -156,7 +159,7 @@ class Plant:
         check_step(params, self.dt)
         self._params = params
         self._model = pack(params)
-        self._advance = None
+        self._advance = self._observe = None      # the model's types may change
         self._path = active_path(params.mode, self._direction)
 
     def set_input(self, drive: DriveInput) -> None:
@@ -243,6 +246,21 @@ class Plant:
         observe(self._state, self._observed, self.time, self._model, self._drive)
         return self.last_outputs()
 
+    def observe_state(self, state: np.ndarray, step: int, out: np.ndarray) -> int:
+        """:meth:`compute_outputs` of another state (float64, C order: 6 long, or
+        N_STATE) at another step, written to ``out`` (float64[OBSERVED], C order) rather
+        than made an :class:`Outputs`; the plant's own state and step stay. For a caller
+        that observes many states (the checker's reference): the same compiled call,
+        without the dispatcher after the first. Returns the active path, whose δ is the
+        transmission error (:data:`OBSERVED_DELTA`)."""
+        args = (state, out, step * self.dt, self._model, self._drive)
+        if self._observe is None:
+            observe(*args)
+            self._observe = compiled_entry(observe, args)
+        else:
+            self._observe(*args)
+        return self._path
+
     @property
     def observed(self) -> np.ndarray:
         """The observed vector the last advance (or :meth:`compute_outputs`) left
@@ -285,4 +303,5 @@ def compiled_entry(dispatcher: Any, args: tuple[Any, ...]) -> Callable[..., Any]
     return dispatcher if compiled is None else compiled.entry_point
 
 
-__all__ = ['OBSERVED_DELTA', 'OBSERVED_JOINTS', 'DriveInput', 'Outputs', 'Plant']
+__all__ = ['OBSERVED_DELTA', 'OBSERVED_JOINTS', 'OBSERVED_MESH', 'DriveInput', 'Outputs',
+           'Plant']

@@ -25,8 +25,9 @@ from ...params.table import TableParams
 from ...physics.equilibrium import equilibrium_state
 from ...physics.packed import N_STATE
 from ...sim.events import ParameterChange, Reset
-from ...sim.plant import DriveInput, Plant
-from ...sim.session import ROW, ROW_JOINTS, ROW_TE, row_of
+from ...numerics.integrator import OBSERVED
+from ...sim.plant import OBSERVED_DELTA, OBSERVED_JOINTS, OBSERVED_MESH, DriveInput, Plant
+from ...sim.tick import ROW, ROW_JOINTS, ROW_STEP, ROW_TE
 from ..replay_in_process import ReplayedOutputs
 from .tolerance import BLOCK_SECONDS
 
@@ -97,23 +98,26 @@ def mesh_of(run: RecordedRun, replayed: ReplayedOutputs, joints: np.ndarray) -> 
 def _observe(run: RecordedRun, c: _Contexts, states: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray]:
     """Output rows (n, ROW) and mesh_state rows (n, 6) of ``states`` (n, 6) at the
-    joint_states samples, through the plant's own output code."""
+    joint_states samples, through the plant's own output code (:meth:`Plant.observe_state`)."""
     steps = run.true_joint_states.steps
-    rows = np.empty((len(steps), ROW))
-    mesh = np.empty((len(steps), 6))
-    plants: dict[int, Plant] = {}
+    states = np.ascontiguousarray(states, dtype=np.float64)
+    observed = np.empty((len(steps), OBSERVED))
+    paths = np.empty(len(steps), dtype=np.int64)
+    plants: dict[int, tuple[Plant, list[DriveInput]]] = {}
     for i, (step, k) in enumerate(zip(steps.tolist(), c.in_force.tolist(), strict=False)):
         _, drive, params = c.contexts[k]
-        plant = plants.get(id(params))
-        if plant is None:
-            plant = plants[id(params)] = Plant(params, run.dt)
-        plant.full_state[:len(states[i])] = states[i]
-        plant.step = step
-        plant.set_input(drive)
-        out = plant.compute_outputs()
-        rows[i] = row_of(out)
-        mesh[i] = (*out.delta, *out.delta_rate, *out.mesh_force)
-    return rows, mesh
+        plant, last = plants.get(id(params)) or plants.setdefault(
+            id(params), (Plant(params, run.dt), [DriveInput()]))
+        if drive is not last[0]:
+            plant.set_input(drive)
+            last[0] = drive
+        paths[i] = plant.observe_state(states[i], step, observed[i])
+    rows = np.empty((len(steps), ROW))
+    rows[:, ROW_JOINTS] = observed[:, OBSERVED_JOINTS]
+    rows[:, ROW_TE] = np.where(paths == 1, observed[:, OBSERVED_DELTA[1]],
+                               observed[:, OBSERVED_DELTA[3]])
+    rows[:, ROW_STEP] = steps
+    return rows, observed[:, OBSERVED_MESH]
 
 
 def _contexts(run: RecordedRun, replayed: ReplayedOutputs) -> _Contexts:
