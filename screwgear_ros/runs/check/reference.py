@@ -20,12 +20,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...bag.reader import RecordedRun
+from ...numerics.integrator import OBSERVED
 from ...numerics.reference import ATOL, RTOL, ReferenceFailure, Segment, solve
 from ...params.table import TableParams
 from ...physics.equilibrium import equilibrium_state
 from ...physics.packed import N_STATE
 from ...sim.events import ParameterChange, Reset
-from ...numerics.integrator import OBSERVED
 from ...sim.plant import OBSERVED_DELTA, OBSERVED_JOINTS, OBSERVED_MESH, DriveInput, Plant
 from ...sim.tick import ROW, ROW_JOINTS, ROW_STEP, ROW_TE
 from ..replay_in_process import ReplayedOutputs
