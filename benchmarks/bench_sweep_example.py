@@ -15,7 +15,8 @@ validation, cluster start and the report included):
   the N-worker run that made it.
 
 Each line says the 1-minute load average before it started; wall-time ratios only hold
-when that stays low. Compare ratios, run it three times.
+when that stays low. Compare ratios, run it three times. ``--busy N`` runs N processes
+that spin beside all of it: the busy machine ``auto`` must not lose on.
 """
 
 from __future__ import annotations
@@ -64,8 +65,28 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--scale', type=int, default=4)
     parser.add_argument('--workers', type=int, default=2)
+    parser.add_argument('--busy', type=int, default=0, help='spinning processes beside it')
     args = parser.parse_args()
     n = str(args.workers)
+    spinners = [subprocess.Popen([sys.executable, '-c', 'while True: pass'])
+                for _ in range(args.busy)]
+    try:
+        rows = measure(args, n)
+    finally:
+        for spinner in spinners:
+            spinner.kill()
+            spinner.wait()
+    print(f'the worked sweep x{args.scale} ({300 * args.scale} runs), {os.cpu_count()} cores, '
+          f'{args.busy} spinning processes beside it; wall time of the `sweep` command, '
+          'start to end')
+    print(f'{"figure":44s} {"wall":>8s} {"vs anchor":>10s}  load before  goal')
+    for name, wall, ratio, load, goal in rows:
+        kind = 'x faster' if not name.startswith('rerun') else ' of it'
+        print(f'{name:44s} {wall:7.2f}s {ratio:8.3f}{kind:8s} {load:5.1f}  {goal}')
+
+
+def measure(args: argparse.Namespace, n: str) -> list[tuple[str, float, float, float, str]]:
+    """The four timings, as table rows."""
     with tempfile.TemporaryDirectory(prefix='bench_sweep_example_') as scratch:
         scratch = Path(scratch)
         path = scaled_example(scratch, args.scale)
@@ -74,11 +95,7 @@ def main() -> None:
         auto, said, load_auto = timed_sweep(path, scratch / 'auto', 'auto')
         again, _, load_again = timed_sweep(path, scratch / 'many', 'auto')
     picked = re.search(r'--workers auto: (\d+)', said)
-    runs = 300 * args.scale
-    print(f'the worked sweep x{args.scale} ({runs} runs), {os.cpu_count()} cores, '
-          f'{sys.platform}; wall time of the `sweep` command, start to end')
-    print(f'{"figure":44s} {"wall":>8s} {"vs anchor":>10s}  load before  goal')
-    rows = [
+    return [
         ('--workers 1 (anchor)', one, 1.0, load_one, ''),
         (f'--workers {n}', many, one / many, load_many, '>= 1.8x faster (idle)'),
         (f'--workers auto (picked {picked.group(1) if picked else "?"})', auto, one / auto,
@@ -86,9 +103,6 @@ def main() -> None:
         (f'rerun of the finished {n}-worker sweep', again, again / many, load_again,
          f'<= 0.05 of the {n}-worker run'),
     ]
-    for name, wall, ratio, load, goal in rows:
-        kind = 'x faster' if not name.startswith('rerun') else ' of it'
-        print(f'{name:44s} {wall:7.2f}s {ratio:8.3f}{kind:8s} {load:5.1f}  {goal}')
 
 
 if __name__ == '__main__':
