@@ -128,14 +128,17 @@ class Store:
                     str(exc).splitlines()[0]
                 raise SweepError(f'{target}: cannot read the sweep of this directory: '
                                  f'{why}') from None
-            if not same and not isinstance(old, dict):
-                raise SweepError(f'{self.directory} holds no sweep of this program '
-                                 f'({target} holds {type(old).__name__} {str(old)[:40]!r}, not '
-                                 'a resolved sweep); use a new --out directory')
-            change = None if same else _change(old, yaml.load(text, Loader=_LOADER))
-            if change:
-                raise SweepError(f'{self.directory} holds another sweep ({target}): '
-                                 f'{change}. Use a new --out directory (or delete this one)')
+            if not same:
+                if not isinstance(old, dict):
+                    raise SweepError(f'{self.directory} holds no sweep of this program '
+                                     f'({target} holds {type(old).__name__} '
+                                     f'{str(old)[:40]!r}, not a resolved sweep); use a new '
+                                     '--out directory')
+                change = _change(old, yaml.load(text, Loader=_LOADER))
+                if change:
+                    raise SweepError(f'{self.directory} holds another sweep ({target}): '
+                                     f'{change}. Use a new --out directory (or delete this '
+                                     'one)')
         elif self.directory.exists() and any(self.directory.iterdir()):
             raise SweepError(f'{self.directory} exists and is not a sweep directory (no '
                              f'{RESOLVED}); use a new --out directory')
