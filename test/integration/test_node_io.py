@@ -31,6 +31,7 @@ R1 = 0.078            # pinion radius, m
 PERIOD_NS = 1_000_000  # default publish period (1 kHz)
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
+DEEP = QoSProfile(depth=5000, reliability=ReliabilityPolicy.RELIABLE)
 
 
 def diag_values(msg: DiagnosticArray) -> dict[str, str]:
@@ -46,9 +47,11 @@ class Table:
 
     def __init__(self, peer: Peer, proc) -> None:
         self.peer, self.proc = peer, proc
-        self.js = peer.subscribe('/joint_states', JointState)
+        # 5 s of 1 kHz messages held on the DDS side: a test process starved of the
+        # core by a busy machine loses none it later reads (the rate test counts them)
+        self.js = peer.subscribe('/joint_states', JointState, DEEP)
         self.mesh = peer.subscribe('/mesh_state', JointState)
-        self.clock = peer.subscribe('/clock', Clock)
+        self.clock = peer.subscribe('/clock', Clock, DEEP)
         self.path = peer.subscribe('/active_path', Int8, LATCHED)
         self.diag = peer.subscribe('/diagnostics', DiagnosticArray)
         self.js.wait_for(lambda m: True, STARTUP_TIMEOUT, 'first joint_states')
