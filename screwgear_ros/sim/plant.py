@@ -243,7 +243,7 @@ class Plant:
 
     def compute_outputs(self) -> Outputs:
         """Joint and mesh quantities of the current state (and input)."""
-        observe(self._state, self._observed, self.time, self._model, self._drive)
+        self.observe_state(self._state, self.step, self._observed)
         return self.last_outputs()
 
     def observe_state(self, state: np.ndarray, step: int, out: np.ndarray) -> int:

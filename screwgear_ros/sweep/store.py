@@ -83,13 +83,18 @@ def finished_keys(directory: str | os.PathLike[str]) -> frozenset[str]:
     """
     keys = set()
     for path in Path(directory, RUNS).glob('*.json'):
-        try:
-            row = json.loads(path.read_text(encoding='utf-8'))
-        except (OSError, UnicodeDecodeError, ValueError, RecursionError):
-            continue
+        row, _ = _read_row(path)
         if isinstance(row, dict) and isinstance(row.get('key'), str):
             keys.add(row['key'])
     return frozenset(keys)
+
+
+def _read_row(path: Path) -> tuple[Any, str | None]:
+    """A run file's JSON document, or None and why it is not one."""
+    try:
+        return json.loads(path.read_text(encoding='utf-8')), None
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
+        return None, f'not a JSON row ({type(exc).__name__})'
 
 
 def _change(old: dict[str, Any], new: dict[str, Any]) -> str | None:
@@ -160,11 +165,7 @@ class Store:
         done: dict[int, dict[str, Any]] = {}
         self.damaged = []
         for path in sorted(self.runs.glob('*.json')):
-            why = None
-            try:
-                row = json.loads(path.read_text(encoding='utf-8'))
-            except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
-                row, why = None, f'not a JSON row ({type(exc).__name__})'
+            row, why = _read_row(path)
             if why is None:
                 why = damage(row, metrics)
             if why is None:

@@ -103,14 +103,14 @@ def _observe(run: RecordedRun, c: _Contexts, states: np.ndarray
     states = np.ascontiguousarray(states, dtype=np.float64)
     observed = np.empty((len(steps), OBSERVED))
     paths = np.empty(len(steps), dtype=np.int64)
-    plants: dict[int, tuple[Plant, list[DriveInput]]] = {}
+    plants: dict[int, Plant] = {}
     for i, (step, k) in enumerate(zip(steps.tolist(), c.in_force.tolist(), strict=False)):
         _, drive, params = c.contexts[k]
-        plant, last = plants.get(id(params)) or plants.setdefault(
-            id(params), (Plant(params, run.dt), [DriveInput()]))
-        if drive is not last[0]:
+        plant = plants.get(id(params))
+        if plant is None:
+            plant = plants[id(params)] = Plant(params, run.dt)
+        if plant.input is not drive:
             plant.set_input(drive)
-            last[0] = drive
         paths[i] = plant.observe_state(states[i], step, observed[i])
     rows = np.empty((len(steps), ROW))
     rows[:, ROW_JOINTS] = observed[:, OBSERVED_JOINTS]
