@@ -55,7 +55,7 @@ from ..interface import (
     RECORDED_TOPICS,
     TICK_TOPIC,
 )
-from ..numerics.kernels import compiled_now, without_blas_probe
+from ..numerics.kernels import compiled_now, loads_without_registries, without_blas_probe
 from ..params.table import ParameterError, SimSettings, TableParams
 from ..physics.packed import pack
 from ..runs.run_io import RunIO
@@ -129,7 +129,8 @@ class TableSim(Node):
         self._name_timer = self.create_timer(NAME_CHECK_PERIOD, self._check_name)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         started = time.perf_counter()
-        with without_blas_probe():           # numba's first load, without SciPy's BLAS
+        # numba's first loads, without SciPy's BLAS or the registries only a compile uses
+        with without_blas_probe(), loads_without_registries():
             self.session = Session(params, settings)
             self.session.plant.advance(0)    # load (or compile) the integrator now, not in tick 1
         if compiled_now():
