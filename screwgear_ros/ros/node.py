@@ -155,17 +155,20 @@ class TableSim(Node):
 
     def start(self) -> None:
         s, p = self.session.settings, self.session.plant.params
+        line = (f'{p.mode} mode, mesh phase {p.mesh_phase}, dt = {s.dt * 1e6:g} us, '
+                f'{s.publish_rate:g} Hz ({s.steps_per_publish} steps per tick), real-time '
+                f'factor {s.real_time_factor:g}'
+                + (', lockstep: each tick waits for the controller\'s answer '
+                   f'({ANSWERS}) to the last joint_states' if s.lockstep else '')
+                + (f', recording to {s.record}' if s.record else ''))
+        # The first tick before the start's log lines: rclpy's first log call in a process
+        # looks up the source file of every module loaded (inspect.getmodule), and the
+        # first joint_states need not wait for that.
+        self._pacing.start()
         for name in parameters.unknown_overrides(self):
             self.get_logger().warning(f'parameter {name!r} is not a table_sim parameter; '
                                       'ignored (a typo?)')
-        self.get_logger().info(
-            f'{p.mode} mode, mesh phase {p.mesh_phase}, dt = {s.dt * 1e6:g} us, '
-            f'{s.publish_rate:g} Hz ({s.steps_per_publish} steps per tick), real-time factor '
-            f'{s.real_time_factor:g}'
-            + (', lockstep: each tick waits for the controller\'s answer '
-               f'({ANSWERS}) to the last joint_states' if s.lockstep else '')
-            + (f', recording to {s.record}' if s.record else ''))
-        self._pacing.start()
+        self.get_logger().info(line)
 
     def close(self) -> None:
         """Stop and join the pacing thread, then close the recorder (idempotent).
