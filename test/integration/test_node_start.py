@@ -91,6 +91,18 @@ def test_the_start_skips_numbas_blas_probe_and_leaves_scipy_linalg_importable(tm
                 'print(_HAVE_BLAS)\n', NUMBA_DISABLE_JIT='0') == 'True'
 
 
+def test_numba_still_has_the_private_cache_methods_the_start_replaces_a_load_with():
+    """loads_without_registries falls back to numba's own load when these are gone: the
+    start is then slower, and this names why."""
+    from numba.core.caching import Cache
+    from numba.core.runtime.nrt import rtsys
+    missing = [name for name in ('load_overload', '_load_overload',
+                                 '_guard_against_spurious_io_errors') if not hasattr(Cache, name)]
+    assert not missing, (f'numba.core.caching.Cache has no {missing}: the node start loads its '
+                         "kernels numba's own way (screwgear_ros/numerics/kernels.py)")
+    assert callable(rtsys.initialize)
+
+
 @pytest.mark.ros
 def test_a_warm_start_loads_no_registry_of_numba():
     assert _run(START.format(tools=REGISTRIES), NUMBA_DISABLE_JIT='0') == '[]'
