@@ -7,7 +7,8 @@ node nothing beyond what it runs. The kernel modules are named, not imported, he
 start of the node must not import check_run's solver or the report's.
 
 :func:`without_blas_probe` spares the node's start numba's probe of SciPy's BLAS, which
-the kernels do not use. Compiling every kernel ahead of time is
+the kernels do not use, and :func:`loads_without_registries` the registries of what
+numba can compile, which a kernel loaded from the cache does not need. Compiling every kernel ahead of time is
 :mod:`screwgear_ros.cli.warmup`.
 """
 
@@ -77,6 +78,51 @@ def without_blas_probe() -> Iterator[None]:
             del sys.modules['scipy.linalg']
 
 
+@contextmanager
+def loads_without_registries() -> Iterator[None]:
+    """Within: a kernel numba loads from its cache is loaded without first loading the
+    CPU target's typing and lowering registries, which only a compile uses.
+
+    numba refreshes its CPU target before every load from the cache (its
+    ``Cache.load_overload``), and the first refresh in a process imports the
+    implementations of everything numba can compile (``numba.np``, ``numba.cpython``,
+    ``numba.typed``, ...) and registers them: most of a node start's wait for its first
+    joint_states beyond numba's import, for code that is already machine code. A loaded
+    kernel needs only numba's runtime, whose symbols its code links to
+    (``rtsys.initialize``, which that refresh also makes); that is all it gets here.
+
+    What it leaves as numba's own, and why that is safe:
+
+    * a compile (the cache was missing) refreshes the target itself
+      (``CompilerBase.__init__``), within or not, so it has every registry;
+    * the machine code, its environment and the dispatcher's entry are those of numba's
+      own load: the same bits;
+    * a load after the block refreshes first, as numba always does (the registries are
+      loaded once then); the node's kernels are all loaded within;
+    * it is process-wide, like :func:`without_blas_probe`, and entered on the same
+      terms; with a numba whose cache lacks these methods it changes nothing (the load
+      is then numba's, with its refresh).
+    """
+    from numba.core.caching import Cache
+    from numba.core.runtime.nrt import rtsys
+    load = Cache.load_overload
+    if not all(hasattr(Cache, name) for name in ('_load_overload',
+                                                  '_guard_against_spurious_io_errors')):
+        yield
+        return
+
+    def load_overload(self: Any, sig: Any, target_context: Any) -> Any:
+        rtsys.initialize(target_context)       # the loaded code links to the runtime
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+
+    Cache.load_overload = load_overload        # type: ignore[method-assign]
+    try:
+        yield
+    finally:
+        Cache.load_overload = load             # type: ignore[method-assign]
+
+
 #: Kernels a first warm-up compiles into an empty cache (of the :func:`kernels` defined,
 #: the node and the tools call these; measured), for the progress lines' "of about".
 FIRST_COMPILE = 51
@@ -117,5 +163,5 @@ def progress(period: float = 5.0, say: Callable[[str], None] = print,
         thread.join()
 
 
-__all__ = ['FIRST_COMPILE', 'compiled_kernels', 'compiled_now', 'kernels', 'progress',
-           'without_blas_probe']
+__all__ = ['FIRST_COMPILE', 'compiled_kernels', 'compiled_now', 'kernels',
+           'loads_without_registries', 'progress', 'without_blas_probe']

@@ -55,7 +55,7 @@ from ..interface import (
     RECORDED_TOPICS,
     TICK_TOPIC,
 )
-from ..numerics.kernels import compiled_now, without_blas_probe
+from ..numerics.kernels import compiled_now, loads_without_registries, without_blas_probe
 from ..params.table import ParameterError, SimSettings, TableParams
 from ..physics.packed import pack
 from ..runs.run_io import RunIO
@@ -129,7 +129,8 @@ class TableSim(Node):
         self._name_timer = self.create_timer(NAME_CHECK_PERIOD, self._check_name)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         started = time.perf_counter()
-        with without_blas_probe():           # numba's first load, without SciPy's BLAS
+        # numba's first loads, without SciPy's BLAS or the registries only a compile uses
+        with without_blas_probe(), loads_without_registries():
             self.session = Session(params, settings)
             self.session.plant.advance(0)    # load (or compile) the integrator now, not in tick 1
         if compiled_now():
@@ -154,17 +155,20 @@ class TableSim(Node):
 
     def start(self) -> None:
         s, p = self.session.settings, self.session.plant.params
+        line = (f'{p.mode} mode, mesh phase {p.mesh_phase}, dt = {s.dt * 1e6:g} us, '
+                f'{s.publish_rate:g} Hz ({s.steps_per_publish} steps per tick), real-time '
+                f'factor {s.real_time_factor:g}'
+                + (', lockstep: each tick waits for the controller\'s answer '
+                   f'({ANSWERS}) to the last joint_states' if s.lockstep else '')
+                + (f', recording to {s.record}' if s.record else ''))
+        # The first tick before the start's log lines: rclpy's first log call in a process
+        # looks up the source file of every module loaded (inspect.getmodule), and the
+        # first joint_states need not wait for that.
+        self._pacing.start()
         for name in parameters.unknown_overrides(self):
             self.get_logger().warning(f'parameter {name!r} is not a table_sim parameter; '
                                       'ignored (a typo?)')
-        self.get_logger().info(
-            f'{p.mode} mode, mesh phase {p.mesh_phase}, dt = {s.dt * 1e6:g} us, '
-            f'{s.publish_rate:g} Hz ({s.steps_per_publish} steps per tick), real-time factor '
-            f'{s.real_time_factor:g}'
-            + (', lockstep: each tick waits for the controller\'s answer '
-               f'({ANSWERS}) to the last joint_states' if s.lockstep else '')
-            + (f', recording to {s.record}' if s.record else ''))
-        self._pacing.start()
+        self.get_logger().info(line)
 
     def close(self) -> None:
         """Stop and join the pacing thread, then close the recorder (idempotent).

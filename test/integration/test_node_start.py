@@ -5,9 +5,12 @@ the first outputs (``RunIO.start``: the URDF, the active path, joint_states); th
 modules only the tools need must still be unimported: check_run's DOP853 and the
 SciPy integrators, rosbags' typestore, the MCAP writer, matplotlib, the normalized
 model. Nor does it import SciPy's linear algebra, which numba's start probes for
-(``warmup.without_blas_probe``), and an import of it after the start works. And
-``warmup.kernels()`` still finds every kernel module it compiles at install time, while
-``compiled_now`` (which the node calls) imports none of them.
+(``warmup.without_blas_probe``), and an import of it after the start works. Nor numba's
+typing and lowering registries, which only a compile uses
+(``warmup.loads_without_registries``): the kernels it loads give the bits numba's own
+load gives, and numba compiles as usual afterwards. And ``warmup.kernels()`` still finds
+every kernel module it compiles at install time, while ``compiled_now`` (which the node
+calls) imports none of them.
 """
 
 from __future__ import annotations
@@ -27,6 +30,12 @@ TOOLS_ONLY = ('scipy.integrate', 'scipy.optimize', 'rosbags', 'mcap', 'matplotli
               'screwgear_ros.runs.session_record', 'screwgear_ros.numerics.dop853',
               'screwgear_ros.numerics.dop853_stages', 'screwgear_ros.paper.normalized',
               'screwgear_ros.numerics.reference', 'screwgear_ros.paper.floquet')
+
+#: Imported by the first refresh of numba's CPU target (its registries of what it can
+#: compile), which a start that loads its kernels from the cache skips.
+REGISTRIES = ('numba.np.arraymath', 'numba.np.linalg', 'numba.np.npyimpl',
+              'numba.np.npdatetime', 'numba.cpython.unicode', 'numba.cpython.listobj',
+              'numba.typed.typeddict', 'numba.typed.listobject', 'numba.core.optional')
 
 START = '''
 import sys, threading
@@ -60,10 +69,10 @@ def test_the_start_up_to_the_first_joint_states_loads_no_tool_module():
 #: After START with tools=('scipy.linalg',): what the start loaded of it, whether numba's
 #: target saw BLAS, that scipy.linalg imports and works afterwards, whether the start
 #: compiled any kernel.
-AFTER_START = ('import scipy.linalg, numpy as np\n'
+AFTER_START = ('blas = getattr(sys.modules.get("numba.np.arraymath"), "_HAVE_BLAS", False)\n'
+               'import scipy.linalg, numpy as np\n'
                'from screwgear_ros.numerics.kernels import compiled_now\n'
-               'from numba.np.arraymath import _HAVE_BLAS\n'
-               'print([loaded, _HAVE_BLAS, float(scipy.linalg.det(np.eye(2) * 3.0)), '
+               'print([loaded, blas, float(scipy.linalg.det(np.eye(2) * 3.0)), '
                'compiled_now() > 0])\n')
 
 
@@ -80,6 +89,58 @@ def test_the_start_skips_numbas_blas_probe_and_leaves_scipy_linalg_importable(tm
                 'Session(TableParams(), SimSettings())\n'
                 'from numba.np.arraymath import _HAVE_BLAS\n'
                 'print(_HAVE_BLAS)\n', NUMBA_DISABLE_JIT='0') == 'True'
+
+
+def test_numba_still_has_the_private_cache_methods_the_start_replaces_a_load_with():
+    """loads_without_registries falls back to numba's own load when these are gone: the
+    start is then slower, and this names why."""
+    from numba.core.caching import Cache
+    from numba.core.runtime.nrt import rtsys
+    missing = [name for name in ('load_overload', '_load_overload',
+                                 '_guard_against_spurious_io_errors') if not hasattr(Cache, name)]
+    assert not missing, (f'numba.core.caching.Cache has no {missing}: the node start loads its '
+                         "kernels numba's own way (screwgear_ros/numerics/kernels.py)")
+    assert callable(rtsys.initialize)
+
+
+@pytest.mark.ros
+def test_a_warm_start_loads_no_registry_of_numba():
+    assert _run(START.format(tools=REGISTRIES), NUMBA_DISABLE_JIT='0') == '[]'
+
+
+#: After START: the joint positions the start published and the plant's state after 50
+#: steps, bit for bit (hex), then what numba compiles afterwards (a function of its own,
+#: uncached: the compile loads the registries itself).
+AFTER_START_BITS = (
+    'import json, numba, numpy as np\n'
+    'first = [*node.session.measured.position]\n'
+    'node.session.plant.advance(50)\n'
+    'bits = [float(v).hex() for v in [*first, *node.session.plant.state]]\n'
+    'total = numba.njit(lambda x: np.sort(x).sum())(np.array([3.0, 1.0, 2.0]))\n'
+    'print(json.dumps([bits, float(total), "numba.np.arraymath" in sys.modules]))\n')
+#: The same first outputs and 50 steps from a Session made without the node (numba's own
+#: load, its registries refreshed first).
+SESSION_BITS = (
+    'import json, sys\n'
+    'from screwgear_ros.sim.session import Session\n'
+    'from screwgear_ros.params.table import TableParams, SimSettings\n'
+    'session = Session(TableParams(), SimSettings())\n'
+    'first = [*session.measured.position]\n'
+    'session.plant.advance(0)\n'
+    'session.plant.advance(50)\n'
+    'print(json.dumps([[float(v).hex() for v in [*first, *session.plant.state]], '
+    '"numba.np.arraymath" in sys.modules]))\n')
+
+
+@pytest.mark.ros
+def test_kernels_loaded_without_the_registries_give_numbas_bits_and_numba_compiles_after():
+    start = START.format(tools=()).replace('print(loaded)\n', '').replace(
+        'node.destroy_node()\nrclpy.try_shutdown()\n', '')
+    bits, total, registries = json.loads(_run(start + AFTER_START_BITS, NUMBA_DISABLE_JIT='0'))
+    assert (total, registries) == (6.0, True)
+    reference, refreshed = json.loads(_run(SESSION_BITS, NUMBA_DISABLE_JIT='0'))
+    assert refreshed
+    assert bits == reference
 
 
 @pytest.mark.ros
