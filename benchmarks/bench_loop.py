@@ -18,6 +18,14 @@ Prints, measured in this run, interleaved ``--repeat`` times (median, and the ra
   lockstep loop spins: the ping the controller's (a SingleThreadedExecutor), the echo
   table_sim's (``NODE_EXECUTOR``), so the ratio compares the node's own cost of a tick
   and not the executors; the floor with a SingleThreadedExecutor echo is printed too;
+* **hand-off floor**: the same round trip with an echo built like table_sim: its
+  ``NODE_EXECUTOR``'s callback only hands the message to a second thread, which answers,
+  woken by an eventfd as the node's answer gate wakes its pacing thread, at the node's
+  switch interval: the thread structure without the physics. Per round, the gap of a
+  lockstep tick over the single-threaded round trip is split into the executor's part
+  (the ``NODE_EXECUTOR`` echo against the single-threaded one), the thread structure's
+  (the hand-off echo against the ``NODE_EXECUTOR`` echo) and the node's own (lockstep
+  against the hand-off echo);
 * **table_sim alone**: the node flat out (real-time factor 0, no lockstep), ticks/s from
   the stamps a subscriber here receives: the node's own cost of a tick, publishing
   included (a lockstep tick costs that, plus a round trip, plus the hand-offs).
@@ -173,18 +181,47 @@ def flat_out(window: float) -> float:
 
 
 _ECHO = textwrap.dedent('''
+    import os
+    import select
     import sys
+    import threading
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
+    from screwgear_ros.cli.table_sim import SWITCH_INTERVAL
     from screwgear_ros.ros.node import NODE_EXECUTOR
     rclpy.init()
     node = rclpy.create_node('bench_loop_echo')
     pub = node.create_publisher(Float64MultiArray, '/bench_loop/answer', 10)
-    node.create_subscription(JointState, '/bench_loop/state',
-                             lambda m: pub.publish(Float64MultiArray(data=[m.position[1]])), 10)
-    executor = NODE_EXECUTOR() if sys.argv[1] == 'node' else SingleThreadedExecutor()
+    if sys.argv[1] == 'handoff':
+        # table_sim's structure: the callback only hands the message over; a second
+        # thread, woken by it, answers (as the pacing thread ticks and publishes)
+        # (woken as the node's gate wakes it: an eventfd, rung and polled without the
+        # interpreter lock)
+        sys.setswitchinterval(SWITCH_INTERVAL)
+        bell = os.eventfd(0, os.EFD_NONBLOCK)
+        poll = select.poll()
+        poll.register(bell, select.POLLIN)
+        last = []
+
+        def answer():
+            while rclpy.ok():
+                if poll.poll(100):
+                    os.eventfd_read(bell)
+                    pub.publish(Float64MultiArray(data=[last[-1].position[1]]))
+
+        def hand_over(m):
+            last[:] = [m]
+            os.eventfd_write(bell, 1)
+
+        node.create_subscription(JointState, '/bench_loop/state', hand_over, 10)
+        threading.Thread(target=answer, daemon=True).start()
+    else:
+        node.create_subscription(
+            JointState, '/bench_loop/state',
+            lambda m: pub.publish(Float64MultiArray(data=[m.position[1]])), 10)
+    executor = SingleThreadedExecutor() if sys.argv[1] == 'single' else NODE_EXECUTOR()
     executor.add_node(node)
     try:
         while rclpy.ok():       # spin() of the events executor does not see SIGTERM
@@ -196,7 +233,9 @@ _ECHO = textwrap.dedent('''
 
 def ping_pong(window: float, echo_executor: str = 'node') -> float:
     """Round trips/s of a bare rclpy ping-pong with an echo process spinning
-    ``NODE_EXECUTOR`` ('node') or a SingleThreadedExecutor ('single')."""
+    ``NODE_EXECUTOR`` ('node') or a SingleThreadedExecutor ('single'), or spinning
+    ``NODE_EXECUTOR`` and answering from a second thread its callback wakes
+    ('handoff')."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from sensor_msgs.msg import JointState
@@ -264,7 +303,7 @@ def main() -> int:
                                     'physics_cpu': [], 'in_process_cpu': [], 'ratio_cpu': [],
                                     'python_cpu': [],
                                     'lockstep': [], 'ping_pong': [], 'ping_pong_single': [],
-                                    'flat_out': []}
+                                    'ping_pong_handoff': [], 'flat_out': []}
     for k in range(max(args.pairs, args.repeat)):
         if k < args.pairs:
             (a, a_cpu), (b, b_cpu) = physics_alone(IN_PROCESS_TICKS), in_process(IN_PROCESS_TICKS)
@@ -279,6 +318,7 @@ def main() -> int:
             seen['lockstep'].append(lockstep(args.window))
             seen['ping_pong'].append(ping_pong(args.window))
             seen['ping_pong_single'].append(ping_pong(args.window, 'single'))
+            seen['ping_pong_handoff'].append(ping_pong(args.window, 'handoff'))
             seen['flat_out'].append(flat_out(args.window))
     load = os.getloadavg()[0]
     print(f'closed loops, {args.pairs} in-process pairs, {args.repeat} DDS rounds, '
@@ -299,6 +339,8 @@ def main() -> int:
         print(f'rclpy ping-pong floor (2 processes)   round trips/s {spread(seen["ping_pong"])}')
         print(f'  the same, echo on a SingleThreadedExecutor      '
               f'{spread(seen["ping_pong_single"])}')
+        print(f'  the same, echo answering from a second thread   '
+              f'{spread(seen["ping_pong_handoff"])}')
         print(f'table_sim alone flat out (no lockstep)    ticks/s {spread(seen["flat_out"])}')
         print(f'  in-process / lockstep                           {inproc / lock:10.1f}')
         print(f'  lockstep / ping-pong floor                      {lock / floor:10.2f}')
@@ -306,6 +348,15 @@ def main() -> int:
         rounds = [a / b for a, b in zip(seen['lockstep'], seen['ping_pong_single'], strict=True)]
         print('  lockstep / ping-pong (single-threaded both sides), per round: '
               + ', '.join(f'{r:.2f}' for r in rounds) + '  (goal >= 0.8 in every round)')
+        # the gap of a lockstep tick over the single-threaded round trip, in µs, split
+        # into the executor's part, the thread structure's and the node's own
+        for k, (lock_k, single, node_echo, handoff) in enumerate(zip(
+                seen['lockstep'], seen['ping_pong_single'], seen['ping_pong'],
+                seen['ping_pong_handoff'], strict=True)):
+            t = [1e6 / v for v in (lock_k, single, node_echo, handoff)]
+            print(f'  round {k + 1}: lockstep {t[0]:.0f} µs a tick, single-threaded round trip '
+                  f'{t[1]:.0f} µs: gap {t[0] - t[1]:+.0f} µs = executor {t[2] - t[1]:+.0f} '
+                  f'+ thread structure {t[3] - t[2]:+.0f} + the node\'s own {t[0] - t[3]:+.0f}')
     return 0
 
 
