@@ -197,10 +197,13 @@ _ECHO = textwrap.dedent('''
         last = []
 
         def answer():
-            while rclpy.ok():
-                if poll.poll(100):
-                    os.eventfd_read(bell)
-                    pub.publish(Float64MultiArray(data=[last[-1].position[1]]))
+            try:
+                while rclpy.ok():
+                    if poll.poll(100):
+                        os.eventfd_read(bell)
+                        pub.publish(Float64MultiArray(data=[last[-1].position[1]]))
+            except BaseException:       # a publish racing the shutdown
+                pass
 
         def hand_over(m):
             last[:] = [m]
