@@ -19,9 +19,14 @@ No ROS here: the node's pacing thread uses it, tests drive it with a fake clock.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import select
+import sys
 import threading
 import time
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -163,6 +168,53 @@ class FactorMeter:
         return self._clock() - self._wall0
 
 
+#: What a ring writes: an eventfd adds the 8-byte count written to its own.
+_ONE = (1).to_bytes(8, sys.byteorder)
+
+
+def _close(fds: set[int]) -> None:
+    for fd in fds:
+        os.close(fd)
+
+
+class Doorbell:
+    """A wake-up from one thread to another that rings without the interpreter lock.
+
+    :meth:`ring` writes to an eventfd (a pipe where there is none) and :meth:`wait`
+    polls it; both system calls release the interpreter lock. A threading primitive
+    instead wakes the waiter while the ringing thread still holds the lock: the waiter
+    wakes, finds the lock taken, sleeps again until the ringing thread lets it go, two
+    wake-ups per hand-off (benchmarks/bench_loop.py's hand-off floor measures what the
+    hand-off costs). Rings coalesce: one :meth:`wait` consumes all rung before it.
+    """
+
+    def __init__(self) -> None:
+        if hasattr(os, 'eventfd'):
+            self._read = self._write = os.eventfd(0, os.EFD_NONBLOCK | os.EFD_CLOEXEC)
+        else:                                   # no eventfd: a pipe
+            self._read, self._write = os.pipe()
+            os.set_blocking(self._read, False)
+            os.set_blocking(self._write, False)
+        self._poll = select.poll()
+        self._poll.register(self._read, select.POLLIN)
+        self._closer = weakref.finalize(self, _close, {self._read, self._write})
+
+    def ring(self) -> None:
+        """Wake the thread in :meth:`wait` (or the next one to wait)."""
+        with contextlib.suppress(BlockingIOError):   # full: rings enough are pending
+            os.write(self._write, _ONE)
+
+    def wait(self, timeout: float) -> bool:
+        """Wait up to ``timeout`` s for a ring; whether one came (and consume it)."""
+        if not self._poll.poll(max(0, math.ceil(timeout * 1000.0))):
+            return False
+        try:
+            os.read(self._read, 4096)
+        except BlockingIOError:                 # another waiter consumed it
+            return False
+        return True
+
+
 class AnswerGate:
     """Lockstep: tick k+1 starts only once the controller answered tick k's outputs.
 
@@ -171,51 +223,60 @@ class AnswerGate:
     every answer message. An answer counts only while one is expected (after the
     outputs it answers were published and before the next tick starts), so a
     duplicate answer to an earlier tick never releases a later one. Thread-safe;
-    :meth:`release` wakes a waiting thread for shutdown.
+    :meth:`release` wakes a waiting thread for shutdown. The answer wakes the waiting
+    thread with a :class:`Doorbell`, outside the gate's lock.
     """
 
     def __init__(self) -> None:
-        self._cond = threading.Condition()
-        self._expecting = False     # guarded by _cond
-        self._answered = False      # guarded by _cond
-        self._released = False      # guarded by _cond
+        self._lock = threading.Lock()
+        self._bell = Doorbell()
+        self._expecting = False     # guarded by _lock
+        self._answered = False      # guarded by _lock
+        self._released = False      # guarded by _lock
         self.ignored = 0            # answers that came when none was expected (pacing thread reads)
 
     def expect(self) -> None:
         """Open the window for the answer to the outputs about to be published."""
-        with self._cond:
+        with self._lock:
             self._expecting, self._answered = True, False
 
     def answer(self) -> bool:
         """One answer arrived; True if it releases the next tick."""
-        with self._cond:
+        with self._lock:
             if not self._expecting or self._answered:
                 self.ignored += 1
                 return False
             self._answered = True
-            self._cond.notify_all()
-            return True
+        self._bell.ring()
+        return True
 
     def wait(self, timeout: float) -> bool:
         """Wait up to ``timeout`` s for the answer; True (and the window closed) once
         it came, False on timeout or after :meth:`release`."""
-        with self._cond:
-            self._cond.wait_for(lambda: self._answered or self._released, timeout)
-            if self._answered:
-                self._expecting = self._answered = False
-                return True
-            return False
+        deadline = time.monotonic() + timeout
+        while True:
+            with self._lock:
+                if self._answered:
+                    self._expecting = self._answered = False
+                    return True
+                if self._released:
+                    return False
+            left = deadline - time.monotonic()
+            if left <= 0.0:
+                return False
+            self._bell.wait(left)     # a ring of an answer already taken wakes it early
 
     def release(self) -> None:
         """Wake any waiting thread for good (shutdown)."""
-        with self._cond:
+        with self._lock:
             self._released = True
-            self._cond.notify_all()
+        self._bell.ring()
 
 
 __all__ = [
     'MAX_SLEEP',
     'AnswerGate',
+    'Doorbell',
     'FactorMeter',
     'Pacer',
     'PacerStats',

@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from screwgear_ros.sim.pacing import AnswerGate, FactorMeter, Pacer, wall_period
+from screwgear_ros.sim.pacing import AnswerGate, Doorbell, FactorMeter, Pacer, wall_period
 from screwgear_ros.sim.ratelimit import RateLimiter
 from screwgear_ros.sim.simtime import sim_time_ns
 
@@ -195,6 +195,34 @@ def test_answer_gate_wakes_a_waiting_thread_on_answer_and_on_release() -> None:
     gate.release()                           # shutdown: no answer will come
     waiter.join(10.0)
     assert results == [True, False] and not waiter.is_alive()
+
+
+def test_doorbell_rings_coalesce_and_wake_a_thread_waiting_in_another() -> None:
+    bell = Doorbell()
+    assert not bell.wait(0.0)                # nothing rung: no wake-up
+    bell.ring()
+    bell.ring()
+    assert bell.wait(0.0)                    # both rings: one wake-up ...
+    assert not bell.wait(0.0)                # ... and none left over
+    results: list[bool] = []
+    waiter = threading.Thread(target=lambda: results.append(bell.wait(30.0)))
+    waiter.start()
+    bell.ring()
+    waiter.join(10.0)
+    assert results == [True] and not waiter.is_alive()
+
+
+def test_answer_gate_ignores_a_ring_it_already_took_while_waiting() -> None:
+    # the answer to tick k rings; the waiter takes the answer before it polls, so the
+    # ring is still pending when tick k + 1 waits: that wait must not return True
+    gate = AnswerGate()
+    gate.expect()
+    assert gate.answer()
+    assert gate.wait(0.0)
+    gate.expect()
+    assert not gate.wait(0.05)
+    assert gate.answer()
+    assert gate.wait(0.0)
 
 
 def test_a_change_wakes_the_pacer_however_far_its_deadline_is() -> None:
