@@ -22,12 +22,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 
-from tqdm import tqdm
-
-from ..bag.reader import read_run
+from ..bag.reader import RecordedRun, read_run
+from ..numerics.kernels import without_blas_probe
 from ..numerics.reference import ReferenceFailure
-from ..runs.check import check_run, format_report
+from ..runs.check import CheckReport, check_run, format_report
 from . import EXIT_ERROR, EXIT_OK, interruptible
 from .bag_tool import bag_failures
 
@@ -62,12 +62,15 @@ def main(argv: list[str] | None = None) -> int:
             failures.add(plotting.FigureFileError, '{exc}')
             plot = plotting.output_path(args.plot)
         run = read_run(args.bag, allow_truncated=args.allow_truncated)
-        total = (run.end_step - run.parameters.start_step) * run.dt
-        with tqdm(total=round(total, 6), unit='s sim', desc='reference solution',
-                  disable=True if args.no_progress else None, leave=False,
-                  bar_format='{l_bar}{bar}| {n:.2f}/{total:.2f} s sim [{elapsed}<{remaining}]'
-                  ) as bar:
-            report = check_run(run, progress=bar.update, parallel=not args.serial)
+        if args.no_progress:
+            report = _check(run, None, args.serial)
+        else:
+            from tqdm import tqdm  # only for the bar (off where stderr is no terminal)
+            total = (run.end_step - run.parameters.start_step) * run.dt
+            with tqdm(total=round(total, 6), unit='s sim', desc='reference solution',
+                      disable=None, leave=False, bar_format='{l_bar}{bar}| {n:.2f}/{total:.2f} s sim '
+                      '[{elapsed}<{remaining}]') as bar:
+                report = _check(run, bar.update, args.serial)
     if failures.code is not None:
         return failures.code
     print(format_report(report))
@@ -83,6 +86,15 @@ def main(argv: list[str] | None = None) -> int:
               'holds', file=sys.stderr)
         return EXIT_ERROR
     return EXIT_OK if report.ok else EXIT_FAIL
+
+
+def _check(run: RecordedRun, progress: Callable[[float], None] | None,
+           serial: bool) -> CheckReport:
+    """check_run of ``run``, without numba's probe of SciPy's BLAS (no kernel of the
+    check calls BLAS, and importing ``scipy.linalg`` for the probe is a good part of
+    loading the first kernel)."""
+    with without_blas_probe():
+        return check_run(run, progress=progress, parallel=not serial)
 
 
 if __name__ == '__main__':
