@@ -14,8 +14,9 @@ simulated (refused by the model: an equilibrium not found, an unstable step), or
 --plot figure cannot be written. Never a traceback: anything else unexpected also
 exits 2, with its type and message.
 
---serial: the RK4 replay at dt/2 runs after the reference in this process instead of
-in a forked second process meanwhile (the report is the same).
+--serial: the RK4 replay at dt/2 and the reference at the looser tolerance run in this
+process after the rest, instead of in forked processes meanwhile (the report is the
+same).
 """
 
 from __future__ import annotations
@@ -47,8 +48,9 @@ def main(argv: list[str] | None = None) -> int:
                         help='check the readable part of a bag whose recording was killed')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
     parser.add_argument('--serial', action='store_true',
-                        help='replay at dt/2 in this process after the reference, instead of '
-                        'in a second process meanwhile (same result, slower on two cores)')
+                        help='replay at dt/2 and solve the looser reference in this process '
+                        'after the rest, instead of in forked processes meanwhile (same '
+                        'result, slower on two cores)')
     parser.add_argument('--plot', metavar='OUT.png',
                         help='also draw |node − reference| of every signal against its '
                         'tolerance (log scale) into this figure file')
