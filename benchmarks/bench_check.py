@@ -18,8 +18,10 @@ must pass. Each figure is the best of ``--repeat`` timings, taken in turns (anch
 new, ...) so a change of load hits both; the figure is simulated seconds per wall
 second and the ratio to the anchor's, with the load average at the start and the end.
 ``--before-src`` adds a source tree of the code before a change on both runs. With
-``--stages`` it also times this package's stages in-process (reading the bag,
-the RK4 replay at dt, the reference solve, the RK4 replay at dt/2, one after the other).
+``--stages`` it also times this package's stages in-process, one after the other
+(imports, reading the bag, loading the kernels, the RK4 replay at dt, each reference
+solve and its outputs, the RK4 replay at dt/2, the replays' mesh_state); check_run runs
+the replay at dt/2 and the looser reference in forked processes meanwhile.
 """
 
 from __future__ import annotations
@@ -80,23 +82,33 @@ def once(command: list[str], env: dict[str, str] | None = None) -> tuple[float, 
     return elapsed, result.stdout
 
 
-#: Times check_run's stages in-process; run with the bag's path.
+#: Times check_run's stages in-process, one after the other; run with the bag's path.
 STAGES = r"""
 import sys, time
 t0 = time.perf_counter()
 from screwgear_ros.bag.reader import read_run
+from screwgear_ros.numerics.kernels import without_blas_probe
+from screwgear_ros.numerics.reference import RTOL
 from screwgear_ros.runs.replay_in_process import replay_in_process
-from screwgear_ros.runs.check import reference as check
+from screwgear_ros.runs.check import REFERENCE_REFINE, reference as check, verdict
 t = {'import': time.perf_counter() - t0}
 s = time.perf_counter(); run = read_run(sys.argv[1]); t['read bag'] = time.perf_counter() - s
-s = time.perf_counter(); rk4 = replay_in_process(run, 1); t['RK4 replay dt'] = time.perf_counter() - s
 solve_piece, spent = check._solve_piece, [0.0]
 def timed(*a, **k):
     s = time.perf_counter(); r = solve_piece(*a, **k); spent[0] += time.perf_counter() - s; return r
 check._solve_piece = timed
-s = time.perf_counter(); check.reference_outputs(run, rk4)
-t['reference solve'] = spent[0]; t['reference outputs'] = time.perf_counter() - s - spent[0]
-s = time.perf_counter(); replay_in_process(run, 2); t['RK4 replay dt/2'] = time.perf_counter() - s
+with without_blas_probe():
+    s = time.perf_counter(); verdict._load_kernels(run); t['load kernels'] = time.perf_counter() - s
+    s = time.perf_counter(); rk4 = replay_in_process(run, 1); t['RK4 replay dt'] = time.perf_counter() - s
+    for rtol in (RTOL, RTOL / REFERENCE_REFINE):
+        spent[0] = 0.0
+        s = time.perf_counter(); check.reference_outputs(run, rk4, rtol=rtol)
+        t[f'reference solve {rtol:g}'] = spent[0]
+        t[f'reference outputs {rtol:g}'] = time.perf_counter() - s - spent[0]
+    s = time.perf_counter(); fine = replay_in_process(run, 2); t['RK4 replay dt/2'] = time.perf_counter() - s
+    s = time.perf_counter()
+    check.mesh_of(run, rk4, rk4.joint_states), check.mesh_of(run, rk4, fine.joint_states)
+    t['mesh_state of both replays'] = time.perf_counter() - s
 print(repr(t))
 """
 

@@ -14,20 +14,21 @@ simulated (refused by the model: an equilibrium not found, an unstable step), or
 --plot figure cannot be written. Never a traceback: anything else unexpected also
 exits 2, with its type and message.
 
---serial: the RK4 replay at dt/2 runs after the reference in this process instead of
-in a forked second process meanwhile (the report is the same).
+--serial: the RK4 replay at dt/2 and the reference at the looser tolerance run in this
+process after the rest, instead of in forked processes meanwhile (the report is the
+same).
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 
-from tqdm import tqdm
-
-from ..bag.reader import read_run
+from ..bag.reader import RecordedRun, read_run
+from ..numerics.kernels import without_blas_probe
 from ..numerics.reference import ReferenceFailure
-from ..runs.check import check_run, format_report
+from ..runs.check import CheckReport, check_run, format_report
 from . import EXIT_ERROR, EXIT_OK, interruptible
 from .bag_tool import bag_failures
 
@@ -47,8 +48,9 @@ def main(argv: list[str] | None = None) -> int:
                         help='check the readable part of a bag whose recording was killed')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
     parser.add_argument('--serial', action='store_true',
-                        help='replay at dt/2 in this process after the reference, instead of '
-                        'in a second process meanwhile (same result, slower on two cores)')
+                        help='replay at dt/2 and solve the looser reference in this process '
+                        'after the rest, instead of in forked processes meanwhile (same '
+                        'result, slower on two cores)')
     parser.add_argument('--plot', metavar='OUT.png',
                         help='also draw |node − reference| of every signal against its '
                         'tolerance (log scale) into this figure file')
@@ -62,12 +64,15 @@ def main(argv: list[str] | None = None) -> int:
             failures.add(plotting.FigureFileError, '{exc}')
             plot = plotting.output_path(args.plot)
         run = read_run(args.bag, allow_truncated=args.allow_truncated)
-        total = (run.end_step - run.parameters.start_step) * run.dt
-        with tqdm(total=round(total, 6), unit='s sim', desc='reference solution',
-                  disable=True if args.no_progress else None, leave=False,
-                  bar_format='{l_bar}{bar}| {n:.2f}/{total:.2f} s sim [{elapsed}<{remaining}]'
-                  ) as bar:
-            report = check_run(run, progress=bar.update, parallel=not args.serial)
+        if args.no_progress:
+            report = _check(run, None, args.serial)
+        else:
+            from tqdm import tqdm  # only for the bar (off where stderr is no terminal)
+            total = (run.end_step - run.parameters.start_step) * run.dt
+            with tqdm(total=round(total, 6), unit='s sim', desc='reference solution',
+                      disable=None, leave=False, bar_format='{l_bar}{bar}| {n:.2f}/{total:.2f} s sim '
+                      '[{elapsed}<{remaining}]') as bar:
+                report = _check(run, bar.update, args.serial)
     if failures.code is not None:
         return failures.code
     print(format_report(report))
@@ -83,6 +88,15 @@ def main(argv: list[str] | None = None) -> int:
               'holds', file=sys.stderr)
         return EXIT_ERROR
     return EXIT_OK if report.ok else EXIT_FAIL
+
+
+def _check(run: RecordedRun, progress: Callable[[float], None] | None,
+           serial: bool) -> CheckReport:
+    """check_run of ``run``, without numba's probe of SciPy's BLAS (no kernel of the
+    check calls BLAS, and importing ``scipy.linalg`` for the probe is a good part of
+    loading the first kernel)."""
+    with without_blas_probe():
+        return check_run(run, progress=progress, parallel=not serial)
 
 
 if __name__ == '__main__':

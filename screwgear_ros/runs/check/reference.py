@@ -39,7 +39,7 @@ class _Piece:
     start_step: int
     initial_state: np.ndarray
     segments: list[Segment]
-    samples: set[int] = field(default_factory=set)
+    samples: np.ndarray = field(default_factory=lambda: np.empty(0, np.int64))  # sorted steps
 
 
 def signal_names(run: RecordedRun) -> list[tuple[str, str]]:
@@ -78,13 +78,14 @@ def reference_outputs(run: RecordedRun, replayed: ReplayedOutputs,
     # The reference solution at every sample step, piece by piece, in blocks.
     total = sum(len(p.segments) for p in pieces)
     offsets = np.cumsum([0] + [len(p.segments) for p in pieces])
-    states: list[dict[int, np.ndarray]] = [
-        _solve_piece(p, run.dt, progress, int(first), total, rtol)
-        for p, first in zip(pieces, offsets, strict=False)]
+    solved = [_solve_piece(p, run.dt, progress, int(first), total, rtol)
+              for p, first in zip(pieces, offsets, strict=False)]
     piece_of = np.array([x[0] for x in c.contexts], dtype=np.int64)[c.in_force]
-    rows, mesh = _observe(run, c, np.array([states[k][s] for k, s in
-                                            zip(piece_of.tolist(), steps.tolist(), strict=False)]
-                                           ).reshape(-1, N_STATE))
+    states = np.empty((len(steps), N_STATE))
+    for k, piece in enumerate(pieces):
+        mine = piece_of == k
+        states[mine] = solved[k][np.searchsorted(piece.samples, steps[mine])]
+    rows, mesh = _observe(run, c, states)
     return rows[:, ROW_JOINTS], rows[:len(run.transmission_error), ROW_TE], mesh
 
 
@@ -104,14 +105,23 @@ def _observe(run: RecordedRun, c: _Contexts, states: np.ndarray
     observed = np.empty((len(steps), OBSERVED))
     paths = np.empty(len(steps), dtype=np.int64)
     plants: dict[int, Plant] = {}
-    for i, (step, k) in enumerate(zip(steps.tolist(), c.in_force.tolist(), strict=False)):
-        _, drive, params = c.contexts[k]
+    # Runs of samples under one context: the plant set up once per run, then one
+    # compiled observation per sample (its active path is the input's, the same for all).
+    edges = np.flatnonzero(np.diff(c.in_force)) + 1
+    for a, b in zip([0, *edges.tolist()], [*edges.tolist(), len(steps)], strict=True):
+        if a == b:
+            continue
+        _, drive, params = c.contexts[int(c.in_force[a])]
         plant = plants.get(id(params))
         if plant is None:
             plant = plants[id(params)] = Plant(params, run.dt)
         if plant.input is not drive:
             plant.set_input(drive)
-        paths[i] = plant.observe_state(states[i], step, observed[i])
+        observe = plant.observe_state
+        for state, step, out in zip(states[a:b], steps[a:b].tolist(), observed[a:b],
+                                    strict=True):
+            path = observe(state, step, out)
+        paths[a:b] = path
     rows = np.empty((len(steps), ROW))
     rows[:, ROW_JOINTS] = observed[:, OBSERVED_JOINTS]
     rows[:, ROW_TE] = np.where(paths == 1, observed[:, OBSERVED_DELTA[1]],
@@ -150,31 +160,34 @@ def _contexts(run: RecordedRun, replayed: ReplayedOutputs) -> _Contexts:
     in_force = np.searchsorted(replayed.tick_samples, np.arange(len(steps)), side='right')
     piece_of = np.array([c[0] for c in contexts], dtype=np.int64)[in_force]
     for k, piece in enumerate(pieces):
-        piece.samples = set(steps[piece_of == k].tolist())
+        piece.samples = np.unique(steps[piece_of == k])
     return _Contexts(pieces, contexts, in_force)
 
 
 def _solve_piece(piece: _Piece, dt: float, progress: Callable[[float], None] | None,
-                 first: int, total: int, rtol: float = RTOL) -> dict[int, np.ndarray]:
-    """Reference states at the piece's sample steps, restarting at every segment and
-    at least every BLOCK_SECONDS. A :class:`ReferenceFailure` names the segment as
-    number ``first + k`` of ``total`` in the run."""
-    result: dict[int, np.ndarray] = {}
-    if not piece.samples:
+                 first: int, total: int, rtol: float = RTOL) -> np.ndarray:
+    """Reference states (rows, N_STATE wide) at the piece's sample steps, restarting at
+    every segment and at least every BLOCK_SECONDS. A :class:`ReferenceFailure` names
+    the segment as number ``first + k`` of ``total`` in the run."""
+    samples = piece.samples
+    result = np.empty((len(samples), N_STATE))
+    if not len(samples):
         return result
-    samples = np.array(sorted(piece.samples), dtype=np.int64)
     last = int(samples[-1])
     block = max(1, round(BLOCK_SECONDS / dt))
     y = np.zeros(N_STATE)       # the whole state: the drives' lagged torques from 0
     y[:len(piece.initial_state)] = piece.initial_state
+    filled = 0
     if samples[0] == piece.start_step:
-        result[piece.start_step] = y.copy()
+        result[0] = y
+        filled = 1
     for k, seg in enumerate(piece.segments):
         seg_end = piece.segments[k + 1].start_step if k + 1 < len(piece.segments) else last
         a = seg.start_step
         while a < min(seg_end, last):
             b = min(a + block, seg_end, last)
-            inside = samples[(samples > a) & (samples <= b)]
+            lo, hi = np.searchsorted(samples, [a, b], side='right').tolist()
+            inside = samples[lo:hi]
             steps = inside if len(inside) and inside[-1] == b else np.append(inside, b)
             try:
                 out = solve(y, [Segment(a, seg.drive, seg.params)], dt, steps, rtol=rtol,
@@ -182,12 +195,12 @@ def _solve_piece(piece: _Piece, dt: float, progress: Callable[[float], None] | N
             except ReferenceFailure as exc:
                 raise exc.located(first + k, total,
                                   seg.start_step * dt, seg_end * dt) from None
-            for s, state in zip(steps, out, strict=False):
-                result[int(s)] = state
+            result[lo:hi] = out[:hi - lo]
+            filled += hi - lo
             y = out[-1].copy()
             if progress is not None:
                 progress((b - a) * dt)
             a = b
+    if filled != len(samples):      # every sample lies in one block (a, b] or at the start
+        raise RuntimeError(f'{len(samples) - filled} sample steps of a piece were not solved')
     return result
-
-

@@ -16,22 +16,18 @@ error reached 2.0 times the estimate on the checked-in conventional bag: such ru
 magnitude (10× the looser of the reference's two rtols, so float round-off never
 fails a run).
 
-The RK4 replay at dt/2 runs in a second process (forked) while this one replays at dt
-and solves the reference; with one core, or ``parallel=False``, it runs after them.
+The RK4 replay at dt/2 (:func:`fine_replay`) runs in a second process (forked) while
+this one replays at dt and solves the reference; with one core, or ``parallel=False``,
+it runs after them.
 """
 
 from __future__ import annotations
 
 import math
-import multiprocessing as mp
-import os
 from dataclasses import dataclass, field
-from multiprocessing.connection import Connection
-from multiprocessing.process import BaseProcess
 
 import numpy as np
 
-from ...bag.errors import BagError
 from ...bag.reader import RecordedRun
 from ...numerics.reference import RTOL
 from ..replay_in_process import replay_in_process
@@ -96,59 +92,8 @@ def signal_error(name: str, unit: str, error: np.ndarray, times: np.ndarray, tol
                        float(times[worst]), tolerance, estimate, times, error, reference_error)
 
 
-class FineReplay:
-    """The RK4 replay at dt/2, in a forked process while this one replays at dt and
-    solves the reference (they are independent; a second core halves the wall time).
-    Without ``fork`` (or with one core, or ``parallel`` off) it runs here when asked for.
-    The result is the same either way: the same code on the same recording."""
-
-    def __init__(self, run: RecordedRun, parallel: bool) -> None:
-        self.run = run
-        self.proc: BaseProcess | None = None
-        self.conn: Connection | None = None
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else 1
-        if parallel and cores > 1 and 'fork' in mp.get_all_start_methods():
-            ctx = mp.get_context('fork')
-            self.conn, child = ctx.Pipe(duplex=False)
-            self.proc = ctx.Process(target=self._work, args=(run, child), daemon=True,
-                                    name='check_run RK4 dt/2')
-            self.proc.start()
-            child.close()
-
-    @staticmethod
-    def _work(run: RecordedRun, conn) -> None:   # in the forked process
-        try:
-            fine = replay_in_process(run, 2)
-            conn.send(('ok', np.ascontiguousarray(fine.joint_states),
-                       np.ascontiguousarray(fine.transmission_error)))
-        except BagError as exc:
-            conn.send(('bag', exc))
-        except BaseException as exc:  # noqa: BLE001 - handed back, redone in the parent
-            conn.send(('error', f'{type(exc).__name__}: {exc}'))
-        finally:
-            conn.close()
-
-    def result(self) -> tuple[np.ndarray, np.ndarray]:
-        """(joint_states rows, transmission errors) of the replay at dt/2."""
-        answer = None
-        if self.proc is not None and self.conn is not None:
-            try:
-                answer = self.conn.recv()
-            except (EOFError, OSError):
-                answer = None                  # the worker died: redo it here
-            self.close()
-        if answer is not None and answer[0] == 'ok':
-            return answer[1], answer[2]
-        if answer is not None and answer[0] == 'bag':
-            raise answer[1]
-        fine = replay_in_process(self.run, 2)
-        return fine.joint_states, fine.transmission_error
-
-    def close(self) -> None:
-        if self.proc is not None and self.conn is not None:
-            if self.proc.is_alive():
-                self.proc.terminate()
-            self.proc.join()
-            self.conn.close()
-            self.proc = None
-
+def fine_replay(run: RecordedRun, forked: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(joint_states rows, transmission errors) of the RK4 replay of ``run`` at dt/2
+    (``forked``: :class:`~.forked.Forked`'s flag, unused: the replay reports nothing)."""
+    fine = replay_in_process(run, 2)
+    return np.ascontiguousarray(fine.joint_states), np.ascontiguousarray(fine.transmission_error)

@@ -10,17 +10,21 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
 from ...bag.errors import BagError, InvalidBag
 from ...bag.reader import RecordedRun
+from ...numerics import dop853
 from ...numerics.reference import RTOL
 from ...physics.drive import active_path
 from ...physics.sensors import SensorChain
 from ...sim.events import ParameterChange, Reset
 from ...sim.plant import DriveInput
+from ...sim.session import ROW, Session
 from ..replay_in_process import ReplayedOutputs, replay_in_process
+from .forked import Forked
 from .reference import mesh_of, reference_outputs, signal_names
 from .tolerance import (
     FLOOR_ABS,
@@ -30,8 +34,8 @@ from .tolerance import (
     SAFETY_FIXED_STEP,
     TABLE_ENCODER_BITS,
     TABLE_ENCODER_COUNT,
-    FineReplay,
     SignalError,
+    fine_replay,
     signal_error,
 )
 
@@ -229,21 +233,57 @@ def sensor_mismatch(run: RecordedRun) -> tuple[int, str | None]:
                f'{float(expected[i, c])!r} ({len(differs)} of {n} samples differ)')
 
 
+def _loose_reference(run: RecordedRun, rk4: ReplayedOutputs,
+                     progress: Callable[[float], None] | None,
+                     forked: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The reference at rtol RTOL (the looser one), telling ``progress`` only where it
+    runs in this process."""
+    return reference_outputs(run, rk4, None if forked else progress, RTOL)
+
+
+def _load_kernels(run: RecordedRun) -> None:
+    """Load the check's kernels (RK4's ticks, the observation, DOP853) in this process
+    before it forks, so that the children inherit them instead of each loading its own:
+    one tick of a session of the run's start, and :func:`dop853.warm`. Only a head start:
+    whatever fails here is left to the check itself to meet and report."""
+    start = run.parameters
+    try:
+        Session(start.params, start.settings, np.asarray(start.initial_state),
+                start.start_step).advance(1, rows=np.empty((1, ROW)))
+        dop853.warm()
+    except Exception:  # noqa: BLE001, S110 - the check raises it, at its place in the order
+        pass
+
+
 def check_run(run: RecordedRun, progress: Callable[[float], None] | None = None,
               parallel: bool = True) -> CheckReport:
     """Compare a recorded run with the reference solution; see the module docstring.
-    ``parallel``: the replay at dt/2 runs in a second process meanwhile (same result).
-    Raises :class:`NothingToCompare` for a run without outputs to compare."""
+    ``parallel``: the replay at dt/2 and the reference at the looser tolerance run in
+    forked processes meanwhile (same result). Raises :class:`NothingToCompare` for a
+    run without outputs to compare."""
     require_samples(run)
     half = None if progress is None else (lambda seconds: progress(seconds / 2))
-    fine_replay = FineReplay(run, parallel)
+    if parallel:
+        _load_kernels(run)
+    fine = Forked(partial(fine_replay, run), parallel, 'check_run RK4 dt/2')
+    loose: Forked[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
     try:
         rk4 = replay_in_process(run, 1)
-        loose = reference_outputs(run, rk4, half)
-        ref_js, ref_te, ref_mesh = reference_outputs(run, rk4, half, RTOL / REFERENCE_REFINE)
-        fine_js, fine_te = fine_replay.result()
+        loose = Forked(partial(_loose_reference, run, rk4, half), parallel,
+                       f'check_run reference rtol {RTOL:g}')
+        try:
+            ref_js, ref_te, ref_mesh = reference_outputs(
+                run, rk4, progress if loose.forked else half, RTOL / REFERENCE_REFINE)
+            mesh_rk4 = mesh_of(run, rk4, rk4.joint_states)
+        except Exception:
+            loose.result()      # solved first one after the other: its failure is the one told
+            raise
+        looser = loose.result()
+        fine_js, fine_te = fine.result()
     finally:
-        fine_replay.close()
+        fine.close()
+        if loose is not None:
+            loose.close()
     recorded = run.true_joint_states.values
     times_js = run.true_joint_states.steps * run.dt
     times_te = run.transmission_error.steps * run.dt
@@ -260,12 +300,12 @@ def check_run(run: RecordedRun, progress: Callable[[float], None] | None = None,
     report.replay_max_diff = float(max(np.max(diff_js, initial=0.0), np.max(diff_te, initial=0.0)))
     report.replay_identical = bool(np.array_equal(rk4.joint_states, recorded)
                                    and np.array_equal(rk4.transmission_error, rec_te))
-    columns = [(recorded[:, c], ref_js[:, c], loose[0][:, c],
+    columns = [(recorded[:, c], ref_js[:, c], looser[0][:, c],
                 rk4.joint_states[:, c] - fine_js[:, c], times_js) for c in range(9)]
-    columns.append((rec_te, ref_te, loose[1], rk4.transmission_error - fine_te, times_te))
+    columns.append((rec_te, ref_te, looser[1], rk4.transmission_error - fine_te, times_te))
     m = len(run.mesh_state)
-    richardson_mesh = mesh_of(run, rk4, rk4.joint_states) - mesh_of(run, rk4, fine_js)
-    columns += [(run.mesh_state.values[:, c], ref_mesh[:m, c], loose[2][:m, c],
+    richardson_mesh = mesh_rk4 - mesh_of(run, rk4, fine_js)
+    columns += [(run.mesh_state.values[:, c], ref_mesh[:m, c], looser[2][:m, c],
                  richardson_mesh[:m, c], times_js[:m]) for c in range(6)]
     for (name, unit), (rec, ref, ref_loose, richardson, times) in zip(
             signal_names(run) + MESH_SIGNALS, columns, strict=False):

@@ -91,11 +91,39 @@ def test_numba_nrt_option():
                                                 'the kernel still counts references')
 
 
-# Both children make the installed numba or SciPy look like an upgrade that dropped the
-# API, then import the package's module that uses it.
+@pytest.mark.ros
+def test_the_tableau_is_scipys_without_importing_scipy_integrate():
+    """The tableau is loaded from SciPy's file, not by importing ``scipy.integrate``
+    (which check_run does not use), and holds SciPy's coefficients bit for bit."""
+    script = ('import sys, numpy as np\n'
+              'import screwgear_ros.numerics.dop853_tableau as t\n'
+              "print('scipy.integrate' in sys.modules)\n"
+              'from scipy.integrate._ivp import dop853_coefficients as s\n'
+              'n = s.N_STAGES\n'
+              'print(n == t.N_STAGES and all(np.array_equal(a, b) for a, b in ('
+              '(t.A, s.A[:n, :n]), (t.B, s.B), (t.C, s.C[:n]), (t.E3, s.E3), (t.E5, s.E5))))\n')
+    proc = subprocess.run([sys.executable, '-P', '-c', script], capture_output=True,
+                          text=True, timeout=300, check=False)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.split() == ['False', 'True'], proc.stdout
+
+
+# The children make the installed numba or SciPy look like an upgrade that dropped the
+# API, then import the package's module that uses it: SciPy's module blocked by name,
+# or a SciPy tree (first on the path) without the module's file.
 SCIPY_GONE = '''
 import sys
 sys.modules['scipy.integrate._ivp.dop853_coefficients'] = None
+import screwgear_ros.numerics.dop853
+'''
+SCIPY_MOVED = '''
+import pathlib, sys, tempfile
+root = pathlib.Path(tempfile.mkdtemp())
+(root / 'scipy' / 'integrate' / '_ivp').mkdir(parents=True)
+(root / 'scipy' / '__init__.py').write_text("__version__ = '99.0.0'")
+(root / 'scipy' / 'integrate' / '__init__.py').write_text('')
+(root / 'scipy' / 'integrate' / '_ivp' / '__init__.py').write_text('')
+sys.path.insert(0, str(root))
 import screwgear_ros.numerics.dop853
 '''
 NRT_GONE = '''
@@ -112,8 +140,9 @@ import screwgear_ros.physics.jit
 @pytest.mark.ros
 @pytest.mark.parametrize('script, names', [
     (SCIPY_GONE, ['scipy.integrate._ivp.dop853_coefficients', 'constraints.txt']),
+    (SCIPY_MOVED, ['scipy.integrate._ivp.dop853_coefficients', 'constraints.txt']),
     (NRT_GONE, ["'_nrt'", 'numba', 'constraints.txt']),
-], ids=['scipy_dop853_coefficients', 'numba_nrt'])
+], ids=['scipy_dop853_coefficients', 'scipy_dop853_coefficients_file', 'numba_nrt'])
 def test_the_package_names_a_missing_private_api(script, names):
     proc = subprocess.run([sys.executable, '-P', '-c', script], capture_output=True,
                           text=True, timeout=300, check=False)
