@@ -26,7 +26,7 @@ import sys
 from collections.abc import Callable
 
 from ..bag.reader import RecordedRun, read_run
-from ..numerics.kernels import without_blas_probe
+from ..numerics.kernels import loads_without_registries, without_blas_probe
 from ..numerics.reference import ReferenceFailure
 from ..runs.check import CheckReport, check_run, format_report
 from . import EXIT_ERROR, EXIT_OK, interruptible
@@ -94,8 +94,9 @@ def _check(run: RecordedRun, progress: Callable[[float], None] | None,
            serial: bool) -> CheckReport:
     """check_run of ``run``, without numba's probe of SciPy's BLAS (no kernel of the
     check calls BLAS, and importing ``scipy.linalg`` for the probe is a good part of
-    loading the first kernel)."""
-    with without_blas_probe():
+    loading the first kernel) and, as the node's start, without the CPU target's
+    registries, which only a compile uses (a compile still loads them)."""
+    with without_blas_probe(), loads_without_registries():
         return check_run(run, progress=progress, parallel=not serial)
 
 
