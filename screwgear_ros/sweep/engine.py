@@ -217,18 +217,22 @@ def on_dask(bundle: Bundle, specs: Sequence[RunSpec], workers: int,
         submit_while_idle()
         for future in running:
             batch = batch_of.pop(future)
+            lost: list[Outcome] = []
             try:
                 results = future.result()
             except Exception as exc:  # noqa: BLE001 - its worker died under it: see above
                 if len(batch) == 1:
-                    yield _lost(bundle, batch[0], exc)
+                    lost.append(_lost(bundle, batch[0], exc))
                 else:
                     alone.extend(reversed(batch))
                 results = []
             for outcome in results:
                 batches.record(outcome)
-                yield outcome
+            # the idle worker's next batch before this one's rows are handled (each is
+            # a file the caller writes): the worker waits for nothing but the submit
             submit_while_idle()
+            yield from lost
+            yield from results
     finally:
         if batch_of:
             client.cancel(list(batch_of))
