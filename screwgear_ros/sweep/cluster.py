@@ -51,6 +51,7 @@ class Cluster:
         self._client: Any = None
         self._cluster: Any = None
         self._failure: BaseException | None = None
+        self._unwanted = threading.Event()     # closed before its start was over
         self._thread = threading.Thread(target=self._start, name='sweep-cluster-start',
                                         daemon=True)
         self._thread.start()
@@ -77,8 +78,9 @@ class Cluster:
                 self._cluster = LocalCluster(
                     n_workers=self.workers, processes=True, threads_per_worker=1,
                     dashboard_address=None, silence_logs=logging.CRITICAL, env=WORKER_ENV)
-            self._client = Client(self._cluster)
-            self._client.run(warm_up)
+            if not self._unwanted.is_set():      # a sweep refused meanwhile: no more
+                self._client = Client(self._cluster)
+                self._client.run(warm_up)
         except BaseException as exc:  # noqa: BLE001 - raised where the client is asked for
             self._failure = exc
 
@@ -90,7 +92,9 @@ class Cluster:
         return self._client
 
     def close(self) -> None:
-        """End the client and the embedded cluster (waiting for a start under way)."""
+        """End the client and the embedded cluster (after the step of its start under
+        way, which cannot be cut short)."""
+        self._unwanted.set()
         self._thread.join()
         try:
             if self._client is not None:
