@@ -5,8 +5,9 @@ each run in-process and deterministic, on this process (``--workers 1``, no Dask
 embedded Dask LocalCluster or an existing Dask cluster (``--scheduler tcp://HOST:8786``).
 The default, ``--workers auto``, takes the cores free now (affinity less the load
 average): one, here, on a busy machine. A sweep of more than ``--allow-runs`` runs is
-refused with its count before any run is built. Every run is validated before any starts;
-a sweep with nothing left to run starts no cluster.
+refused with its count before any run is built. Every run is validated before any starts
+(a cluster starts meanwhile, once the sweep file has said how many runs it has); a sweep
+with nothing left to run starts no cluster.
 Writes DIR/sweep.yaml (the resolved sweep), one file per finished run under DIR/runs/,
 then DIR/results.parquet, DIR/results.csv and DIR/summary.png, and prints the worst runs
 with the command that re-runs and records one. The same command into the same DIR
@@ -25,8 +26,13 @@ import argparse
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from . import EXIT_ERROR, EXIT_OK, interruptible
+
+if TYPE_CHECKING:
+    from ..sweep.cluster import Cluster
+    from ..sweep.engine import Workers
 
 #: --workers: the cores free now.
 AUTO = 'auto'
@@ -86,18 +92,76 @@ def _announce(total: int, simulated: float) -> None:
               'before any starts', flush=True)
 
 
+class _Early:
+    """Starts the Dask cluster of a sweep that has runs to do as soon as the sweep file
+    has said how many (``load_sweep``'s announce, before the runs are validated), so that
+    the cluster comes up while this process validates them. Holds the load that
+    ``--workers auto`` measured, so that the choice made then is the one made after."""
+
+    def __init__(self, args: argparse.Namespace) -> None:
+        self.args = args
+        self.finished = 0                     # finished runs' keys in DIR
+        self.cluster: Cluster | None = None
+        self.load: float | None = None
+
+    def __call__(self, total: int, simulated: float) -> None:
+        _announce(total, simulated)
+        left = total - self.finished          # or more: a finished key may be another's
+        if self.args.max_runs is not None:
+            left = min(left, self.args.max_runs)
+        if left > 0:
+            workers = self.workers(left).count
+            if self.args.scheduler or workers > 1:
+                from ..sweep.cluster import Cluster
+
+                self.cluster = Cluster(workers, self.args.scheduler)
+
+    def workers(self, runs: int) -> Workers:
+        """The workers for ``runs`` runs: ``--workers``, or auto's choice."""
+        from ..sweep.engine import Workers, free_workers, load_now
+
+        if self.args.scheduler or self.args.workers != AUTO:
+            return Workers(1 if self.args.scheduler else int(self.args.workers), 'given')
+        if runs > 1 and self.load is None:
+            self.load = load_now()
+        return free_workers(runs, load=self.load or 0.0)
+
+    def take(self, workers: int, runs: int) -> Cluster | None:
+        """The cluster started, if it is the one ``runs`` runs on ``workers`` workers
+        need (the runs close it when they end; :meth:`close` again at the latest);
+        else None, and it is closed."""
+        if self.cluster is not None and (not runs or self.cluster.workers != workers):
+            self.close()
+        return self.cluster
+
+    def close(self) -> None:
+        if self.cluster is not None:
+            self.cluster.close()
+            self.cluster = None
+
+
 @interruptible('sweep', 'nothing was run')
 def main(argv: list[str] | None = None) -> int:
     args = _arguments(argv)
-    from ..sweep.engine import describe, free_workers
+    early = _Early(args)
+    try:
+        return _sweep(args, early)
+    finally:
+        early.close()
+
+
+def _sweep(args: argparse.Namespace, early: _Early) -> int:
+    from ..sweep.engine import describe
     from ..sweep.progress import run_pending
     from ..sweep.report import report
     from ..sweep.spec import RUN_LIMIT, SweepError, load_sweep
     from ..sweep.store import Store, finished_keys
 
     try:
+        finished = finished_keys(args.out)
+        early.finished = len(finished)
         sweep = load_sweep(args.sweep, limit=args.allow_runs or RUN_LIMIT,
-                           announce=_announce, validated=finished_keys(args.out))
+                           announce=early, validated=finished)
         store = Store(args.out, sweep)
         done = store.open()
     except SweepError as exc:
@@ -108,13 +172,11 @@ def main(argv: list[str] | None = None) -> int:
     todo = [r for r in sweep.runs if r.index not in done]
     if args.max_runs is not None:
         todo = todo[:args.max_runs]
-    if args.scheduler or args.workers != AUTO:
-        workers = 1 if args.scheduler else int(args.workers)
-    else:
-        chosen = free_workers(len(todo))
-        workers = chosen.count
-        if todo:
-            print(f'--workers auto: {workers} ({chosen.why})', flush=True)
+    chosen = early.workers(len(todo))
+    workers = chosen.count
+    if todo and not args.scheduler and args.workers == AUTO:
+        print(f'--workers auto: {workers} ({chosen.why})', flush=True)
+    cluster = early.take(workers, len(todo))
     print(f'{args.sweep}: {len(sweep.runs)} runs, {len(done)} finished before, '
           f'{len(todo)} to run' + (f' on {describe(workers, args.scheduler)}' if todo
                                    else ''), flush=True)
@@ -124,7 +186,8 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     if todo:
         try:
-            passed = run_pending(sweep, store, done, todo, workers, args.scheduler)
+            passed = run_pending(sweep, store, done, todo, workers, args.scheduler,
+                                 cluster)
             interrupted, ran = passed.interrupted, passed.wall_times
         except Exception as exc:  # noqa: BLE001 - an engine that fails: reason, no traceback
             print(f'sweep: the engine failed ({describe(workers, args.scheduler)}): '

@@ -13,7 +13,6 @@ machine gets one worker here rather than a cluster that competes with the load.
 
 from __future__ import annotations
 
-import logging
 import math
 import os
 import time
@@ -22,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from .cluster import Cluster
 from .model import Bundle, RunSpec
 from .worker import Outcome, Status, execute, execute_batch, hard_limit, warm_up
 
@@ -121,27 +121,6 @@ def in_process(bundle: Bundle, specs: Sequence[RunSpec]) -> Iterator[Outcome]:
 BATCH_SECONDS = 1.0
 MAX_BATCH = 64
 
-#: Dask settings for the embedded LocalCluster (a remote cluster keeps its own).
-LOCAL_CONFIG = {
-    # a run whose worker process ends (a crash, or the hard time limit) is a row at
-    # once: no retry of the run on another worker
-    'distributed.scheduler.allowed-failures': 0,
-    # what every Dask process does on its own while the runs take the cores: the
-    # statistical profiler sampling the worker's stacks (under the GIL the run needs),
-    # the event loop's health check, the memory and system monitors; a sweep reads none
-    # of them, and at their default rates they take a share of the cores from the runs
-    'distributed.worker.profile.enabled': False,
-    'distributed.admin.tick.interval': '1s',
-    'distributed.admin.system-monitor.interval': '2s',
-    'distributed.worker.memory.monitor-interval': '1s',
-}
-
-#: Environment of the LocalCluster's worker processes: one thread of compiled code or
-#: BLAS each, as each process has one core (Dask sets the BLAS ones itself; numba's
-#: threading layer is not covered by them).
-WORKER_ENV = {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1',
-              'NUMBA_NUM_THREADS': '1'}
-
 
 class Batches:
     """Cuts the runs left into batches of about :data:`BATCH_SECONDS` of run time, from
@@ -175,32 +154,25 @@ def _lost(bundle: Bundle, spec: RunSpec, exc: BaseException) -> Outcome:
 
 
 def on_dask(bundle: Bundle, specs: Sequence[RunSpec], workers: int,
-            scheduler: str | None = None) -> Iterator[Outcome]:
+            scheduler: str | None = None, cluster: Cluster | None = None) -> Iterator[Outcome]:
     """The runs on Dask: a LocalCluster of ``workers`` processes, or the cluster of
-    ``scheduler``; in batches (:class:`Batches`), one task per live worker thread at a
-    time, so that the scheduler places each on an idle worker and a worker holds no
-    task but the one it runs. The runs of a batch whose worker process ended are run
-    again one run a task; a run whose own task ended its worker is an error row. The
-    bundle travels with each task (a few kB), so that no worker's end loses it. Closing
-    the iterator (Ctrl-C included) cancels what is left."""
+    ``scheduler``, or ``cluster`` started before (this closes it); in batches
+    (:class:`Batches`), one task per live worker thread at a time, so that the scheduler
+    places each on an idle worker and a worker holds no task but the one it runs. The
+    runs of a batch whose worker process ended are run again one run a task; a run whose
+    own task ended its worker is an error row. The bundle travels with each task (a few
+    kB), so that no worker's end loses it. Closing the iterator (Ctrl-C included)
+    cancels what is left."""
+    if cluster is None:
+        cluster = Cluster(workers, scheduler)
     try:
-        from dask.distributed import Client, LocalCluster, as_completed
-    except ImportError as exc:
-        raise RuntimeError(f'more than one worker needs Dask ({exc}): pip install '
-                           "'screwgear_ros[sweep]', or run with --workers 1") from None
+        client = cluster.client()
+    except BaseException:
+        cluster.close()
+        raise
+    from dask.distributed import as_completed
 
-    import dask
-
-    cluster = None
-    if scheduler:
-        client = Client(scheduler, timeout='30s')
-    else:
-        with dask.config.set(LOCAL_CONFIG):
-            cluster = LocalCluster(n_workers=workers, processes=True, threads_per_worker=1,
-                                   dashboard_address=None, silence_logs=logging.CRITICAL,
-                                   env=WORKER_ENV)
-        client = Client(cluster)
-    running = as_completed()
+    running = as_completed(loop=client.loop)
     batch_of: dict[Any, list[RunSpec]] = {}
     try:
         batches = Batches(specs)
@@ -217,31 +189,35 @@ def on_dask(bundle: Bundle, specs: Sequence[RunSpec], workers: int,
         submit_while_idle()
         for future in running:
             batch = batch_of.pop(future)
+            lost: list[Outcome] = []
             try:
                 results = future.result()
             except Exception as exc:  # noqa: BLE001 - its worker died under it: see above
                 if len(batch) == 1:
-                    yield _lost(bundle, batch[0], exc)
+                    lost.append(_lost(bundle, batch[0], exc))
                 else:
                     alone.extend(reversed(batch))
                 results = []
             for outcome in results:
                 batches.record(outcome)
-                yield outcome
+            # the idle worker's next batch before this one's rows are handled (each is
+            # a file the caller writes): the worker waits for nothing but the submit
             submit_while_idle()
+            yield from lost
+            yield from results
     finally:
         if batch_of:
             client.cancel(list(batch_of))
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        cluster.close()
 
 
 def outcomes(bundle: Bundle, specs: Sequence[RunSpec], workers: int,
-             scheduler: str | None) -> Iterator[Outcome]:
-    if scheduler is None and workers == 1:
+             scheduler: str | None, cluster: Cluster | None = None) -> Iterator[Outcome]:
+    """The runs' outcomes as they finish: here for one worker and no scheduler, else on
+    Dask (``cluster``: the one started for them, which the runs then close)."""
+    if scheduler is None and workers == 1 and cluster is None:
         return in_process(bundle, specs)
-    return on_dask(bundle, specs, workers, scheduler)
+    return on_dask(bundle, specs, workers, scheduler, cluster)
 
 
 def describe(workers: int, scheduler: str | None) -> str:

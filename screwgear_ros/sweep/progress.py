@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol, TextIO
 
+from .cluster import Cluster
 from .engine import outcomes
 from .model import RunSpec, Sweep
 from .store import Store, failures
@@ -30,7 +31,7 @@ class Pass:
 
 
 def run_pending(sweep: Sweep, store: Store, done: dict[int, Any], todo: Sequence[RunSpec],
-                workers: int, scheduler: str | None) -> Pass:
+                workers: int, scheduler: str | None, cluster: Cluster | None = None) -> Pass:
     """Run ``todo``, adding each finished run to ``store`` and ``done`` as it comes back.
 
     Parameters
@@ -41,8 +42,9 @@ def run_pending(sweep: Sweep, store: Store, done: dict[int, Any], todo: Sequence
         The rows of the finished runs by index; updated in place.
     todo
         The runs to run now.
-    workers, scheduler
-        Where they run (:func:`~screwgear_ros.sweep.engine.outcomes`).
+    workers, scheduler, cluster
+        Where they run (:func:`~screwgear_ros.sweep.engine.outcomes`; ``cluster``: the
+        Dask cluster started for them, closed when they end).
 
     Returns
     -------
@@ -56,7 +58,7 @@ def run_pending(sweep: Sweep, store: Store, done: dict[int, Any], todo: Sequence
     """
     failed = failures(done.values())
     ran: list[float] = []
-    stream = outcomes(sweep.bundle, todo, workers, scheduler)
+    stream = outcomes(sweep.bundle, todo, workers, scheduler, cluster)
     bar = progress_bar(len(sweep.runs), len(done), failed, sys.stderr)
     try:
         for outcome in stream:

@@ -150,22 +150,54 @@ def _end_process() -> None:
     os._exit(70)
 
 
+class _Watchdog:
+    """One thread per process that ends it when the run in progress passes its hard
+    limit. A run sets its deadline and clears it (no thread started or woken per run,
+    which would cost each run a thread switch); the thread sleeps until the deadline it
+    read, at most :data:`WATCH_EVERY` s, and reads it again: a run that finished in time
+    has replaced it (with the next run's, later, or with none)."""
+
+    def __init__(self) -> None:
+        self.deadline = math.inf
+        self.thread: threading.Thread | None = None
+
+    def arm(self, seconds: float) -> None:
+        self.deadline = time.monotonic() + seconds
+        if self.thread is None:
+            self.thread = threading.Thread(target=self._watch, name='sweep-watchdog',
+                                           daemon=True)
+            self.thread.start()
+
+    def disarm(self) -> None:
+        self.deadline = math.inf
+
+    def _watch(self) -> None:
+        while True:
+            left = self.deadline - time.monotonic()
+            if left <= 0.0:
+                _end_process()
+            time.sleep(min(left, WATCH_EVERY))
+
+
+#: s between two looks of the watchdog at the deadline of the run in progress.
+WATCH_EVERY = 1.0
+_WATCHDOG = _Watchdog()
+
+
 def execute(bundle: Bundle, spec: RunSpec) -> Outcome:
     """Run ``spec`` (never raises: a failure is an outcome with its reason). In a Dask
     worker, a run blocked past :func:`hard_limit` ends the worker process, which its
     nanny restarts (the run becomes a lost-worker row on the client): no worker stays
     stuck. In the main thread (``--workers 1``) a timer stops the run at its limit wherever
     its Python code is (:class:`_Alarm`); elsewhere the check between ticks stops it."""
-    watchdog = None
-    if _in_dask_worker():
-        watchdog = threading.Timer(hard_limit(bundle.time_limit), _end_process)
-        watchdog.daemon = True
-        watchdog.start()
+    watched = _in_dask_worker()
+    if watched:
+        _WATCHDOG.arm(hard_limit(bundle.time_limit))
     try:
         return _execute(bundle, spec)
     finally:
-        if watchdog is not None:
-            watchdog.cancel()
+        if watched:
+            _WATCHDOG.disarm()
 
 
 def _execute(bundle: Bundle, spec: RunSpec) -> Outcome:
