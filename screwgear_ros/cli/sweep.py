@@ -31,8 +31,7 @@ from typing import TYPE_CHECKING
 from . import EXIT_ERROR, EXIT_OK, interruptible
 
 if TYPE_CHECKING:
-    from ..sweep.cluster import Cluster
-    from ..sweep.engine import Workers
+    from ..sweep.early import EarlyCluster
 
 #: --workers: the cores free now.
 AUTO = 'auto'
@@ -92,65 +91,20 @@ def _announce(total: int, simulated: float) -> None:
               'before any starts', flush=True)
 
 
-class _Early:
-    """Starts the Dask cluster of a sweep that has runs to do as soon as the sweep file
-    has said how many (``load_sweep``'s announce, before the runs are validated), so that
-    the cluster comes up while this process validates them. Holds the load that
-    ``--workers auto`` measured, so that the choice made then is the one made after."""
-
-    def __init__(self, args: argparse.Namespace) -> None:
-        self.args = args
-        self.finished = 0                     # finished runs' keys in DIR
-        self.cluster: Cluster | None = None
-        self.load: float | None = None
-
-    def __call__(self, total: int, simulated: float) -> None:
-        _announce(total, simulated)
-        left = total - self.finished          # or more: a finished key may be another's
-        if self.args.max_runs is not None:
-            left = min(left, self.args.max_runs)
-        if left > 0:
-            workers = self.workers(left).count
-            if self.args.scheduler or workers > 1:
-                from ..sweep.cluster import Cluster
-
-                self.cluster = Cluster(workers, self.args.scheduler)
-
-    def workers(self, runs: int) -> Workers:
-        """The workers for ``runs`` runs: ``--workers``, or auto's choice."""
-        from ..sweep.engine import Workers, free_workers, load_now
-
-        if self.args.scheduler or self.args.workers != AUTO:
-            return Workers(1 if self.args.scheduler else int(self.args.workers), 'given')
-        if runs > 1 and self.load is None:
-            self.load = load_now()
-        return free_workers(runs, load=self.load or 0.0)
-
-    def take(self, workers: int, runs: int) -> Cluster | None:
-        """The cluster started, if it is the one ``runs`` runs on ``workers`` workers
-        need (the runs close it when they end; :meth:`close` again at the latest);
-        else None, and it is closed."""
-        if self.cluster is not None and (not runs or self.cluster.workers != workers):
-            self.close()
-        return self.cluster
-
-    def close(self) -> None:
-        if self.cluster is not None:
-            self.cluster.close()
-            self.cluster = None
-
-
 @interruptible('sweep', 'nothing was run')
 def main(argv: list[str] | None = None) -> int:
     args = _arguments(argv)
-    early = _Early(args)
+    from ..sweep.early import EarlyCluster
+
+    early = EarlyCluster(None if args.workers == AUTO else int(args.workers), args.scheduler,
+                         args.max_runs, _announce)
     try:
         return _sweep(args, early)
     finally:
         early.close()
 
 
-def _sweep(args: argparse.Namespace, early: _Early) -> int:
+def _sweep(args: argparse.Namespace, early: EarlyCluster) -> int:
     from ..sweep.engine import describe
     from ..sweep.progress import run_pending
     from ..sweep.report import report
