@@ -21,17 +21,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..sim.machine import cores
 from .cluster import Cluster
 from .model import Bundle, RunSpec
 from .worker import Outcome, Status, execute, execute_batch, hard_limit, warm_up
-
-
-def cores() -> int:
-    """The cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:
-        return os.cpu_count() or 1
 
 
 @dataclass(frozen=True)

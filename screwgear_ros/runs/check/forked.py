@@ -13,20 +13,15 @@ are the same either way: the same code on the same data.
 from __future__ import annotations
 
 import multiprocessing as mp
-import os
 from collections.abc import Callable
 from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
 from typing import Generic, TypeVar
 
 from ...errors import ScrewgearError
+from ...sim.machine import cores
 
 T = TypeVar('T')
-
-
-def cores() -> int:
-    """The cores this process may run on."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else 1
 
 
 class Forked(Generic[T]):
