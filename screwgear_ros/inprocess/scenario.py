@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -33,10 +33,10 @@ from ..sim.plant import DriveInput
 from ..sim.schedule import Schedule
 from .scenario_controller import ControllerSpec, read_controller, resolve_callable
 from .setpoint_profile import PROFILES, SetpointProfile, read_setpoint
-from .simulation import Controller, Run, Simulation
+from .simulation import Controller, ParameterFileError, Run, Simulation, file_values
 
 #: The top-level keys of a scenario.
-KEYS = ('parameters', 'duration', 'actions', 'controller', 'setpoint')
+KEYS = ('parameters_file', 'parameters', 'duration', 'actions', 'controller', 'setpoint')
 #: What an action can do besides its ``time``: a command on an input topic, a parameter
 #: change, a reset.
 ACTIONS = (*INPUT_TOPICS, 'parameters', 'reset')
@@ -92,6 +92,10 @@ class Scenario:
         The controller closing the loop (``demo`` or ``module:callable``).
     setpoint : SetpointProfile or None
         The target the controller and the metrics follow.
+    parameters_file : str or None
+        The parameter file its start values are on top of (the scenario's
+        ``parameters_file``, or the one :func:`load_scenario` was given in its place);
+        None: the node's defaults, the paper's ideal table.
 
     Examples
     --------
@@ -110,6 +114,20 @@ class Scenario:
     actions: tuple[Action, ...] = ()
     controller: ControllerSpec | None = None
     setpoint: SetpointProfile | None = None
+    parameters_file: str | None = None
+
+    def table(self) -> str:
+        """What the run starts from, for a person: the parameter file, or the defaults.
+
+        Returns
+        -------
+        str
+            One phrase, e.g. ``parameters: config/realistic.yaml, then the scenario's``.
+        """
+        source = (self.parameters_file if self.parameters_file is not None
+                  else "the node's defaults (the paper's ideal table: no friction, ideal "
+                  'sensors and drive)')
+        return f'parameters: {source}, then the scenario\'s own'
 
     def simulation(self, **overrides: Any) -> Simulation:
         """The scenario's simulation, some parameters changed (validated).
@@ -222,13 +240,18 @@ class Scenario:
                         end_step=round(self.duration / simulation.settings.dt))
 
 
-def load_scenario(path: str | os.PathLike[str]) -> Scenario:
+def load_scenario(path: str | os.PathLike[str],
+                  params: str | os.PathLike[str] | Mapping[str, Any] | None = None) -> Scenario:
     """Read and validate a scenario file (``docs/scenarios.md``).
 
     Parameters
     ----------
     path : str or path-like
         The scenario file (YAML).
+    params : str, path-like or mapping, optional
+        A parameter file (or its values) that takes the place of the scenario's
+        ``parameters_file``: the scenario's ``parameters`` go on top of it
+        (``run_scenario --params FILE``).
 
     Returns
     -------
@@ -259,7 +282,7 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
         raise reader.error(reader.root, 'a scenario needs a duration (s of simulation time)')
     duration = reader.number(top['duration'][1], 'duration', low=0.0, strict=True)
 
-    values = default_values()
+    values, parameters_file = _base(reader, top, path, params)
     if 'parameters' in top:
         values = _parameters(reader, top['parameters'][1], values, 'parameters')
     start = values
@@ -316,7 +339,37 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
         raise reader.error(top[Input.SETPOINT][1], f'setpoint joint {setpoint.joint!r} is not one '
                            f'of the joint_states names {values["joint_names"]}')
     return Scenario(str(path), tuple(start.items()), duration, tuple(actions), controller,
-                    setpoint)
+                    setpoint, parameters_file)
+
+
+def _base(reader: YamlReader, top: dict[str, Any], path: Path,
+          params: str | os.PathLike[str] | Mapping[str, Any] | None
+          ) -> tuple[dict[str, Any], str | None]:
+    """The values the scenario's own ``parameters`` go on top of: the node's defaults,
+    then ``params`` (given by the caller) or else the scenario's ``parameters_file``
+    (relative to the scenario), each validated as the node validates a file."""
+    values = default_values()
+    node = top['parameters_file'][1] if 'parameters_file' in top else reader.root
+    if isinstance(params, Mapping):
+        return {**values, **params}, '(values given by the caller)'
+    if params is not None:
+        file, what = Path(params), f'--params {params}'
+    elif 'parameters_file' in top:
+        name = reader.value(node)
+        if not isinstance(name, str) or not name:
+            raise reader.error(node, 'parameters_file names a table_sim parameter file '
+                               '(a path relative to the scenario)')
+        file, what = path.resolve().parent / name, f'parameters_file {name}'
+    else:
+        return values, None
+    try:
+        merged = {**values, **file_values(file)}
+        split_parameters(merged)
+    except ParameterFileError as exc:
+        raise reader.error(node, f'{what}: {exc}') from None
+    except ParameterError as exc:
+        raise reader.error(node, f'{what}: {file}: the node refuses it: {exc}') from None
+    return merged, str(file)
 
 
 def _parameters(reader: YamlReader, node: yaml.Node, values: dict[str, Any],
