@@ -25,7 +25,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..inprocess.metrics import format_metrics, run_metrics
+from ..inprocess.metrics import MetricFailed, format_metrics
 from ..inprocess.scenario import ScenarioError, load_scenario
 from ..inprocess.scenario_controller import ControllerFailed
 from ..sim.commands import InputRejected
@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
                         'figure file')
     args = parser.parse_args(argv)
     failures = Failures('run_scenario', {
-        (ScenarioError, ControllerFailed): '{exc}',
+        (ScenarioError, ControllerFailed, MetricFailed): '{exc}',
         InputRejected: "{scenario}: the controller answered with a command the node "
                        "refuses: {exc}",
     }, unexpected='{scenario}: {kind}: {exc}', scenario=args.scenario)
@@ -72,8 +72,7 @@ def main(argv: list[str] | None = None) -> int:
             started = time.perf_counter()
             run = scenario.run(record=record, simulation=simulation)
             wall = time.perf_counter() - started
-            metrics = run_metrics(run, scenario.setpoint,
-                                  scenario.setpoint.joint if scenario.setpoint else 'table')
+            metrics = scenario.metrics(run)
             if plot is not None and record is not None:     # a plot is drawn from a bag
                 from ..bag.reader import read_run
                 plotting.save(plotting.run_figure(read_run(record)), plot)

@@ -31,12 +31,14 @@ from ..sim.events import Command, Event, ParameterChange, Reset
 from ..sim.parameter_set import default_values, split_parameters
 from ..sim.plant import DriveInput
 from ..sim.schedule import Schedule
+from .metrics import METRIC_DOCS, BandUnit, Metrics, SettlingBand, UserMetric, run_metrics
 from .scenario_controller import ControllerSpec, read_controller, resolve_callable
 from .setpoint_profile import PROFILES, SetpointProfile, read_setpoint
 from .simulation import Controller, ParameterFileError, Run, Simulation, file_values
 
 #: The top-level keys of a scenario.
-KEYS = ('parameters_file', 'parameters', 'duration', 'actions', 'controller', 'setpoint')
+KEYS = ('parameters_file', 'parameters', 'duration', 'actions', 'controller', 'setpoint',
+        'settling_band', 'metrics')
 #: What an action can do besides its ``time``: a command on an input topic, a parameter
 #: change, a reset.
 ACTIONS = (*INPUT_TOPICS, 'parameters', 'reset')
@@ -92,6 +94,11 @@ class Scenario:
         The controller closing the loop (``demo`` or ``module:callable``).
     setpoint : SetpointProfile or None
         The target the controller and the metrics follow.
+    band : SettlingBand
+        The settling band of its steps (``settling_band``; default ±2 % of the step).
+    user_metrics : tuple of (str, str, str)
+        Its own metrics (``metrics``): name, ``module:callable``, the directory the module
+        is looked for in first.
     parameters_file : str or None
         The parameter file its start values are on top of (the scenario's
         ``parameters_file``, or the one :func:`load_scenario` was given in its place);
@@ -115,6 +122,27 @@ class Scenario:
     controller: ControllerSpec | None = None
     setpoint: SetpointProfile | None = None
     parameters_file: str | None = None
+    band: SettlingBand = SettlingBand()
+    user_metrics: tuple[tuple[str, str, str], ...] = ()
+
+    def metrics(self, run: Run) -> Metrics:
+        """The run's metrics (:func:`~.metrics.run_metrics`) with the scenario's setpoint,
+        settling band and user metrics.
+
+        Parameters
+        ----------
+        run : Run
+            A run of this scenario.
+
+        Returns
+        -------
+        Metrics
+        """
+        user = [UserMetric(name, resolve_callable(use, directory), use)
+                for name, use, directory in self.user_metrics]
+        return run_metrics(run, self.setpoint,
+                           self.setpoint.joint if self.setpoint else 'table',
+                           band=self.band, user=user)
 
     def table(self) -> str:
         """What the run starts from, for a person: the parameter file, or the defaults.
@@ -338,8 +366,55 @@ def load_scenario(path: str | os.PathLike[str],
     if setpoint is not None and setpoint.joint not in values['joint_names']:
         raise reader.error(top[Input.SETPOINT][1], f'setpoint joint {setpoint.joint!r} is not one '
                            f'of the joint_states names {values["joint_names"]}')
+    band = _band(reader, top['settling_band'][1], start, setpoint) \
+        if 'settling_band' in top else SettlingBand()
+    user = _user_metrics(reader, top['metrics'][1], path) if 'metrics' in top else ()
     return Scenario(str(path), tuple(start.items()), duration, tuple(actions), controller,
-                    setpoint, parameters_file)
+                    setpoint, parameters_file, band, user)
+
+
+def _band(reader: YamlReader, node: yaml.Node, values: dict[str, Any],
+          setpoint: SetpointProfile | None) -> SettlingBand:
+    """``settling_band: {fraction | rad | counts: value}``; counts need the setpoint's
+    joint to have an encoder."""
+    entries = reader.mapping(node, 'settling_band')
+    units = tuple(u.value for u in BandUnit)
+    if len(entries) != 1 or next(iter(entries)) not in units:
+        raise reader.error(node, f'settling_band is one of {{fraction: 0.02}} (of the step), '
+                           f'{{rad: 1.0e-6}} or {{counts: 2}} (of the joint\'s encoder)')
+    (unit, (_, value_node)), = entries.items()
+    value = reader.number(value_node, f'settling_band {unit}', low=0.0, strict=True)
+    if unit == BandUnit.COUNTS:
+        from ..params.sensors import JOINTS
+        joint = setpoint.joint if setpoint is not None else values['joint_names'][1]
+        name = JOINTS[list(values['joint_names']).index(joint)]
+        if not values.get(f'encoder_counts_{name}'):
+            raise reader.error(value_node, f'settling_band in counts needs an encoder on '
+                               f'{joint}: encoder_counts_{name} is 0 (an ideal sensor); give '
+                               'the band in rad, or set the encoder')
+    return SettlingBand(value, BandUnit(unit))
+
+
+def _user_metrics(reader: YamlReader, node: yaml.Node,
+                  path: Path) -> tuple[tuple[str, str, str], ...]:
+    """``metrics: {name: module:callable}``: each loadable, its name new."""
+    directory = str(path.resolve().parent)
+    out = []
+    for name, (key, value_node) in reader.mapping(node, 'metrics').items():
+        if not isinstance(name, str) or not name.isidentifier() or name in METRIC_DOCS:
+            raise reader.error(key, f'metric name {name!r}: a Python identifier that is not '
+                               f'a built-in metric ({", ".join(METRIC_DOCS)})')
+        use = reader.value(value_node)
+        if not isinstance(use, str) or use.count(':') != 1 or not all(use.split(':')):
+            raise reader.error(value_node, f'metric {name}: module:callable, a function '
+                               f'(run, setpoint) -> float, not {use!r}')
+        try:
+            resolve_callable(use, directory)
+        except Exception as exc:  # noqa: BLE001 - any import failure is the file's problem
+            raise reader.error(value_node, f'metric {name}: {use!r} cannot be loaded: '
+                               f'{type(exc).__name__}: {exc}') from None
+        out.append((name, use, directory))
+    return tuple(out)
 
 
 def _base(reader: YamlReader, top: dict[str, Any], path: Path,

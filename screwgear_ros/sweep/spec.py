@@ -32,6 +32,7 @@ from .inputs import (
     controller_sources,
     explicit_parameters,
     plain_value,
+    scenario_file_values,
     scenario_of,
 )
 from .model import Sweep, SweepError, plain
@@ -120,7 +121,10 @@ def _load(reader: YamlReader, path: Path, limit: int | None,
     base_file = None
     if 'parameters' in top:
         base, base_file = base_values(reader, top['parameters'][1], here)
-    scenario, scenario_file, scenario_text = scenario_of(reader, top['scenario'][1], here)
+    scenario, scenario_file, scenario_text = scenario_of(reader, top['scenario'][1], here,
+                                                         base_file)
+    if base_file is None:             # the sweep's parameter file replaces the scenario's
+        base = scenario_file_values(reader, top['scenario'][1], scenario)
     values = dict(scenario.values)
     base = {**base, **{k: values[k] for k in explicit_parameters(scenario_text)}}
     try:
@@ -129,7 +133,8 @@ def _load(reader: YamlReader, path: Path, limit: int | None,
         raise reader.error(top['scenario'][1], f'scenario: its controller module cannot '
                            f'be read: {exc}') from None
 
-    metrics = _metrics(reader, top['metrics'][1])
+    metrics = _metrics(reader, top['metrics'][1],
+                       METRICS + tuple(name for name, _, _ in scenario.user_metrics))
     time_limit = TIME_LIMIT
     if 'time_limit' in top:
         time_limit = reader.number(top['time_limit'][1], 'time_limit (s of wall time per '
@@ -190,17 +195,20 @@ def _scalable(reader: YamlReader, axis: model.Axis, base: Any) -> None:
                        f'numbers; {axis.name} is {base!r}: give its values instead')
 
 
-def _metrics(reader: YamlReader, node: yaml.Node) -> tuple[str, ...]:
+def _metrics(reader: YamlReader, node: yaml.Node, known: tuple[str, ...]) -> tuple[str, ...]:
+    """The metric names of the sweep: the built-in ones (docs/scenarios.md, Metrics) and
+    the scenario's own (its ``metrics``)."""
     value = reader.value(node)
     if isinstance(value, str):
         value = [value]
     if not isinstance(value, list) or not value:
         raise reader.error(node, f'metrics is a list of metric names (known: '
-                           f'{", ".join(METRICS)})')
+                           f'{", ".join(known)}; docs/scenarios.md says what each means)')
     for item, name in zip(node.value if isinstance(node, yaml.SequenceNode) else [node],
                           value, strict=True):
-        if name not in METRICS:
-            raise reader.error(item, f'unknown metric {name!r} (known: {", ".join(METRICS)})')
+        if not isinstance(name, str) or name not in known:
+            raise reader.error(item, f'unknown metric {name!r} (known: {", ".join(known)}; '
+                               'docs/scenarios.md says what each means)')
     if len(set(value)) != len(value):
         raise reader.error(node, 'a metric is named twice')
     return tuple(value)
