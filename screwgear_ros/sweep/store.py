@@ -255,7 +255,7 @@ class Store:
             table[column] = [float(dict(r.swept)[column]) if number
                              else json.dumps(dict(r.swept)[column]) for r in runs]
         for axis in (*sweep.grid, *sweep.draws):
-            if axis.scale:     # the value the run drew, beside its factor
+            if axis.column != axis.name and not axis.shared:   # the value it gave
                 values = [dict(r.overrides)[axis.name] for r in runs]
                 table[axis.name] = [float(v) if isinstance(v, (int, float))
                                     else json.dumps(v) for v in values]
