@@ -95,7 +95,9 @@ def held_response(model: LinearModel, frequency_hz: np.ndarray, h: float) -> np.
     """The response of ``model`` between inputs held for ``h`` s and outputs sampled
     every ``h`` s (module docstring), shape (outputs, inputs, frequencies): the output
     sample taken as the hold of the input sample starts, so it answers the holds before
-    (the one tick a sampled-data plant takes to answer)."""
+    (the one tick a sampled-data plant takes to answer); through the model's joint
+    sensors when it has them (:mod:`.loop_dynamics`: delay, speed filter, differenced
+    speed, exact on the samples)."""
     n, m = model.b.shape
     block = np.zeros((n + m, n + m))
     block[:n, :n], block[:n, n:] = model.a * h, model.b * h
@@ -107,6 +109,8 @@ def held_response(model: LinearModel, frequency_hz: np.ndarray, h: float) -> np.
     for k, hz in enumerate(f):
         z = np.exp(2j * math.pi * hz * h)
         out[:, :, k] = model.c @ np.linalg.solve(z * eye - ad, bd) + model.d
+    if model.sensors is not None:
+        out = model.sensors.apply(out, f, h, model.outputs)
     return out
 
 

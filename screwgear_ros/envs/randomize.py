@@ -85,11 +85,14 @@ class Randomizer:
                 self.derived[name] = (other, _range(f'{name} ratio', entry['ratio']))
             else:
                 self.independent[name] = _range(name, entry)
-                for end in self.independent[name]:     # a name and a range the node takes
+                for end in self.independent[name]:     # a range the node takes
                     try:
                         base.with_values(**{name: end})
                     except ParameterError as exc:
-                        raise RandomizeError(f'randomize {name}: {exc}') from None
+                        # a rule of several parameters (static >= Coulomb) is the draws'
+                        # to meet, drawn again until they do; a value refused alone is not
+                        if exc.name == name:
+                            raise RandomizeError(f'randomize {name}: {exc}') from None
 
     @property
     def names(self) -> tuple[str, ...]:

@@ -97,7 +97,7 @@ class CheckedController:
     >>> try:
     ...     checked(SimpleNamespace(step=3, time=0.003))
     ... except ControllerFailed as exc:
-    ...     print(str(exc)[:46])
+    ...     print(str(exc)[:47])
     mine answered 'left' (str) at t = 0.003 s (step
     """
 

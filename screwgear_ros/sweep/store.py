@@ -74,7 +74,7 @@ def _difference(old: Any, new: Any, where: str = '') -> str | None:
 
 
 def _text_difference(what: str, old: str, new: str) -> str:
-    """Where two texts (a controller module, a scenario) first differ: the line, and
+    r"""Where two texts (a controller module, a scenario) first differ: the line, and
     what it says now and said before (each cut to 70 characters).
 
     Examples
