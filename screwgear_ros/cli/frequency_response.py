@@ -145,6 +145,8 @@ def main(argv: list[str] | None = None) -> int:
         print(line)
     for line in format_modes(model):
         print(line)
+    for note in model.notes:
+        print(f'linear plant: {note}')
     for note in result.notes:
         print(f'warning: {note}')
     worst = float(np.min(result.coherence))

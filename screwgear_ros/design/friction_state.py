@@ -99,9 +99,9 @@ def linearize_with_friction(params: TableParams, torque: float = 0.0, load: floa
                 'bearing friction: none declared')
     if ignore:
         return (linearize(without_friction(params), torque, load, direction, mesh),
-                FrictionState.IGNORED, 'bearing friction: ignored on request (--friction '
-                'ignore): the model of this table with every bearing frictionless; the real '
-                'one sticks at rest and breaks away at its breakaway torque')
+                FrictionState.IGNORED, 'bearing friction: left out on request: the model of '
+                'this table with every bearing frictionless; the real one sticks at rest and '
+                'breaks away at its breakaway torque')
     breakaway = (f'table_static_torque {params.table_static_torque:g} N·m, '
                  f'pinion_static_torque {params.pinion_static_torque:g} N·m')
     resisting = sliding_load(params)

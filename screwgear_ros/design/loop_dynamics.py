@@ -183,5 +183,21 @@ def with_dynamics(model: LinearModel, params: TableParams, settings: SimSettings
     return replace(model, a=a, b=b, c=c, states=states, sensors=used, notes=tuple(notes))
 
 
-__all__ = ['JointSensorModel', 'SensorModel', 'declares_dynamics', 'sensor_model',
-           'with_dynamics']
+def loop_plant(params: TableParams, settings: SimSettings, torque: float, load: float,
+               direction: int, mesh: str, dynamics: bool = True) -> LinearModel:
+    """The linear plant a loop measurement compares with: the mechanics at the point,
+    its bearing friction sliding in rotation or left out at rest
+    (:mod:`.friction_state`: stuck bearings have no linear model), and with ``dynamics``
+    the drive lag and sensors the parameters declare; each choice in ``notes``."""
+    from .friction_state import FrictionUndefined, linearize_with_friction
+    try:
+        model, _, friction = linearize_with_friction(params, torque, load, direction, mesh)
+    except FrictionUndefined:
+        model, _, friction = linearize_with_friction(params, torque, load, direction, mesh,
+                                                     ignore=True)
+    model = replace(model, notes=(*model.notes, friction))
+    return with_dynamics(model, params, settings) if dynamics else model
+
+
+__all__ = ['JointSensorModel', 'SensorModel', 'declares_dynamics', 'loop_plant',
+           'sensor_model', 'with_dynamics']
