@@ -72,4 +72,3 @@ def test_bad_settings_are_refused():
     env.reset(seed=0)
     with pytest.raises(InvalidAction):
         env.step(np.array([math.nan]))
-
