@@ -98,10 +98,11 @@ def linearize_with_friction(params: TableParams, torque: float = 0.0, load: floa
         return (linearize(params, torque, load, direction, mesh), FrictionState.NONE,
                 'bearing friction: none declared')
     if ignore:
+        note = ('bearing friction: left out on request: the model of this table with every '
+                'bearing frictionless; the real one sticks at rest and breaks away at its '
+                'breakaway torque')
         return (linearize(without_friction(params), torque, load, direction, mesh),
-                FrictionState.IGNORED, 'bearing friction: left out on request: the model of '
-                'this table with every bearing frictionless; the real one sticks at rest and '
-                'breaks away at its breakaway torque')
+                FrictionState.IGNORED, note)
     breakaway = (f'table_static_torque {params.table_static_torque:g} N·m, '
                  f'pinion_static_torque {params.pinion_static_torque:g} N·m')
     resisting = sliding_load(params)
@@ -135,6 +136,13 @@ def linearize_with_friction(params: TableParams, torque: float = 0.0, load: floa
     return replace(model, point=point), FrictionState.SLIDING, note
 
 
-__all__ = ['STRIBECK_CLEAR', 'SPEED_STEP', 'FrictionState', 'FrictionUndefined',
-           'has_friction', 'linearize_with_friction', 'sliding_load',
-           'without_friction']
+__all__ = [
+    'SPEED_STEP',
+    'STRIBECK_CLEAR',
+    'FrictionState',
+    'FrictionUndefined',
+    'has_friction',
+    'linearize_with_friction',
+    'sliding_load',
+    'without_friction',
+]

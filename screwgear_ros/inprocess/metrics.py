@@ -108,6 +108,10 @@ class SettlingBand:
         return f'band ±{self.value:.6g} {self.unit.value}'
 
 
+#: The default settling band: ±SETTLING_BAND of the step.
+DEFAULT_BAND = SettlingBand()
+
+
 @dataclass(frozen=True)
 class UserMetric:
     """A metric of the user's: ``name`` (a column of :meth:`Metrics.as_dict`) and
@@ -168,7 +172,7 @@ class Metrics:
     peak_mesh_force: tuple[float, float]  # N: max |F1|, max |F3|
     fault: str | None
     rejected: int                         # commands the session refused
-    band: SettlingBand = SettlingBand()   # the steps' settling band
+    band: SettlingBand = DEFAULT_BAND     # the steps' settling band
     user: tuple[tuple[str, float], ...] = ()   # user metrics, by name
 
     @property
@@ -229,7 +233,7 @@ class Metrics:
 def run_metrics(run: Any, setpoint: Callable[[float], float] | None = None,
                 joint: int | str = 'table',
                 jumps: list[tuple[float, float, float]] | None = None,
-                band: SettlingBand = SettlingBand(),
+                band: SettlingBand = DEFAULT_BAND,
                 user: Sequence[UserMetric] = ()) -> Metrics:
     """The metrics of a run: transmission error, tracking, steps, reversals, mesh forces.
 
@@ -377,15 +381,16 @@ def format_metrics(m: Metrics, details: int = 5) -> str:
 
 
 __all__ = [
+    'DEFAULT_BAND',
     'METRIC_DOCS',
     'SETTLING_BAND',
     'BandUnit',
     'MetricFailed',
-    'SettlingBand',
-    'UserMetric',
     'Metrics',
     'Reversal',
+    'SettlingBand',
     'StepResponse',
+    'UserMetric',
     'format_metrics',
     'run_metrics',
 ]

@@ -22,19 +22,32 @@ import yaml
 
 from ..errors import ScrewgearError
 from ..interface import Input
-from ..params.declarations import declared
-from ..params.table import ParameterError, SimSettings, TableParams
 from ..params.yaml_reader import YamlReader
 from ..sim.commands import INPUT_TOPICS, InputRejected, apply_command
 from ..sim.control import TABLE_JOINT, DemoController
 from ..sim.events import Command, Event, ParameterChange, Reset
-from ..sim.parameter_set import default_values, split_parameters
+from ..sim.parameter_set import split_parameters
 from ..sim.plant import DriveInput
 from ..sim.schedule import Schedule
-from .metrics import METRIC_DOCS, BandUnit, Metrics, SettlingBand, UserMetric, run_metrics
+from .metrics import (
+    DEFAULT_BAND,
+    Metrics,
+    SettlingBand,
+    UserMetric,
+    run_metrics,
+)
 from .scenario_controller import ControllerSpec, read_controller, resolve_callable
+from .scenario_parts import (
+    READ_ONLY,
+    check_changeable,
+    read_band,
+    read_base,
+    read_command,
+    read_parameters,
+    read_user_metrics,
+)
 from .setpoint_profile import PROFILES, SetpointProfile, read_setpoint
-from .simulation import Controller, ParameterFileError, Run, Simulation, file_values
+from .simulation import Controller, Run, Simulation
 
 #: The top-level keys of a scenario.
 KEYS = ('parameters_file', 'parameters', 'duration', 'actions', 'controller', 'setpoint',
@@ -42,10 +55,6 @@ KEYS = ('parameters_file', 'parameters', 'duration', 'actions', 'controller', 's
 #: What an action can do besides its ``time``: a command on an input topic, a parameter
 #: change, a reset.
 ACTIONS = (*INPUT_TOPICS, 'parameters', 'reset')
-#: Parameters the node refuses to change while it runs (read-only): an action may not
-#: change them, whatever the value.
-READ_ONLY = frozenset(p.name for cls in (TableParams, SimSettings) for p in declared(cls)
-                      if p.declaration.read_only)
 
 
 class ScenarioError(ScrewgearError, ValueError):
@@ -122,7 +131,7 @@ class Scenario:
     controller: ControllerSpec | None = None
     setpoint: SetpointProfile | None = None
     parameters_file: str | None = None
-    band: SettlingBand = SettlingBand()
+    band: SettlingBand = DEFAULT_BAND
     user_metrics: tuple[tuple[str, str, str], ...] = ()
 
     def metrics(self, run: Run) -> Metrics:
@@ -310,9 +319,9 @@ def load_scenario(path: str | os.PathLike[str],
         raise reader.error(reader.root, 'a scenario needs a duration (s of simulation time)')
     duration = reader.number(top['duration'][1], 'duration', low=0.0, strict=True)
 
-    values, parameters_file = _base(reader, top, path, params)
+    values, parameters_file = read_base(reader, top, path, params)
     if 'parameters' in top:
-        values = _parameters(reader, top['parameters'][1], values, 'parameters')
+        values = read_parameters(reader, top['parameters'][1], values, 'parameters')
     start = values
     actions: list[Action] = []
     if 'actions' in top:
@@ -341,8 +350,8 @@ def load_scenario(path: str | os.PathLike[str],
             line = item.start_mark.line + 1
             if kind == 'parameters':
                 before = values
-                _changeable(reader, value_node, f'parameters at {t:g} s')
-                values = _parameters(reader, value_node, values, f'parameters at {t:g} s')
+                check_changeable(reader, value_node, f'parameters at {t:g} s')
+                values = read_parameters(reader, value_node, values, f'parameters at {t:g} s')
                 change = {k: v for k, v in values.items() if before.get(k) != v}
                 actions.append(Action(t, kind, change, line))
             elif kind == 'reset':
@@ -350,10 +359,10 @@ def load_scenario(path: str | os.PathLike[str],
                     raise reader.error(value_node, 'reset takes the value true')
                 actions.append(Action(t, kind, True, line))
             else:
-                command = _command(reader, kind, value_node)
-                params, settings = split_parameters(values)
+                command = read_command(reader, kind, value_node)
+                table, settings = split_parameters(values)
                 try:
-                    apply_command(DriveInput(), kind, command, params, settings.joint_names)
+                    apply_command(DriveInput(), kind, command, table, settings.joint_names)
                 except InputRejected as exc:
                     raise reader.error(value_node, f'the node would refuse this command: '
                                        f'{exc}') from None
@@ -366,133 +375,11 @@ def load_scenario(path: str | os.PathLike[str],
     if setpoint is not None and setpoint.joint not in values['joint_names']:
         raise reader.error(top[Input.SETPOINT][1], f'setpoint joint {setpoint.joint!r} is not one '
                            f'of the joint_states names {values["joint_names"]}')
-    band = _band(reader, top['settling_band'][1], start, setpoint) \
-        if 'settling_band' in top else SettlingBand()
-    user = _user_metrics(reader, top['metrics'][1], path) if 'metrics' in top else ()
+    band = read_band(reader, top['settling_band'][1], start, setpoint) \
+        if 'settling_band' in top else DEFAULT_BAND
+    user = read_user_metrics(reader, top['metrics'][1], path) if 'metrics' in top else ()
     return Scenario(str(path), tuple(start.items()), duration, tuple(actions), controller,
                     setpoint, parameters_file, band, user)
-
-
-def _band(reader: YamlReader, node: yaml.Node, values: dict[str, Any],
-          setpoint: SetpointProfile | None) -> SettlingBand:
-    """``settling_band: {fraction | rad | counts: value}``; counts need the setpoint's
-    joint to have an encoder."""
-    entries = reader.mapping(node, 'settling_band')
-    units = tuple(u.value for u in BandUnit)
-    if len(entries) != 1 or next(iter(entries)) not in units:
-        raise reader.error(node, f'settling_band is one of {{fraction: 0.02}} (of the step), '
-                           f'{{rad: 1.0e-6}} or {{counts: 2}} (of the joint\'s encoder)')
-    (unit, (_, value_node)), = entries.items()
-    value = reader.number(value_node, f'settling_band {unit}', low=0.0, strict=True)
-    if unit == BandUnit.COUNTS:
-        from ..params.sensors import JOINTS
-        joint = setpoint.joint if setpoint is not None else values['joint_names'][1]
-        name = JOINTS[list(values['joint_names']).index(joint)]
-        if not values.get(f'encoder_counts_{name}'):
-            raise reader.error(value_node, f'settling_band in counts needs an encoder on '
-                               f'{joint}: encoder_counts_{name} is 0 (an ideal sensor); give '
-                               'the band in rad, or set the encoder')
-    return SettlingBand(value, BandUnit(unit))
-
-
-def _user_metrics(reader: YamlReader, node: yaml.Node,
-                  path: Path) -> tuple[tuple[str, str, str], ...]:
-    """``metrics: {name: module:callable}``: each loadable, its name new."""
-    directory = str(path.resolve().parent)
-    out = []
-    for name, (key, value_node) in reader.mapping(node, 'metrics').items():
-        if not isinstance(name, str) or not name.isidentifier() or name in METRIC_DOCS:
-            raise reader.error(key, f'metric name {name!r}: a Python identifier that is not '
-                               f'a built-in metric ({", ".join(METRIC_DOCS)})')
-        use = reader.value(value_node)
-        if not isinstance(use, str) or use.count(':') != 1 or not all(use.split(':')):
-            raise reader.error(value_node, f'metric {name}: module:callable, a function '
-                               f'(run, setpoint) -> float, not {use!r}')
-        try:
-            resolve_callable(use, directory)
-        except Exception as exc:  # noqa: BLE001 - any import failure is the file's problem
-            raise reader.error(value_node, f'metric {name}: {use!r} cannot be loaded: '
-                               f'{type(exc).__name__}: {exc}') from None
-        out.append((name, use, directory))
-    return tuple(out)
-
-
-def _base(reader: YamlReader, top: dict[str, Any], path: Path,
-          params: str | os.PathLike[str] | Mapping[str, Any] | None
-          ) -> tuple[dict[str, Any], str | None]:
-    """The values the scenario's own ``parameters`` go on top of: the node's defaults,
-    then ``params`` (given by the caller) or else the scenario's ``parameters_file``
-    (relative to the scenario), each validated as the node validates a file."""
-    values = default_values()
-    node = top['parameters_file'][1] if 'parameters_file' in top else reader.root
-    if isinstance(params, Mapping):
-        return {**values, **params}, '(values given by the caller)'
-    if params is not None:
-        file, what = Path(params), f'--params {params}'
-    elif 'parameters_file' in top:
-        name = reader.value(node)
-        if not isinstance(name, str) or not name:
-            raise reader.error(node, 'parameters_file names a table_sim parameter file '
-                               '(a path relative to the scenario)')
-        file, what = path.resolve().parent / name, f'parameters_file {name}'
-    else:
-        return values, None
-    try:
-        merged = {**values, **file_values(file)}
-        split_parameters(merged)
-    except ParameterFileError as exc:
-        raise reader.error(node, f'{what}: {exc}') from None
-    except ParameterError as exc:
-        raise reader.error(node, f'{what}: {file}: the node refuses it: {exc}') from None
-    return merged, str(file)
-
-
-def _parameters(reader: YamlReader, node: yaml.Node, values: dict[str, Any],
-                what: str) -> dict[str, Any]:
-    """``values`` with the parameters of a mapping node, validated as the node validates
-    them; the error names the line of the parameter it is about."""
-    entries = reader.mapping(node, what)
-    merged = {**values, **{name: reader.value(v) for name, (_, v) in entries.items()}}
-    try:
-        split_parameters(merged)
-    except ParameterError as exc:
-        key = entries.get(exc.name)
-        raise reader.error(key[0] if key is not None else node, f'{what}: {exc}') from None
-    return merged
-
-
-def _changeable(reader: YamlReader, node: yaml.Node, what: str) -> None:
-    """Refuse a read-only parameter in an action's parameters, at its line: the node
-    refuses to change it while it runs."""
-    for name, (key, _) in reader.mapping(node, what).items():
-        if name in READ_ONLY:
-            raise reader.error(key, f'{what}: {name} is read-only: the node refuses to '
-                               'change it while it runs; set it under the scenario\'s '
-                               'parameters')
-
-
-def _command(reader: YamlReader, topic: str, node: yaml.Node) -> Any:
-    """The value of a command action, as its message would carry it."""
-    value = reader.value(node)
-    if topic == Input.CMD_EFFORT:
-        if not isinstance(value, list):
-            raise reader.error(node, 'cmd_effort takes a list of one signed torque, e.g. '
-                               '[-350.0]')
-        return value
-    if topic == Input.JOINT_COMMANDS:
-        from ..sim.commands import JointCommand
-        if not isinstance(value, dict) or not set(value) <= {'name', 'position', 'velocity',
-                                                             'effort'}:
-            raise reader.error(node, 'joint_commands takes {name: [...], effort: [...]}')
-        return JointCommand(tuple(value.get('name', ())), tuple(value.get('position', ())),
-                            tuple(value.get('velocity', ())), tuple(value.get('effort', ())))
-    if topic == Input.CMD_DIRECTION:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise reader.error(node, f'cmd_direction takes +1 or -1, not {value!r}')
-        return value
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise reader.error(node, f'{topic} takes a number, not {value!r}')
-    return float(value)
 
 
 def __getattr__(name: str) -> Any:

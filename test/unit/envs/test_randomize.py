@@ -7,7 +7,7 @@ import pytest
 
 pytest.importorskip('gymnasium')
 
-from screwgear_ros.envs.table_env import ScrewgearTableEnv  # noqa: E402
+from screwgear_ros.envs.table_env import ScrewgearTableEnv
 
 
 @pytest.mark.parametrize('seed', [0, 1, 2])

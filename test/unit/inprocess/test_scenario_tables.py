@@ -81,7 +81,7 @@ def test_a_band_in_counts_is_that_many_counts_of_the_joints_encoder():
         direction = np.ones(len(t), dtype=np.int8)
         fault = None
 
-        class settings:                                        # noqa: N801
+        class settings:
             joint_names = ('p1', 'table', 'p3')
             steps_per_publish, dt = 1, 1e-3
             encoder_counts_table = counts

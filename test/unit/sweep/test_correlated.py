@@ -97,7 +97,7 @@ def test_a_shared_factor_moves_its_parameters_together_and_a_ratio_derives_one(t
         ratio = values['table_static_torque'] / values['table_coulomb_torque']
         assert ratio == pytest.approx(swept['table_static_torque_ratio'], rel=1e-15)
         assert 1.2 <= ratio <= 1.4
-    assert 0.5 <= min(factors) and max(factors) <= 1.5 and np.std(factors) > 0.2
+    assert min(factors) >= 0.5 and max(factors) <= 1.5 and np.std(factors) > 0.2
 
 
 @pytest.mark.parametrize('entry, words', [
