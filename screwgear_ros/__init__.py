@@ -10,7 +10,7 @@ simulation loop in-process, without ROS; its names are imported on first use, so
 from importlib import import_module
 from typing import Any
 
-__version__ = '0.1.0'
+__version__ = '0.2.0'
 
 #: Public names and the module that defines each.
 _API = {
