@@ -12,7 +12,6 @@ is what ``replay_run --script`` plays into a live node over DDS (actions only).
 from __future__ import annotations
 
 import os
-import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -380,16 +379,6 @@ def load_scenario(path: str | os.PathLike[str],
     user = read_user_metrics(reader, top['metrics'][1], path) if 'metrics' in top else ()
     return Scenario(str(path), tuple(start.items()), duration, tuple(actions), controller,
                     setpoint, parameters_file, band, user)
-
-
-def __getattr__(name: str) -> Any:
-    """``Setpoint``, the old name of :class:`SetpointProfile`, for one release
-    (:class:`screwgear_ros.sim.events.Setpoint` is the event that records one)."""
-    if name == 'Setpoint':
-        warnings.warn('screwgear_ros.inprocess.scenario.Setpoint is now SetpointProfile',
-                      DeprecationWarning, stacklevel=2)
-        return SetpointProfile
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 def schedule_from_scenario(path: str | Path) -> Schedule:
