@@ -157,3 +157,27 @@ def test_the_measured_loop_agrees_with_the_plant_that_holds_the_declared_dynamic
     ratio = held_response(bare, f, h)[angle, 0] / held_response(full, f, h)[angle, 0]
     optimistic = margins(f, loop.response.linear[0] * ratio)
     assert optimistic.phase - loop.margins.phase > 1.5
+
+
+@pytest.mark.parametrize('body, words', [
+    ("def c(observation):\n    return 'left'\n", ["answered 'left' (str)", 'real number']),
+    ('def c(observation):\n    return [1, 2][5]\n', ['raised IndexError', 'ctl_fr.py, line 2']),
+    ('def c(setpoint):\n    raise KeyError("gain")\n', ['its factory raised KeyError',
+                                                          'returns the controller']),
+    ('def c(setpoint):\n    return 5\n', ['the factory returned 5 (int)', 'real number']),
+])
+def test_frequency_response_names_a_controller_that_fails(tmp_path, monkeypatch, capsys,
+                                                          body, words):
+    """A controller of frequency_response that raises or answers text (issue #43): exit
+    2, a message naming --controller and the rule, never the bare internal text."""
+    import sys
+
+    from screwgear_ros.cli.frequency_response import main
+    (tmp_path / 'ctl_fr.py').write_text(body, encoding='utf-8')
+    monkeypatch.chdir(tmp_path)
+    sys.modules.pop('ctl_fr', None)
+    assert main(['--controller', 'ctl_fr:c', '--points', '1', '--from', '5', '--to', '5',
+                 '-o', str(tmp_path / 'out')]) == 2
+    err = capsys.readouterr().err
+    assert '--controller ctl_fr:c' in err and all(w in err for w in words), err
+    assert 'Traceback' not in err
