@@ -164,7 +164,6 @@ def test_the_measured_loop_agrees_with_the_plant_that_holds_the_declared_dynamic
     ('def c(observation):\n    return [1, 2][5]\n', ['raised IndexError', 'ctl_fr.py, line 2']),
     ('def c(setpoint):\n    raise KeyError("gain")\n', ['its factory raised KeyError',
                                                           'returns the controller']),
-    ('def c(setpoint):\n    return 5\n', ['the factory returned 5 (int)', 'real number']),
 ])
 def test_frequency_response_names_a_controller_that_fails(tmp_path, monkeypatch, capsys,
                                                           body, words):
