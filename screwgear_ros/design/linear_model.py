@@ -194,7 +194,21 @@ class LinearModel:
             'mode_damping_ratio': np.array([m.damping for m in modes]),
             'mode_shape': np.array([m.shape for m in modes]),
             'parameters': np.array(json.dumps(self.params.as_dict())),
+            **self._dynamics_arrays(),
         }
+
+    def _dynamics_arrays(self) -> dict[str, np.ndarray]:
+        """The sensors (per joint: pinion 1, table, pinion 3) and the notes on the
+        dynamics the model holds, when it holds any (:mod:`.loop_dynamics`)."""
+        out: dict[str, np.ndarray] = {}
+        if self.notes:
+            out['dynamics'] = np.array(self.notes)
+        if self.sensors is not None:
+            joints = self.sensors.joints
+            out['sensor_delay_ticks'] = np.array([j.delay for j in joints])
+            out['sensor_speed_cutoff_hz'] = np.array([j.cutoff for j in joints])
+            out['sensor_speed_differenced'] = np.array([j.differenced for j in joints])
+        return out
 
     def save(self, path: str | Path) -> None:
         """The model as .npz (default), or as a MATLAB .mat file when ``path`` ends in .mat."""

@@ -180,3 +180,22 @@ def test_frequency_response_names_a_controller_that_fails(tmp_path, monkeypatch,
     err = capsys.readouterr().err
     assert '--controller ctl_fr:c' in err and all(w in err for w in words), err
     assert 'Traceback' not in err
+
+
+def test_the_saved_model_carries_its_dynamics(tmp_path):
+    params, settings, mechanics = _setup()
+    model = with_dynamics(mechanics, params, settings)
+    model.save(tmp_path / 'm.npz')
+    saved = np.load(tmp_path / 'm.npz')
+    assert list(saved['states'])[-1] == 'drive_torque_delivered'
+    assert list(saved['state_units'])[-1] == 'N·m'
+    assert list(saved['sensor_delay_ticks']) == [2, 1, 0]
+    assert list(saved['sensor_speed_differenced']) == [False, True, False]
+    assert any('drive lag' in note for note in saved['dynamics'])
+    assert 'dynamics' not in np.load(_save(mechanics, tmp_path))
+
+
+def _save(model, directory):
+    path = directory / 'bare.npz'
+    model.save(path)
+    return path
