@@ -25,7 +25,7 @@ from ..bag.errors import InvalidBag
 from ..bag.reader import RecordedRun
 from ..sim.events import Event, ParameterChange, describe
 from ..sim.schedule import Schedule, ros_values
-from ..sim.session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
+from ..sim.session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, AdvanceMode, Session, Tick, row_of
 
 _E = TypeVar('_E', bound=Event)
 
@@ -105,7 +105,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
         # command_timeout came due), which check_run reads.
         full.clear()
         done = session.advance((int(takes[k]) if k < len(events) else n) - i,
-                               rows=rows[i:], monitor=stop)
+                               mode=AdvanceMode.ROWS, rows=rows[i:], monitor=stop)
         tick = full[0] if full else None
         if tick is not None:
             if tick.rejected:
