@@ -5,7 +5,7 @@
 Prints, measured in this run, interleaved ``--repeat`` times (median, and the range):
 
 * **physics alone**: the ticks of the in-process loop below integrated with no
-  controller, in one compiled call per chunk (``Session.advance`` with ``rows``): the anchor;
+  controller, in one compiled call per chunk (``Session.advance`` in ``AdvanceMode.ROWS``): the anchor;
 * **in-process**: ``Simulation.run`` closed with a Python PD law on the table angle
   (each tick's answer applied at the next tick's first step), ticks/s and its ratio to
   the physics alone;

@@ -44,7 +44,7 @@ class ReplayedOutputs:
     and the ticks that went through :meth:`Session.tick` (every tick that applied an
     event, or in which command_timeout came due; ``ticks[j]`` made sample
     ``tick_samples[j]``). The ticks in between took no event: each ran under the input
-    and parameters of the tick before it (:meth:`Session.advance` with ``rows``)."""
+    and parameters of the tick before it (:meth:`Session.advance` in ``AdvanceMode.ROWS``)."""
 
     joint_states: np.ndarray        # (n, 9) like RecordedRun.true_joint_states.values
     transmission_error: np.ndarray  # (m,) m
@@ -59,7 +59,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
 
     Every event recorded (in file order) before the ``joint_states`` sample i is
     submitted before the tick that makes it; the ticks between events go through
-    :meth:`Session.advance` with ``rows``. Raises :class:`BagError` where the recording disagrees
+    :meth:`Session.advance` in ``AdvanceMode.ROWS``. Raises :class:`BagError` where the recording disagrees
     with the session (an event or a sample off the node's tick grid, a recorded command
     the node must have refused).
     """

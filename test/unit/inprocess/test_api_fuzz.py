@@ -155,7 +155,7 @@ def test_run_refuses_hostile_events_and_setpoints_by_name(tmp_path: Path) -> Non
     rng = random.Random(seed)
     sim = Simulation.from_values(publish_rate=500.0)
     started = time.monotonic()
-    for case in range(60):
+    for case in range(150):
         events = [hostile_event(rng) for _ in range(rng.randint(0, 4))]
         answer = hostile_number(rng) if rng.random() < 0.5 else 0.1
         target = None if rng.random() < 0.3 else (lambda _t, a=answer: a)
