@@ -32,7 +32,6 @@ MOVED: dict[str, str] = {
     'jit': 'physics.jit',
     'layout': 'view.layout',
     'metrics': 'inprocess.metrics',
-    'model': 'physics.model',
     'normalized': 'paper.normalized',
     'pacing': 'sim.pacing',
     'parameter_docs': 'params.docs',
