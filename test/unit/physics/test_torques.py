@@ -137,13 +137,14 @@ def test_the_operating_point_and_the_linearization_follow_every_parameter(name):
         x0[3], rel=1e-12), name           # the driving pinion's speed (direction +1)
     # A against central differences of the right-hand side
     steps = np.array([1e-8] * 3 + [1e-4] * 3)
+    def difference(j: int, h: float) -> np.ndarray:
+        e = np.zeros(N_MECHANICAL)
+        e[j] = h
+        return (_accelerations(x0 + e, model, point)
+                - _accelerations(x0 - e, model, point)) / (2.0 * h)
+
     for j in range(N_MECHANICAL):
-        def difference(h: float) -> np.ndarray:
-            e = np.zeros(N_MECHANICAL)
-            e[j] = h
-            return (_accelerations(x0 + e, model, point)
-                    - _accelerations(x0 - e, model, point)) / (2.0 * h)
-        fine, coarse = difference(steps[j]), difference(2.0 * steps[j])
+        fine, coarse = difference(j, steps[j]), difference(j, 2.0 * steps[j])
         bound = 4.0 * (np.abs(fine - coarse) + 4.0 * eps * size / steps[j])
         miss = np.abs(linear.a[3:, j] - fine)
         assert np.all(miss <= bound), (
