@@ -4,11 +4,13 @@
 The operating point is the preload equilibrium (no torque, no load) or the steady motion
 under a constant drive torque, direction and table load: the rigid motion at the speed
 where the torque the drive delivers (its torque–speed line, docs/model_notes.md §10)
-balances the load and the table damping
-(:func:`~screwgear_ros.physics.quantities.terminal_speed`), at rest when nothing turns the table.
+balances every other term on the rigid motion (the load, the viscous losses, sliding
+bearing friction, …: :func:`~screwgear_ros.physics.steady.steady_table_speed`, solved on
+the torque terms), at rest when nothing turns the table or friction holds it.
 In steady rotation the mesh phase advances, so the model takes the mesh as its time
-average: stiffness k_eff = k_m·(1 − α·ΔT) + k_p (the fluctuation k_a averages out), no static transmission error (a periodic
-excitation of the mesh, not a function of the deviations), lever r. Each mesh is on the
+average: stiffness k_eff = k_m·(1 − α·ΔT) + k_p (the fluctuation k_a averages out, as
+do the drive torque fluctuation and the cogging ripple), no static transmission error (a
+periodic excitation of the mesh, not a function of the deviations), lever r. Each mesh is on the
 branch of the contact law its mean force puts it on, and the drive on the piece of its line
 that delivers the torque at that speed.
 
