@@ -30,7 +30,7 @@ from ..physics.sensors import JOINTS as SENSOR_JOINTS
 from ..physics.sensors import SensorChain, SensorConfig
 from ..sim.commands import InputRejected, carries_no_command, command_value
 from ..sim.events import Command
-from ..sim.session import ROW, Session, Tick
+from ..sim.session import ROW, AdvanceMode, Session, Tick
 from .errors import FitParameterError, RecordingError
 from .samples import Recording
 
@@ -126,7 +126,8 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
             return True
         return session.plant.fault is not None
 
-    session.advance(n - 1, events=events, rows=rows[1:], monitor=monitor)
+    session.advance(n - 1, events=events, mode=AdvanceMode.ROWS, rows=rows[1:],
+                    monitor=monitor)
     if refused:
         i, error = refused[0]
         raise RecordingError(f'{recording.path}: tick {i}: the node refuses a recorded '
