@@ -1,6 +1,7 @@
 """Read a recorded run back: inputs as applied, parameter changes, resets, outputs.
 
-The MCAP file is read record by record in file order (:func:`scan`, with ``mcap``'s
+Any storage rosbag2 writes is read (:mod:`screwgear_ros.bag.storage`); the fast path,
+one MCAP file, is read record by record in file order (:func:`scan`, with ``mcap``'s
 record classes for schemas, channels and chunks), so messages with equal log times keep
 the order the node wrote them in (which is the order it applied them), and a bag whose
 writer was killed reads up to its last complete chunk. Only the data section is read:
@@ -11,7 +12,8 @@ ROS 2 Jazzy CDR codec of ``rosbags``, except the ~4 per tick of fixed layout
 (:mod:`screwgear_ros.bag.bulk_decode`). Topics the check does not read are skipped
 undecoded (:mod:`screwgear_ros.bag.mcap_scan`). Topics are matched on their relative
 name, so a namespaced table reads the same. Log times are simulation times:
-step = round(log_time / dt).
+step = round(log_time / dt); a bag whose log times are a recorder's arrival times
+(``ros2 bag record``) gets them from its stamps first (:mod:`screwgear_ros.bag.retime`).
 """
 
 from __future__ import annotations
@@ -21,14 +23,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from ..interface import CONTRACT
 from ..sim.commands import INPUT_TOPICS, command_value
 from ..sim.events import Command, Event, ParameterChange, Reset
 from ..sim.run_file import RunParameters, RunParametersError, load
 from .bulk_decode import _bulk, _Decoder, _Message, _Pieces
-from .errors import BagError, InvalidBag, NoParameters, NotABag, TruncatedBag
+from .errors import BagError, InvalidBag, NoParameters, TruncatedBag
 from .mcap_scan import (
     BULK_TOPICS,
     OUTPUT_TOPICS,
@@ -39,6 +40,8 @@ from .mcap_scan import (
     _wanted,
     scan,
 )
+from .retime import arrival_times, retime
+from .storage import locate, scan_bag
 
 
 @dataclass
@@ -64,7 +67,7 @@ class RecordedRun:
     """
 
     path: Path
-    mcap_path: Path
+    mcap_path: Path                         # its (first) storage file
     parameters: RunParameters               # the first run_parameters: start of the run
     events: list[tuple[float, Event]]       # (file position, event), in file order
     #: The exact joint states: values θ(3) rad, ω(3) rad/s, effort(3) N·m. The bag's
@@ -91,6 +94,9 @@ class RecordedRun:
     #: sensors measured of :attr:`true_joint_states` (None: joint_states are the exact
     #: ones).
     measured: Signal | None = None
+    #: How the messages' steps were found when the log times are not simulation times
+    #: (:mod:`screwgear_ros.bag.retime`); None: from the log times, as recorded.
+    timing: str | None = None
 
     @property
     def joint_states(self) -> Signal:
@@ -132,46 +138,6 @@ class RecordedRun:
         return max(ends, default=self.parameters.start_step)
 
 
-def find_mcap(path: str | Path) -> tuple[Path, Path]:
-    """(bag directory, its .mcap file) for a rosbag2 directory or an .mcap file path."""
-    path = Path(path)
-    if not path.exists():
-        raise NotABag(f'{path}: no such file or directory')
-    if path.is_file():
-        if path.suffix != '.mcap':
-            raise NotABag(f'{path} is neither a rosbag2 directory nor an '
-                           '.mcap file')
-        return path.parent, path
-    meta = path / 'metadata.yaml'
-    candidates: list[Path] = []
-    if meta.is_file():
-        try:
-            document = yaml.safe_load(meta.read_bytes().decode('utf-8'))
-            info = document.get('rosbag2_bagfile_information') if isinstance(document,
-                                                                              dict) else None
-            if not isinstance(info, dict) or not isinstance(
-                    info.get('relative_file_paths', []), list):
-                raise TypeError('rosbag2_bagfile_information is not a mapping with a list of '
-                                'relative_file_paths')
-            if info.get('storage_identifier') != 'mcap':
-                raise NotABag(f'{path}: storage {info.get("storage_identifier")!r}'
-                               ' is not mcap')
-            candidates = [path / Path(p).name for p in info.get('relative_file_paths', [])]
-        except (yaml.YAMLError, KeyError, TypeError, AttributeError, UnicodeDecodeError,
-                OSError) as exc:
-            raise NotABag(f'{meta}: not a rosbag2 metadata file ({exc})') from None
-    else:
-        candidates = sorted(path.glob('*.mcap'))
-    candidates = [c for c in candidates if c.is_file()]
-    if not candidates:
-        raise NotABag(f'{path} is not a rosbag2 directory: no metadata.yaml '
-                       'naming an .mcap file, and no .mcap file in it')
-    if len(candidates) > 1:
-        raise InvalidBag(f'{path} holds {len(candidates)} .mcap files; a table_sim '
-                       'run is one file')
-    return path, candidates[0]
-
-
 class _Collector:
     """Accumulates the samples of one single-valued output topic (active_path)."""
 
@@ -193,9 +159,15 @@ class _Collector:
 
 def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
     """Read a table_sim recording. Raises :class:`BagError` when it cannot be used."""
-    bag_dir, mcap_path = find_mcap(path)
+    layout = locate(path)
     status: dict[str, Any] = {'truncated': None, 'summary': None}
-    found = scan(mcap_path, status)
+    found = scan_bag(layout, status)
+    timing = None
+    if arrival_times(found):
+        retime(found, path)
+        timing = ('its log times are arrival times (not table_sim\'s recorder): the '
+                  'outputs are taken at their stamps, the n-th lockstep answer at the n-th '
+                  'tick, anything else at the last output before it')
     topics, names = _topics(path, found)
     one_by_one, bulk = _routes(found)
     reader = _Decoder(path, names)
@@ -208,11 +180,11 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
     exact, measured = signals['joint_states'], None
     if len(signals['true_joint_states']):
         exact, measured = signals['true_joint_states'], exact
-    return RecordedRun(bag_dir, mcap_path, first, events, exact,
+    return RecordedRun(layout.path, layout.files[0], first, events, exact,
                        signals['transmission_error'], signals['mesh_state'],
                        active_path.signal(), signals['clock'], topics, found.count,
                        status['truncated'], status['summary'], names, stamp_mismatches,
-                       setpoint.signal(), measured)
+                       setpoint.signal(), measured, timing)
 
 
 def _topics(path: str | Path, found: Any) -> tuple[dict[str, str], dict[str, str]]:
@@ -354,7 +326,6 @@ __all__ = [
     'RecordedRun',
     'Reset',
     'Signal',
-    'find_mcap',
     'read_run',
     'scan',
 ]
