@@ -22,6 +22,7 @@ import contextlib
 import io
 import shutil
 import signal
+import time
 from collections import Counter
 from pathlib import Path
 
@@ -106,29 +107,29 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     sim = ctl = rec = None
     try:
         with Peer('test_rosbag2_record') as peer:
-            # The outputs exist on the graph before the node does (the peer subscribes
-            # them), so the recorder subscribes them at once and the node's publishers
-            # match it while the node loads its kernels: the start's tick is recorded.
+            # As docs/recording.md says: the recorder first, then the controller, the node
+            # last (in lockstep it runs as soon as it starts). The outputs exist on the
+            # graph before the node does (the peer subscribes them), so the recorder
+            # subscribes them at once and the node's publishers match it while the node
+            # loads its kernels: the start's tick is recorded. Not the latched ones: the
+            # recorder takes those when the node offers them, transient local.
             js = peer.subscribe('/joint_states', JointState, transform=stamp_ns)
-            for key, name in topic_names().items():     # not the latched ones: the
-                if name not in INPUTS and key not in LATCHED_OUTPUTS:  # recorder takes
-                    peer.subscribe(name, message_class(BY_KEY[key].type))  # them later,
-            # transient local, with what the node published before
-            rec = rosbag2().start(*COMMAND[2:], '-o', str(rec_bag), workdir=work / 'recorder')
-            graph = peer.node
             early = [name for key, name in topic_names().items()
                      if name not in INPUTS and key not in LATCHED_OUTPUTS]
+            for key, name in topic_names().items():
+                if name in early:
+                    peer.subscribe(name, message_class(BY_KEY[key].type))
+            rec = rosbag2().start(*COMMAND[2:], '-o', str(rec_bag), workdir=work / 'recorder')
+            graph = peer.node
             wait_until(lambda: all(graph.count_subscribers(t) >= 2 for t in early), 60,
-                       'ros2 bag record subscribed')
+                       'ros2 bag record subscribed to the outputs')
+            ctl = start_process('demo_controller', workdir=work / 'ctl')
+            answers = ('/cmd_effort', '/setpoint')
+            wait_until(lambda: all(graph.count_subscribers(t) >= 1 for t in answers), 60,
+                       'ros2 bag record subscribed to the controller\'s topics')
+            time.sleep(1.0)     # and matched its publishers (no graph query shows that)
             sim = start_process('table_sim', params_file=CONFIG,
                                 params={**RUN, 'record': str(node_bag)}, workdir=work / 'sim')
-            js.wait_for(lambda t: True, 120, 'table_sim\'s first joint_states')
-            graph = peer.node
-            # the peer's and the node's subscriptions, and the recorder's
-            wait_until(lambda: all(graph.count_subscribers(t) >= (2 if t in INPUTS else 1)
-                                   for t in TOPICS), 60,
-                       'ros2 bag record subscribed to every topic')
-            ctl = start_process('demo_controller', workdir=work / 'ctl')
             js.wait_for(lambda t: t >= DURATION_NS, 300, f'{DURATION_NS} ns of lockstep run')
         assert_clean_exit(sim, signal.SIGINT)      # the node first: its last tick is the end
         assert_clean_exit(ctl, signal.SIGINT)

@@ -78,8 +78,8 @@ def same_run(a, b) -> None:
         assert np.array_equal(sa.values, sb.values), name
 
 
-@pytest.mark.parametrize(('kind', 'name'), zip(['plain', 'file', 'message', 'split'],
-                                                BAGS[::-1], strict=False))
+@pytest.mark.parametrize(('kind', 'name'), list(zip(['plain', 'file', 'message', 'split'],
+                                                     BAGS[::-1], strict=False)))
 def test_a_sqlite3_bag_reads_as_the_mcap_it_was_written_from(tmp_path, kind, name):
     mode = {'file': CompressionMode.FILE, 'message': CompressionMode.MESSAGE}.get(kind)
     bag = rewrite(DATA / name, tmp_path / f'{name}_{kind}', mode, split=kind == 'split')
