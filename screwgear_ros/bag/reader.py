@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..interface import CONTRACT
+from ..params.table import SimSettings, TableParams
 from ..sim.commands import INPUT_TOPICS, command_value
 from ..sim.events import Command, Event, ParameterChange, Reset
 from ..sim.run_file import RunParameters, RunParametersError, load
@@ -97,6 +98,8 @@ class RecordedRun:
     #: How the messages' steps were found when the log times are not simulation times
     #: (:mod:`screwgear_ros.bag.retime`); None: from the log times, as recorded.
     timing: str | None = None
+    #: where :attr:`parameters` come from (the bag's run_parameters, or a file)
+    parameters_from: str = "the bag's run_parameters"
 
     @property
     def joint_states(self) -> Signal:
@@ -157,8 +160,15 @@ class _Collector:
                       np.asarray(self.values, dtype=np.float64).reshape(-1, 1))
 
 
-def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
-    """Read a table_sim recording. Raises :class:`BagError` when it cannot be used."""
+def read_run(path: str | Path, allow_truncated: bool = False,
+             parameters: tuple[TableParams, SimSettings, str] | None = None) -> RecordedRun:
+    """Read a table_sim recording. Raises :class:`BagError` when it cannot be used.
+
+    ``parameters`` (params, settings, where they come from): for a bag without
+    run_parameters (an older bag, a hardware bag, a recording started after the node
+    did), the parameters it ran with; the run is taken to start at its first
+    joint_states from the preload equilibrium. A bag with run_parameters refuses them.
+    """
     layout = locate(path)
     status: dict[str, Any] = {'truncated': None, 'summary': None}
     found = scan_bag(layout, status)
@@ -171,7 +181,14 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
     topics, names = _topics(path, found)
     one_by_one, bulk = _routes(found)
     reader = _Decoder(path, names)
-    first, first_order = _first_parameters(reader, one_by_one, status)
+    first, first_order = _first_parameters(reader, one_by_one, status, parameters is None)
+    source = "the bag's run_parameters"
+    if parameters is not None:
+        if first is not None:
+            raise InvalidBag(f'{path} holds its own run_parameters, which rebuild the model: '
+                             'parameters from a file are only for a bag without them')
+        first, source = _given(parameters, bulk), parameters[2]
+    assert first is not None
     reader.dt_ns, reader.joints = first.settings.dt * 1e9, list(first.settings.joint_names)
     events, active_path, setpoint = _events(reader, one_by_one, first_order, first)
     signals, stamp_mismatches = _signals(reader, bulk)
@@ -184,7 +201,7 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
                        signals['transmission_error'], signals['mesh_state'],
                        active_path.signal(), signals['clock'], topics, found.count,
                        status['truncated'], status['summary'], names, stamp_mismatches,
-                       setpoint.signal(), measured, timing)
+                       setpoint.signal(), measured, timing, source)
 
 
 def _topics(path: str | Path, found: Any) -> tuple[dict[str, str], dict[str, str]]:
@@ -226,9 +243,10 @@ def _routes(found: Any) -> tuple[list[_Message], dict[str, _Pieces]]:
 
 
 def _first_parameters(reader: _Decoder, one_by_one: list[_Message],
-                      status: dict[str, Any]) -> tuple[RunParameters, int]:
+                      status: dict[str, Any], needed: bool = True
+                      ) -> tuple[RunParameters | None, int]:
     """The first run_parameters message and its file order; a bag without one cannot be
-    re-simulated."""
+    re-simulated (unless not ``needed``: then (None, -1))."""
     for order, topic, msgtype, _, data in one_by_one:
         if _relative(topic) == RUN_PARAMETERS and msgtype == 'std_msgs/msg/String':
             return _parse(reader.decode(data, msgtype, topic).data, topic), order
@@ -236,9 +254,27 @@ def _first_parameters(reader: _Decoder, one_by_one: list[_Message],
     if status['truncated']:
         raise TruncatedBag(f'{path}: {status["truncated"]}; no run_parameters '
                        'message is readable before that')
+    if not needed:
+        return None, -1
     raise NoParameters(f'{path} holds no run_parameters message: the model '
                    'cannot be rebuilt from it (recorded by something other than '
-                   "table_sim's record parameter?)")
+                   "table_sim's record parameter? check_run --params FILE.yaml checks it "
+                   'against the parameters it ran with)')
+
+
+def _given(parameters: tuple[TableParams, SimSettings, str], bulk: dict[str, _Pieces]
+           ) -> RunParameters:
+    """The run of given parameters: from the preload equilibrium at the step of the
+    bag's first joint_states."""
+    params, settings, source = parameters
+    times = [int(t.min()) for _, t, _ in bulk.get('joint_states', []) if len(t)]
+    if not times:
+        raise NoParameters(f'{source}: the bag holds no joint_states, so the run\'s start '
+                           'is unknown')
+    from ..sim.plant import Plant  # the compiled model: only for such a bag
+    plant = Plant(params, settings.dt, None, settings.contact_location)
+    return RunParameters(params, settings, tuple(float(v) for v in plant.state),
+                         round(min(times) / (settings.dt * 1e9)))
 
 
 def _events(reader: _Decoder, one_by_one: list[_Message], first_order: int,

@@ -66,6 +66,7 @@ class CheckReport:
     #: how the steps were found in a bag whose log times are arrival times (None: its
     #: log times are the simulation's)
     timing: str | None = None
+    parameters_from: str = "the bag's run_parameters"   # where the model comes from
 
     @property
     def ok(self) -> bool:
@@ -305,7 +306,8 @@ def check_run(run: RecordedRun, progress: Callable[[float], None] | None = None,
         len(run.events), sum(isinstance(e, Reset) for _, e in run.events),
         safety=SAFETY if run.parameters.settings.contact_location else SAFETY_FIXED_STEP,
         truncated=run.truncated, summary=run.summary,
-        stamp_mismatches=list(run.stamp_mismatches), timing=run.timing)
+        stamp_mismatches=list(run.stamp_mismatches), timing=run.timing,
+        parameters_from=run.parameters_from)
     rec_te = run.transmission_error.values[:, 0]
     diff_js = np.abs(rk4.joint_states - recorded)
     diff_te = np.abs(rk4.transmission_error - rec_te)
@@ -340,6 +342,7 @@ def format_report(report: CheckReport) -> str:
         f'check_run {report.path}',
         (f'  {report.duration:.3f} s simulated at dt = {report.dt * 1e6:g} µs, '
         f'{report.events} recorded events ({report.resets} resets)'),
+        f'  parameters: {report.parameters_from}',
     ]
     if report.truncated:
         lines.append(f'  WARNING: {report.truncated}; checked what is readable')
