@@ -52,7 +52,6 @@ from ..interface import (
     ANSWERS,
     BY_KEY,
     LATCHED_OUTPUTS,
-    RECORDED_TOPICS,
     TICK_TOPIC,
 )
 from ..numerics.kernels import compiled_now, loads_without_registries, without_blas_probe
@@ -141,7 +140,6 @@ class TableSim(Node):
         topics = {key: pub.topic_name for key, pub in publishers.items()}
         topics.update({topic: sub.topic_name for topic, sub in subs.items()})
         topics.update({topic: sub.topic_name for topic, sub in notes.items()})
-        topics.update({key: f'{self._fqn}/{key}' for key in RECORDED_TOPICS})
         self.io = RunIO(topics, settings.joint_names, publishers)
         self._derive(params, settings, keep=False)   # ParameterError: refuse to start
         if completed:
