@@ -3,7 +3,7 @@ its name, message type, direction, delivery and meaning.
 
 The node's publishers and subscriptions (:mod:`screwgear_ros.ros.messages`), the input
 commands (:data:`screwgear_ros.sim.commands.INPUT_TOPICS`), the bag contract the readers
-enforce (:mod:`screwgear_ros.bag.reader`), lockstep's answers and the README's topic
+enforce (:mod:`screwgear_ros.bag.reader`), lockstep's answers and docs/topics.md's topic
 table (``python -m screwgear_ros.interface``) are all derived from :data:`TOPICS`.
 """
 
@@ -38,7 +38,7 @@ class Topic:
     type: str                   # 'std_msgs/msg/Float64'
     direction: Direction
     delivery: Delivery
-    meaning: str                # one line for the README
+    meaning: str                # one line for docs/topics.md
     answer: bool = False        # in lockstep, a message on it answers the last tick
     contract: bool = False      # part of the bag contract (docs/recording.md): the
     #                             offline tools read it and refuse a bag where it has
@@ -184,7 +184,7 @@ def topic_names(namespace: str = '', node_name: str = 'table_sim',
 
 
 def topic_table() -> str:
-    """The README's topic table (Markdown)."""
+    """The topic table of docs/topics.md (Markdown)."""
     def row(t: Topic) -> str:
         kind = t.type.replace('/msg/', '/').replace('/srv/', '/')
         meaning = t.meaning + ('; a lockstep answer' if t.answer and not t.private else '')

@@ -1,5 +1,5 @@
 """Documents generated from the parameter declarations: config/paper.yaml and the
-README's parameter table (``python -m screwgear_ros.params.docs [yaml]``)."""
+parameter table of docs/parameters.md (``python -m screwgear_ros.params.docs [yaml]``)."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ def paper_yaml() -> str:
 
 
 def parameter_table() -> str:
-    """The README's parameter table (Markdown)."""
+    """The parameter table of docs/parameters.md (Markdown)."""
     return '\n'.join(['| parameter | symbol | default | unit | valid | meaning |',
                       '|---|---|---|---|---|---|',
                       *markdown_rows(TableParams), *markdown_rows(SimSettings)]) + '\n'
