@@ -109,7 +109,8 @@ TOPICS = (
           'simulation time (`publish_clock`)', contract=True),
     Topic('diagnostics', '/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', OUT,
           Delivery.WALL_TIME, 'achieved real-time factor, overruns, rejected inputs, contact '
-          'per mesh; once per second of wall time'),
+          'per mesh, free-running the controller\'s answers in time and missed; once per '
+          'second of wall time'),
     Topic('robot_description', 'robot_description', 'std_msgs/msg/String', OUT,
           Delivery.LATCHED, "the table's URDF (geometry from the parameters, ros2_control "
           "block naming this node's topics)"),
