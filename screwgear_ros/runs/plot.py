@@ -284,7 +284,7 @@ def _draw_tracking(a: Axes, view: ErrorView) -> None:
     exact = '' if view.measured_error is None else ' (exact)'
     a.plot(view.times, view.error, color=COLORS[0], gid=Mark.TRACKING_ERROR,
            label=f'{view.reference} − θ2{exact}\n(RMS {view.rms:.3g} {view.unit} over the run)')
-    if view.measured_error is not None:
+    if view.measured_times is not None and view.measured_error is not None:
         a.plot(view.measured_times, view.measured_error, drawstyle='steps-post',
                color=COLORS[3], linewidth=0.9, gid=Mark.MEASURED,
                label=f'{view.reference} − θ2 measured')
