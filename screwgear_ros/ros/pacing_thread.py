@@ -110,10 +110,13 @@ class PacingThread:
         io.start(session)
         next_status = time.monotonic() + STATUS_PERIOD
         published = False         # a tick's joint_states went out (io.start's do not count)
+        # Steps run, for duration: counted, since a faulted plant's time stands still
+        ran = 0
         while not self._stop.is_set():
             if s.lockstep and not self._await_answer(meter):
                 break
             tick = session.tick()
+            ran += session.settings.steps_per_publish     # the tick's own length
             self._report(tick)
             if session.settings is not s:
                 s = session.settings
@@ -139,8 +142,8 @@ class PacingThread:
                     next_status += STATUS_PERIOD
                     self._log.info(status_line(tick.outputs, self._health.achieved_factor,
                                                answers) + self._reversals_since())
-            if 0.0 < s.duration <= tick.outputs.time + 0.5 * s.dt:
-                self._log.info(f'duration reached at t = {tick.outputs.time:.6f} s '
+            if 0.0 < s.duration <= (ran + 0.5) * s.dt:
+                self._log.info(f'duration reached at t = {ran * s.dt:.6f} s of simulation '
                                f'(duration {s.duration:g} s): stopping')
                 self._stop.set()            # main() closes the recording and exits 0
                 break

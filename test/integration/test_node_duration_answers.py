@@ -56,7 +56,7 @@ def test_duration_stops_the_node_with_the_recording_closed_at_that_time(tmp_path
     _, stderr = node.output()
     assert code == 0, stderr[-3000:]
     assert 'Traceback' not in stderr
-    assert 'duration reached at t = 0.250000 s' in stderr, stderr[-3000:]
+    assert 'duration reached at t = 0.250000 s of simulation' in stderr, stderr[-3000:]
     assert 'recording closed' in stderr
     with Reader(bag) as reader:                 # needs the footer and index: closed
         stamps = [t for c, t, _ in reader.messages() if c.topic == '/joint_states']
