@@ -1,6 +1,6 @@
 """table_sim as a process: it stops by itself at ``duration`` (simulated seconds) with
-its recording closed, and free-running it counts the ticks a controller answered too
-late, in /diagnostics and in its log.
+its recording closed (also after its model diverged), and free-running it counts the
+ticks a controller answered too late, in /diagnostics and in its log.
 
 The controllers are the test's own rclpy node over real DDS; the recording is read back
 with rosbags (a second library) and the package's reader.
@@ -18,6 +18,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from screwgear_ros.bag.reader import read_run
+from screwgear_ros.params.table import TableParams
+from screwgear_ros.physics.quantities import natural_frequency
 
 pytestmark = pytest.mark.ros
 
@@ -106,3 +108,24 @@ def test_free_running_counts_the_ticks_answered_too_late(tmp_path: Path):
     assert 'free-running: the controller answered' in stderr, stderr[-3000:]
     status = [line for line in stderr.splitlines() if '| answers' in line]
     assert status, stderr[-3000:]
+
+
+def test_a_node_whose_model_diverged_still_stops_at_duration(tmp_path: Path):
+    """The model diverges on its way (a parametric resonance of the mesh stiffness, as in
+    test_node_fault): the plant's time stands still after the fault, and the node still
+    stops when it has run duration's ticks, exit 0."""
+    unstable = TableParams(mode='conventional', backlash=0.0, mesh_phase='time',
+                           mesh_stiffness_amplitude=5.0e6, mesh_damping=0.0)
+    node = start_process('table_sim', params={
+        'mode': 'conventional', 'backlash': 0.0, 'mesh_phase': 'time',
+        'mesh_stiffness_amplitude': 5.0e6, 'mesh_damping': 0.0,
+        'mesh_frequency': 2.0 * natural_frequency(unstable), 'drive_no_load_speed': 0.0,
+        'real_time_factor': 0.0, 'duration': 8.0}, workdir=tmp_path / 'node')
+    try:
+        code = node.popen.wait(timeout=STARTUP_TIMEOUT + RUN_TIMEOUT)
+    finally:
+        node.kill()
+    stderr = node.output()[1]
+    assert code == 0, stderr[-3000:]
+    halted = stderr.find('simulation halted')
+    assert 0 <= halted < stderr.find('duration reached at t = 8.000000 s'), stderr[-3000:]
