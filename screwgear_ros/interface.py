@@ -3,7 +3,7 @@ its name, message type, direction, delivery and meaning.
 
 The node's publishers and subscriptions (:mod:`screwgear_ros.ros.messages`), the input
 commands (:data:`screwgear_ros.sim.commands.INPUT_TOPICS`), the bag contract the readers
-enforce (:mod:`screwgear_ros.bag.reader`), lockstep's answers and the README's topic
+enforce (:mod:`screwgear_ros.bag.reader`), lockstep's answers and docs/topics.md's topic
 table (``python -m screwgear_ros.interface``) are all derived from :data:`TOPICS`.
 """
 
@@ -39,7 +39,7 @@ class Topic:
     type: str                   # 'std_msgs/msg/Float64'
     direction: Direction
     delivery: Delivery
-    meaning: str                # one line for the README
+    meaning: str                # one line for docs/topics.md
     answer: bool = False        # in lockstep, a message on it answers the last tick
     contract: bool = False      # part of the bag contract (docs/recording.md): the
     #                             offline tools read it and refuse a bag where it has
@@ -110,7 +110,8 @@ TOPICS = (
           'simulation time (`publish_clock`)', contract=True),
     Topic('diagnostics', '/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', OUT,
           Delivery.WALL_TIME, 'achieved real-time factor, overruns, rejected inputs, contact '
-          'per mesh; once per second of wall time'),
+          'per mesh, free-running the controller\'s answers in time and missed; once per '
+          'second of wall time'),
     Topic('robot_description', 'robot_description', 'std_msgs/msg/String', OUT,
           Delivery.LATCHED, "the table's URDF (geometry from the parameters, ros2_control "
           "block naming this node's topics)"),
@@ -186,7 +187,7 @@ def topic_names(namespace: str = '', node_name: str = 'table_sim',
 
 
 def topic_table() -> str:
-    """The README's topic table (Markdown)."""
+    """The topic table of docs/topics.md (Markdown)."""
     def row(t: Topic) -> str:
         kind = t.type.replace('/msg/', '/').replace('/srv/', '/')
         meaning = t.meaning + ('; a lockstep answer' if t.answer and not t.private else '')

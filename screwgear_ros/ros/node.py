@@ -158,7 +158,8 @@ class TableSim(Node):
                 f'factor {s.real_time_factor:g}'
                 + (', lockstep: each tick waits for the controller\'s answer '
                    f'({ANSWERS}) to the last joint_states' if s.lockstep else '')
-                + (f', recording to {s.record}' if s.record else ''))
+                + (f', recording to {s.record}' if s.record else '')
+                + (f', stops at t = {s.duration:g} s (duration)' if s.duration else ''))
         # The first tick before the start's log lines: rclpy's first log call in a process
         # looks up the source file of every module loaded (inspect.getmodule), and the
         # first joint_states need not wait for that.

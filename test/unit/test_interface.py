@@ -1,4 +1,4 @@
-"""One declaration of the node's interface (screwgear_ros/interface.py): the README's
+"""One declaration of the node's interface (screwgear_ros/interface.py): docs/topics.md's
 topic table is generated from it, and what the node subscribes, publishes and records,
 and the bag contract the readers enforce, all name the types it declares."""
 
@@ -16,7 +16,7 @@ from screwgear_ros.sim.commands import INPUT_TOPICS
 
 def test_the_readme_table_is_generated_from_the_declaration():
     assert generated_block('topics') == interface.topic_table(), \
-        'README topic table is stale: python -m screwgear_ros.interface'
+        'docs/topics.md table is stale: python -m screwgear_ros.interface'
 
 
 def test_every_declared_type_is_a_real_ros_type():
