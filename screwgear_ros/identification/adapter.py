@@ -135,6 +135,10 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
     fine = replace(settings, publish_rate=1.0 / dt)
     origin = recording.origin
     at = (np.asarray(recording.times, dtype=np.int64) - origin) * 1e-9 / dt   # in steps
+    # a sample on a step (the node's own) is that step's state exactly, not a blend
+    # with the next step's by the roundoff of ns → steps
+    near = np.rint(at)
+    at = np.where(np.abs(at - near) < 1e-6, near, at)
     steps = int(np.ceil(at[-1])) + 1
     rows = np.empty((steps + 1, ROW))
     session = Session(params, fine)

@@ -187,7 +187,7 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
     needed = SAMPLES_PER_PARAMETER * len(fitted)
     have = sum(int(np.sum(problem.compared(r))) for r in recordings)
     if have < needed:
-        raise TooShortError(f'{have} samples (after losses and --settle) are too few to fit '
+        raise TooShortError(f'{have} samples (after losses and --settle) are too short to fit '
                             f'{len(fitted)} parameter(s): at least {needed} samples '
                             f'({needed * period:.3g} s at {1 / period:g} Hz) are needed')
     for recording in (*recordings, *checks):

@@ -55,8 +55,8 @@ class Placed:
         if self.clock == 'stamp' and self.offset:
             out.append(f'header stamps run {self.offset * 1e3:+.4g} ms from the log times '
                        '(median): moved onto the log clock, where the commands are')
-        out.append(f'jitter {self.jitter_rms * 1e6:.3g} µs RMS, at most '
-                   f'{self.jitter_max * 1e6:.3g} µs ({100 * self.jitter_max / self.period:.3g} % '
+        out.append(f'jitter {self.jitter_rms * 1e6:.1f} µs RMS, at most '
+                   f'{self.jitter_max * 1e6:.1f} µs ({100 * self.jitter_max / self.period:.2g} % '
                    'of a period)')
         if self.lost:
             out.append(f'{self.lost} samples lost ({100 * self.lost / (n + self.lost):.3g} %)')
