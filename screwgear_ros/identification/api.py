@@ -49,7 +49,7 @@ class IdentifyResult:
     --------
     >>> from screwgear_ros import IdentifyResult
     >>> sorted(f for f in IdentifyResult.__dataclass_fields__)[:3]
-    ['comparisons', 'cost', 'figure']
+    ['analysis', 'comparisons', 'cost']
     """
 
     values: dict[str, float]
