@@ -201,7 +201,8 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
         outcome = minimize(evaluator, fitted,
                            moved(fitted, starts(fitted, starts_count, seed), found),
                            max_evaluations, progress,
-                           [q.name not in MESH_PARAMETERS for q in fitted])
+                           [q.name not in MESH_PARAMETERS and q.name not in found
+                            for q in fitted])
         describe = evaluator.describe()
         simulations, sim_seconds = evaluator.simulations, evaluator.sim_seconds
     stats = statistics(fitted, outcome.x, outcome.residual, outcome.jacobian,

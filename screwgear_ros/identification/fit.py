@@ -110,9 +110,11 @@ def minimize(evaluator: Evaluator, fitted: Sequence[FitParameter],
 
     ``max_evaluations``: residual evaluations per start and stage (not counting the
     Jacobian's). ``first``: the coordinates a first stage searches alone, the others
-    held at the start's values (the rigid body's parameters before the mesh's: a
-    mesh whose stiffness is off pulls its damping into a wrong valley while the rigid
-    body's are off too); the second stage then searches all from there.
+    held at the start's values (the rigid body's parameters before the mesh's, and
+    before those started from the data: a mesh whose stiffness is off pulls its damping
+    into a wrong valley while the rigid body's are off too, and would pull a measured
+    preload along its valley with the stiffness); the second stage then searches all
+    from there.
     """
     from tqdm import tqdm
     p = len(fitted)
