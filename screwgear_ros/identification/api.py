@@ -22,7 +22,7 @@ import numpy as np
 
 from .adapter import Diverged, base_values, mesh_hz, simulate, tick_period
 from .errors import TooShortError
-from .fit import minimize
+from .fit import first_stage, minimize
 from .known import fixed
 from .output import write_fitted
 from .parameters import fit_parameters, starts, values_of
@@ -201,8 +201,7 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
         outcome = minimize(evaluator, fitted,
                            moved(fitted, starts(fitted, starts_count, seed), found),
                            max_evaluations, progress,
-                           [q.name not in MESH_PARAMETERS and q.name not in found
-                            for q in fitted])
+                           first_stage(fitted, list(found)))
         describe = evaluator.describe()
         simulations, sim_seconds = evaluator.simulations, evaluator.sim_seconds
     stats = statistics(fitted, outcome.x, outcome.residual, outcome.jacobian,

@@ -21,6 +21,15 @@ from .workers import Evaluator
 
 #: Forward-difference step in scaled coordinates (ln value, or a fraction of the bounds).
 STEP = 1.0e-4
+#: Parameters that act at the mesh's frequencies: searched in the second stage only.
+FAST = ('mesh_stiffness_mean', 'mesh_damping', 'inertia_pinion_1', 'inertia_pinion_3',
+        'drive_time_constant')
+
+
+def first_stage(fitted: Sequence[FitParameter], started: Sequence[str]) -> list[bool]:
+    """The coordinates :func:`minimize`'s first stage searches: the rigid body's, not
+    the :data:`FAST` ones nor those ``started`` from the data."""
+    return [p.name not in FAST and p.name not in started for p in fitted]
 
 
 @dataclass
@@ -148,4 +157,4 @@ def minimize(evaluator: Evaluator, fitted: Sequence[FitParameter],
                       search.iterations, finished, message, costs)
 
 
-__all__ = ['STEP', 'FitOutcome', 'minimize']
+__all__ = ['FAST', 'STEP', 'FitOutcome', 'first_stage', 'minimize']
