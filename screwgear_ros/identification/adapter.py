@@ -32,7 +32,7 @@ from ..physics.sensors import JOINTS as SENSOR_JOINTS
 from ..physics.sensors import SensorChain, SensorConfig
 from ..sim.commands import InputRejected, carries_no_command, command_value
 from ..sim.events import Command
-from ..sim.session import ROW, Session, Tick
+from ..sim.session import ROW, AdvanceMode, Session, Tick
 from .errors import FitParameterError, RecordingError
 from .samples import Recording
 
@@ -155,7 +155,8 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
             return True
         return session.plant.fault is not None
 
-    session.advance(steps, events=events, rows=rows[1:], monitor=monitor)
+    session.advance(steps, events=events, mode=AdvanceMode.ROWS, rows=rows[1:],
+                    monitor=monitor)
     if refused:
         step, error = refused[0]
         raise RecordingError(f'{recording.path}: at {step * dt:.6g} s: the node refuses a '
