@@ -20,15 +20,18 @@ from pathlib import Path
 
 import numpy as np
 
-from .adapter import Diverged, base_values, simulate, tick_period
+from .adapter import Diverged, base_values, mesh_hz, simulate, tick_period
 from .errors import TooShortError
-from .fit import minimize
+from .fit import first_stage, minimize
+from .known import fixed
 from .output import write_fitted
 from .parameters import fit_parameters, starts, values_of
 from .problem import Comparison, Problem, compare
-from .recording import check_alike, read_recording
+from .recording import MESH_PARAMETERS, check_rate, read_recording
 from .report import write_report
+from .resid import Analysis, analyse, drifting, half_widths, judged
 from .samples import Recording
+from .startvalues import data_starts, moved
 from .stats import Estimate, Statistics, statistics
 from .workers import Evaluator
 
@@ -46,7 +49,7 @@ class IdentifyResult:
     --------
     >>> from screwgear_ros import IdentifyResult
     >>> sorted(f for f in IdentifyResult.__dataclass_fields__)[:3]
-    ['comparisons', 'cost', 'figure']
+    ['analysis', 'comparisons', 'cost']
     """
 
     values: dict[str, float]
@@ -62,6 +65,8 @@ class IdentifyResult:
     report: Path | None = None
     figure: Path | None = None
     start_costs: list[float] = field(default_factory=list)
+    analysis: Analysis | None = None
+    notes: list[str] = field(default_factory=list)
 
     @property
     def estimates(self) -> tuple[Estimate, ...]:
@@ -95,10 +100,8 @@ class IdentifyResult:
 
 
 def _read(bags: Sequence[str | os.PathLike[str]], joints: Mapping[str, str] | None,
-          input_delay: int, period: float) -> tuple[Recording, ...]:
-    recordings = tuple(read_recording(b, joints, input_delay) for b in bags)
-    check_alike(recordings, period)
-    return recordings
+          input_delay: float, period: float, clock: str) -> tuple[Recording, ...]:
+    return tuple(read_recording(b, joints, input_delay, clock, period) for b in bags)
 
 
 def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[str],
@@ -106,8 +109,9 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
              validate: Sequence[str | os.PathLike[str]] = (), output: str | os.PathLike[str]
              | None = None, report: str | os.PathLike[str] | None = None,
              workers: int = 1, scheduler: str | None = None,
-             joints: Mapping[str, str] | None = None, input_delay: int = 0,
-             speeds: bool = False, starts_count: int = 3, seed: int = 0,
+             joints: Mapping[str, str] | None = None, input_delay: float = 0.0,
+             clock: str = 'stamp', settle: float = 0.0,
+             fix: Mapping[str, float] | None = None, speeds: bool = False, starts_count: int = 3, seed: int = 0,
              max_evaluations: int = 40, progress: bool = False) -> IdentifyResult:
     """Fit the parameters ``fit`` of the base file ``params`` to the recordings ``bags``.
 
@@ -133,8 +137,17 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
         A Dask scheduler address to simulate them on instead.
     joints : mapping, optional
         Node joint name → the bags' name.
-    input_delay : int
-        Ticks a command takes effect after the node would apply it (hardware).
+    input_delay : float
+        Ticks of the model (a fraction too) by which the drive applies a command after
+        its log time.
+    clock : str
+        ``'stamp'``: a sample is compared at its header stamp (default); ``'log'``: at
+        its log time.
+    settle : float
+        Seconds at each recording's start left out of the comparison, for the model's
+        state to settle (a recording that does not start at rest).
+    fix : mapping, optional
+        name → value: parameters held at these values instead of the base file's.
     speeds : bool
         Compare the speeds too.
     starts_count, seed : int
@@ -163,16 +176,18 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
     46.1
     """
     began = time.perf_counter()
-    base = base_values(params)
+    base = fixed(base_values(params), fix or {}, fit)
     fitted = fit_parameters(list(fit), base, bounds)
     period = tick_period(base)
-    recordings = _read(bags, joints, input_delay, period)
-    checks = _read(validate, joints, input_delay, period)
-    problem = Problem(base, fitted, recordings, speeds)
+    recordings = _read(bags, joints, input_delay, period, clock)
+    checks = _read(validate, joints, input_delay, period, clock)
+    aliased = check_rate(recordings, fit, mesh_hz(base)) if any(
+        name in MESH_PARAMETERS for name in fit) else []
+    problem = Problem(base, fitted, recordings, speeds, max(0.0, float(settle)))
     needed = SAMPLES_PER_PARAMETER * len(fitted)
-    have = sum(r.samples for r in recordings)
+    have = sum(int(np.sum(problem.compared(r))) for r in recordings)
     if have < needed:
-        raise TooShortError(f'{have} samples ({have * period:.3g} s) are too short to fit '
+        raise TooShortError(f'{have} samples (after losses and --settle) are too short to fit '
                             f'{len(fitted)} parameter(s): at least {needed} samples '
                             f'({needed * period:.3g} s at {1 / period:g} Hz) are needed')
     for recording in (*recordings, *checks):
@@ -182,8 +197,11 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
             simulate(base, recording)
     weights = problem.weights
     with Evaluator(problem, weights, workers, scheduler) as evaluator:
-        outcome = minimize(evaluator, fitted, starts(fitted, starts_count, seed),
-                           max_evaluations, progress)
+        found = data_starts(fitted, recordings)
+        outcome = minimize(evaluator, fitted,
+                           moved(fitted, starts(fitted, starts_count, seed), found),
+                           max_evaluations, progress,
+                           first_stage(fitted, list(found)))
         describe = evaluator.describe()
         simulations, sim_seconds = evaluator.simulations, evaluator.sim_seconds
     stats = statistics(fitted, outcome.x, outcome.residual, outcome.jacobian,
@@ -193,9 +211,23 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
     after = {**base, **values}
     comparisons = compare(problem, recordings, base, after, 'fit') + \
         compare(problem, checks, base, after, 'validate')
+    analysis = analyse(comparisons, dict(base), problem.settle,
+                       drifting(fitted, outcome.jacobian, outcome.residual,
+                                half_widths(fitted, stats.estimates)))
+    stats = judged(stats, analysis)
+    notes = [f'{r.path}: {line}' for r in (*recordings, *checks) for line in r.timing]
+    notes += aliased
+    notes += [f'{name}: started from {value:.6g}, {why}' for name, (value, why) in found.items()]
+    notes += [f'{name}: held at {value:.6g} (--fix)' for name, value in (fix or {}).items()]
+    if problem.settle:
+        notes.append(f'the first {problem.settle:g} s of each recording settle the state '
+                     '(left out of the comparison); the simulation starts at rest there')
+    else:
+        notes.append('each simulation starts at rest (the preload equilibrium) at its '
+                     'recording\'s first sample or command')
     result = IdentifyResult(values, stats, comparisons, outcome.finished, outcome.cost,
                             simulations, 0.0, sim_seconds, outcome.message,
-                            start_costs=outcome.start_costs)
+                            start_costs=outcome.start_costs, analysis=analysis, notes=notes)
     if output is not None:
         header = [(f'Fitted by identify to {", ".join(str(b) for b in bags)}: '
                   f'{", ".join(values)}.')]
@@ -210,7 +242,9 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
         result.report, result.figure = write_report(
             stem, stats, comparisons, finished=outcome.finished,
             fitted_path=str(output), simulations=simulations, seconds=result.seconds,
-            sim_seconds=sim_seconds, workers=describe, speeds=speeds)
+            sim_seconds=sim_seconds, workers=describe, speeds=speeds,
+            sections=[*analysis.lines(), '## Recordings and starting points', '',
+                      *(f'- {note}' for note in notes), ''])
     return result
 
 
