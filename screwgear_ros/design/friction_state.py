@@ -14,10 +14,9 @@ neither is smooth where the two meet:
 * **in steady rotation** every body is *sliding* in one direction: its friction is the
   Coulomb torque plus the Stribeck peak, which has died out a few ω_S above rest, so its
   slope in speed is zero and it adds nothing to A or B. It is a constant torque against
-  the motion, and the operating point counts it as one: the steady speed balances the
-  drive torque against the load, the table damping *and* the Coulomb torques (each
-  pinion's referred to the table by its ratio). A point so slow that the central
-  differences in speed (±1 rad/s) reach a body's Stribeck region is refused.
+  the motion, which the operating point counts (``physics.steady``: the steady speed
+  balances every torque term, bearing friction included). A point so slow that the
+  central differences in speed (±1 rad/s) reach a body's Stribeck region is refused.
 
 A table with no bearing friction (every ``*_static_torque`` 0) is linearized as before,
 its friction state ``none``.
@@ -25,7 +24,6 @@ its friction state ``none``.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from enum import StrEnum
 
 from ..params.table import TableParams
@@ -114,7 +112,7 @@ def linearize_with_friction(params: TableParams, torque: float = 0.0, load: floa
             'slope; differences across it give kHz poles). Linearize in steady rotation '
             '(--torque T: the bearings slide), or leave the friction out, said so '
             '(--friction ignore)')
-    model = linearize(params, torque, load + direction * resisting, direction, mesh)
+    model = linearize(params, torque, load, direction, mesh)   # its point counts the friction
     state = model.point.state
     for name, speed, stribeck in (
             ('pinion 1', state[3], params.pinion_stribeck_speed),
@@ -128,12 +126,11 @@ def linearize_with_friction(params: TableParams, torque: float = 0.0, load: floa
                 f'(±{SPEED_STEP:g} rad/s) reach its bearing\'s Stribeck region (ω_S '
                 f'{stribeck:g} rad/s) or rest, where the friction is not smooth; a larger '
                 '--torque (a faster steady speed) linearizes it sliding')
-    point = replace(model.point, load=load)
     note = (f'bearing friction: sliding (every bearing in one direction, the Stribeck peak '
             f'gone at this speed: no slope, nothing in A or B); its Coulomb torques, '
             f'{resisting:.4g} N·m at the table in all, resist the motion and the steady '
             'speed above counts them')
-    return replace(model, point=point), FrictionState.SLIDING, note
+    return model, FrictionState.SLIDING, note
 
 
 __all__ = [
