@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from collections.abc import Callable
 
 from ..bag.reader import read_run
 from ..runs.plot import (
@@ -53,27 +54,26 @@ def _counts(text: str) -> int:
     return value
 
 
-def _band(text: str) -> float:
-    """--band TOL: a finite tolerance > 0."""
+def _number(text: str, valid: Callable[[float], bool], rule: str) -> float:
+    """``text`` as a float that ``valid`` accepts; otherwise argparse's error naming ``rule``."""
     try:
         value = float(text)
     except ValueError:
         value = math.nan
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f'{text!r}: the tolerance must be a finite number > 0 '
-                                         '(± counts with --counts, else ± mrad)')
+    if not (math.isfinite(value) and valid(value)):
+        raise argparse.ArgumentTypeError(f'{text!r}: {rule}')
     return value
+
+
+def _band(text: str) -> float:
+    """--band TOL: a finite tolerance > 0."""
+    return _number(text, lambda v: v > 0.0, 'the tolerance must be a finite number > 0 '
+                                            '(± counts with --counts, else ± mrad)')
 
 
 def _target(text: str) -> float:
     """--target RAD: a finite angle."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f'{text!r}: the target must be a finite angle in rad')
-    return value
+    return _number(text, lambda v: True, 'the target must be a finite angle in rad')
 
 
 @interruptible('plot_run', 'no figure was written; the bag is untouched')
