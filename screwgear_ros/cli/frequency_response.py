@@ -39,6 +39,7 @@ from ..design.closed_loop import make_controller, measure_loop
 from ..design.errors import DesignError, UsageError
 from ..design.frequency import Input, Method, measure
 from ..design.linear_model import OUTPUTS
+from ..inprocess.scenario_controller import CheckedController, ControllerFailed
 from ..inprocess.simulation import ParameterFileError, file_values, resolve
 from ..params.table import ParameterError
 from . import EXIT_OK, Failures, interruptible
@@ -94,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
     if stem.suffix in ('.csv', '.png'):
         stem = stem.with_suffix('')
     failures = Failures('frequency_response', {
-        (ParameterFileError, ParameterError, DesignError): '{exc}',
+        (ParameterFileError, ParameterError, DesignError, ControllerFailed): '{exc}',
         FloatingPointError: ('{exc}', EXIT_FAULT),
         OSError: 'cannot write {stem}: {why}',
     }, stem=stem)
@@ -114,7 +115,16 @@ def main(argv: list[str] | None = None) -> int:
                 raise UsageError('--controller measures with stepped sines added to '
                                  "the controller's torque (--input torque, --method "
                                  'sine)')
-            controller = make_controller(args.controller, settings)
+            name = f'--controller {args.controller}'
+            try:
+                controller = CheckedController(name, make_controller(args.controller,
+                                                                     settings))
+            except (DesignError, ControllerFailed):
+                raise
+            except Exception as exc:  # noqa: BLE001 - the user's factory: named, not raw
+                raise ControllerFailed(f'{name}: its factory raised {type(exc).__name__}: '
+                                       f'{exc}; a factory returns the controller, a '
+                                       'callable') from None
             loop = measure_loop(params, settings, controller, outputs=args.output,
                                 frequencies=frequencies, amplitude=args.amplitude,
                                 torque=args.torque, load=args.load, direction=args.direction,
@@ -135,6 +145,8 @@ def main(argv: list[str] | None = None) -> int:
         print(line)
     for line in format_modes(model):
         print(line)
+    for note in model.notes:
+        print(f'linear plant: {note}')
     for note in result.notes:
         print(f'warning: {note}')
     worst = float(np.min(result.coherence))

@@ -10,8 +10,8 @@ drive torque (table at rest). ``--mesh frozen`` (static points, `angle` phase): 
 model at its rest angle instead of the mesh's time average.
 
 Exit status: 0 written; 2 not written, with the reason on stderr and never a traceback (a
-parameter file or value the node refuses, an operating point with no steady motion, an
-output that cannot be written, python-control missing for ``--format control``).
+parameter file or value the node refuses, an operating point with no steady motion, a
+point at rest on bearing friction, an output that cannot be written, python-control missing for ``--format control``).
 """
 
 from __future__ import annotations
@@ -21,8 +21,9 @@ import sys
 from pathlib import Path
 
 from ..design.errors import DesignError, UsageError
+from ..design.friction_state import linearize_with_friction
 from ..design.linear_model import LinearModel
-from ..design.linearize import linearize
+from ..design.loop_dynamics import declares_dynamics, with_dynamics
 from ..inprocess.simulation import ParameterFileError, file_values, resolve
 from ..params.table import ParameterError
 from . import EXIT_OK, Failures, interruptible
@@ -31,6 +32,11 @@ from . import EXIT_OK, Failures, interruptible
 def load_params(path: str | None):
     """The node's parameters: its defaults, then the file's (the node's validation)."""
     return resolve(file_values(path) if path else {})[0]
+
+
+def load_settings(path: str | None):
+    """The node's settings (sensors, tick rate): its defaults, then the file's."""
+    return resolve(file_values(path) if path else {})[1]
 
 
 def holding_load(params, torque: float, load: str, direction: int) -> float:
@@ -71,6 +77,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--mesh', choices=('average', 'frozen'), default='average',
                         help='average: the mesh over its period (k_eff, no STE; default); '
                         'frozen: at a static point, the full model at its rest angle')
+    parser.add_argument('--dynamics', choices=('declared', 'none'), default='declared',
+                        help="declared (default): add the drive lag and the joint sensors' "
+                        'delay, speed filter and differenced speed the parameter file '
+                        'declares (a drive_torque_delivered state; the sensors in the '
+                        'sampled response, as a controller sees the plant); none: the '
+                        'mechanics alone')
+    parser.add_argument('--friction', choices=('auto', 'ignore'), default='auto',
+                        help='bearing friction: auto (default): sliding in steady rotation, '
+                        'refused at rest (stuck: no linear model); ignore: the table without '
+                        'it, said so')
     parser.add_argument('-o', '--output', required=True, metavar='MODEL',
                         help='output file: .npz (default), .mat (MATLAB), or a pickle with '
                         '--format control')
@@ -87,10 +103,12 @@ def main(argv: list[str] | None = None) -> int:
         OSError: 'cannot write {out}: {why}',
     }, out=out)
     with failures:
-        params = load_params(args.params)
-        model = linearize(params, args.torque, holding_load(params, args.torque, args.load,
-                                                            args.direction),
-                          args.direction, args.mesh)
+        params, settings = load_params(args.params), load_settings(args.params)
+        model, _, friction = linearize_with_friction(
+            params, args.torque, holding_load(params, args.torque, args.load, args.direction),
+            args.direction, args.mesh, ignore=args.friction == 'ignore')
+        if args.dynamics == 'declared' and declares_dynamics(params, settings):
+            model = with_dynamics(model, params, settings)
         if fmt == 'control':
             try:
                 data = model.control_pickle()
@@ -107,6 +125,13 @@ def main(argv: list[str] | None = None) -> int:
     print('mesh: ' + ('its time average (stiffness k_eff, lever r, no STE)'
                       if model.mesh.value == 'average' else
                       'frozen at the rest angle (stiffness and STE slope there)'))
+    print(friction)
+    for note in model.notes:
+        print(f'dynamics: {note}')
+    if args.dynamics == 'declared' and model.sensors is not None:
+        print('the sensors act on the samples (delays, filters, differences at the tick '
+              'rate): they are in the sampled response (design.margins.held_response), '
+              'not in A, B, C, D')
     for line in format_modes(model):
         print(line)
     for warning in model.point.warnings:

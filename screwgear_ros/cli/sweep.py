@@ -134,6 +134,11 @@ def _sweep(args: argparse.Namespace, early: EarlyCluster) -> int:
     print(f'{args.sweep}: {len(sweep.runs)} runs, {len(done)} finished before, '
           f'{len(todo)} to run' + (f' on {describe(workers, args.scheduler)}' if todo
                                    else ''), flush=True)
+    if sweep.redraws:
+        redrawn = sum(1 for r in sweep.runs if r.redraws)
+        print(f'{sweep.redraws} draws were refused by table_sim and drawn again, in '
+              f'{redrawn} of {len(sweep.runs)} runs (the first: {sweep.first_refusal}); '
+              'each run\'s count is in DIR/sweep.yaml', flush=True)
     interrupted = False
     started = time.perf_counter()
     ran: tuple[float, ...] = ()

@@ -163,15 +163,19 @@ def loop_figure(loop: Any, trust: float = TRUST) -> Any:
         ph.annotate(f'phase margin {m.phase:.1f}°\nat {m.phase_at_hz:.3g} Hz',
                     (m.phase_at_hz, -180.0), xytext=(6, -4), textcoords='offset points',
                     ha='left', va='top', fontsize=8, color='C2')
-    if m.gain is not None:
-        gm_db = 20.0 * math.log10(m.gain)
+    # the upper gain margin; without one, the lower one of a conditionally stable loop
+    gain, gain_hz, lower = ((m.gain, m.gain_at_hz, '') if m.gain is not None else
+                            (m.lower_gain, m.lower_gain_at_hz,
+                             '\n(lower: unstable if the gain drops)'))
+    if gain is not None and gain_hz is not None:
+        gm_db = 20.0 * math.log10(gain)
         for ax in axes:
-            ax.axvline(m.gain_at_hz, color='C4', ls='--', lw=0.9)
-        mag.annotate('', xy=(m.gain_at_hz, 0.0), xytext=(m.gain_at_hz, -gm_db),
+            ax.axvline(gain_hz, color='C4', ls='--', lw=0.9)
+        mag.annotate('', xy=(gain_hz, 0.0), xytext=(gain_hz, -gm_db),
                      arrowprops={'arrowstyle': '<->', 'color': 'C4'})
-        mag.annotate(f'gain margin {gm_db:.1f} dB\nat {m.gain_at_hz:.4g} Hz',
-                     (m.gain_at_hz, -0.5 * gm_db),
-                     **_beside(f, db(r.linear[0]), m.gain_at_hz, -0.5 * gm_db),
+        mag.annotate(f'gain margin {gm_db:.1f} dB\nat {gain_hz:.4g} Hz{lower}',
+                     (gain_hz, -0.5 * gm_db),
+                     **_beside(f, db(r.linear[0]), gain_hz, -0.5 * gm_db),
                      textcoords='offset points', va='center', fontsize=8, color='C4')
     if m.peak_sensitivity is not None:
         peak_db = 20.0 * math.log10(m.peak_sensitivity)

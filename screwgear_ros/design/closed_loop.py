@@ -55,7 +55,7 @@ from .budget import LOOP_TICK, Cost, check_cost, check_points
 from .errors import MeasurementRefused, UnknownOutput, UsageError
 from .frequency import INPUT_UNIT, Input, Measurement, Method, _fit, default_bias
 from .linear_model import OUTPUTS
-from .linearize import linearize
+from .loop_dynamics import loop_plant
 from .margins import Margins, held_response, margins
 
 #: Rows of the closed-loop table besides the outputs' closed-loop responses.
@@ -163,7 +163,8 @@ def measure_loop(params: TableParams, settings: SimSettings | None,
                                  f'{NYQUIST_FRACTION:g} of the Nyquist frequency of the '
                                  f'controller\'s rate ({1.0 / h:g} Hz, publish_rate)')
     bias = default_bias(params, Input.TORQUE, amplitude, torque, load, direction)
-    model = linearize(params, bias[0], bias[1], direction, mesh)
+    # the linear plant with the drive lag and sensors the parameters declare
+    model = loop_plant(params, settings, bias[0], bias[1], direction, mesh)
     rows = [OUTPUTS.index(name) for name in outputs]
     plan = []
     tick = 0

@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -21,6 +22,8 @@ from .operating_point import OperatingPoint
 STATES = ('pinion_1_angle', 'table_angle', 'pinion_3_angle',
           'pinion_1_speed', 'table_speed', 'pinion_3_speed')
 STATE_UNITS = ('rad', 'rad', 'rad', 'rad/s', 'rad/s', 'rad/s')
+#: The state a drive lag adds (:mod:`.loop_dynamics`): the torque the drive delivers.
+LAG_STATE, LAG_UNIT = 'drive_torque_delivered', 'N·m'
 INPUTS = ('drive_torque', 'load')
 INPUT_UNITS = ('N·m', 'N·m')
 OUTPUTS = ('table_angle', 'table_speed', 'pinion_1_angle', 'pinion_1_speed',
@@ -73,9 +76,18 @@ class LinearModel:
     states: tuple[str, ...] = STATES
     inputs: tuple[str, ...] = INPUTS
     outputs: tuple[str, ...] = OUTPUTS
+    #: The joint sensors as a sampled-data loop sees them (:mod:`.loop_dynamics`), or None
+    #: (outputs as the exact state).
+    sensors: Any = None
+    #: What sensor and drive dynamics the model holds, one line each.
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, 'mesh', MeshModel(self.mesh or MeshModel.AVERAGE))
+
+    @property
+    def state_units(self) -> tuple[str, ...]:
+        return STATE_UNITS + ((LAG_UNIT,) if LAG_STATE in self.states else ())
 
     def modes(self) -> list[ModeInfo]:
         """The modes by rising frequency: the motions no spring holds (eigenvalue 0: the
@@ -91,17 +103,19 @@ class LinearModel:
                 continue                              # a conjugate is shown once
             if abs(value.imag) <= 1e-9 * scale:
                 value = complex(value.real, 0.0)
-            v = vec[:3, k] if np.any(np.abs(vec[:3, k]) > 0) else vec[3:, k]
+            v = vec[:3, k] if np.any(np.abs(vec[:3, k]) > 0) else vec[3:6, k]
             v = v / v[np.argmax(np.abs(v))]
+            lag = LAG_STATE in self.states and abs(value - self.a[-1, -1]) <= 1e-9 * scale
             found.append(ModeInfo(value, abs(value), -value.real / abs(value),
-                                  self._shape(v, False),
+                                  'the drive\'s current loop (its lag)' if lag
+                                  else self._shape(v, False),
                                   (complex(v[0]), complex(v[1]), complex(v[2]))))
         return sorted(found, key=lambda m: (m.frequency, -m.damping))
 
     def _free_motions(self) -> list[ModeInfo]:
         """The zero modes: angle motions on which no spring acts (the null space of the
         stiffness block of A), a pinion that touches nothing on its own, the rest rigid."""
-        stiffness = self.a[3:, :3]
+        stiffness = self.a[3:6, :3]
         tol = ZERO_EIGENVALUE * (float(np.abs(stiffness).max()) or 1.0)
         _, sigma, vt = np.linalg.svd(stiffness)
         null = vt[sigma <= tol]
@@ -170,7 +184,7 @@ class LinearModel:
             'A': self.a, 'B': self.b, 'C': self.c, 'D': self.d,
             'states': np.array(self.states), 'inputs': np.array(self.inputs),
             'outputs': np.array(self.outputs),
-            'state_units': np.array(STATE_UNITS), 'input_units': np.array(INPUT_UNITS),
+            'state_units': np.array(self.state_units), 'input_units': np.array(INPUT_UNITS),
             'output_units': np.array(OUTPUT_UNITS),
             'x0': np.array(pt.state), 'u0': np.array([pt.torque, pt.load]),
             'direction': np.array(pt.direction), 'mesh': np.array(self.mesh.value),
@@ -180,7 +194,21 @@ class LinearModel:
             'mode_damping_ratio': np.array([m.damping for m in modes]),
             'mode_shape': np.array([m.shape for m in modes]),
             'parameters': np.array(json.dumps(self.params.as_dict())),
+            **self._dynamics_arrays(),
         }
+
+    def _dynamics_arrays(self) -> dict[str, np.ndarray]:
+        """The sensors (per joint: pinion 1, table, pinion 3) and the notes on the
+        dynamics the model holds, when it holds any (:mod:`.loop_dynamics`)."""
+        out: dict[str, np.ndarray] = {}
+        if self.notes:
+            out['dynamics'] = np.array(self.notes)
+        if self.sensors is not None:
+            joints = self.sensors.joints
+            out['sensor_delay_ticks'] = np.array([j.delay for j in joints])
+            out['sensor_speed_cutoff_hz'] = np.array([j.cutoff for j in joints])
+            out['sensor_speed_differenced'] = np.array([j.differenced for j in joints])
+        return out
 
     def save(self, path: str | Path) -> None:
         """The model as .npz (default), or as a MATLAB .mat file when ``path`` ends in .mat."""

@@ -51,9 +51,12 @@ the action takes effect at the tick's first step, as a lockstep controller's ans
   entry points, so the module part of the id is what registers it); after
   ``import screwgear_ros.envs``, ``gymnasium.make('ScrewgearTable-v0')`` works too.
 * **Randomness**: none unless asked. ``randomize`` maps parameter names to uniform ranges
-  (low, high); :meth:`~ScrewgearTableEnv.reset` with a seed draws each from the
-  environment's ``np_random`` (the same seed, the same draw) and validates the result as
-  the node would. Nothing else is random: without ``randomize`` every episode is the same.
+  (low, high), or to ``{'times': OTHER, 'ratio': (low, high)}`` (derived: OTHER's value
+  times a drawn ratio, :mod:`.randomize`); :meth:`~ScrewgearTableEnv.reset` with a seed
+  draws each from the environment's ``np_random`` (the same seed, the same draw) and
+  validates the result as the node would, drawing again a draw the node refuses
+  (``info['redraws']`` counts them, ``redraws`` over all resets). Nothing else is random:
+  without ``randomize`` every episode is the same.
 """
 
 from __future__ import annotations
@@ -71,6 +74,7 @@ from ..inprocess.scenario import SetpointProfile
 from ..inprocess.simulation import Simulation
 from ..params.table import ParameterError
 from .normalized import ERROR_LIMIT, ERROR_SCALE, Scales
+from .randomize import Randomizer
 
 ENV_ID = 'ScrewgearTable-v0'
 #: The observation's entries, in order.
@@ -150,7 +154,7 @@ class ScrewgearTableEnv(gymnasium.Env):
                  target: Callable[[float], float] | None = None,
                  error_scale: float = ERROR_SCALE, error_limit: float = ERROR_LIMIT,
                  effort_weight: float = EFFORT_WEIGHT,
-                 randomize: Mapping[str, tuple[float, float]] | None = None,
+                 randomize: Mapping[str, Any] | None = None,
                  parameters: Mapping[str, Any] | None = None,
                  render_mode: str | None = None) -> None:
         if render_mode is not None:
@@ -158,13 +162,9 @@ class ScrewgearTableEnv(gymnasium.Env):
                                    f'not {render_mode!r:.60}')
         base = _simulation(simulation, parameters)
         self.base = base
-        self.randomize = {name: (float(lo), float(hi))
-                          for name, (lo, hi) in (randomize or {}).items()}
-        for name, (lo, hi) in self.randomize.items():
-            if not lo <= hi:
-                raise ValueError(f'randomize {name}: low {lo:g} > high {hi:g}')
-            base.with_values(**{name: lo})          # a name and a range the node takes
-            base.with_values(**{name: hi})
+        self.randomizer = Randomizer(base, randomize)
+        self.randomize = dict(randomize or {})
+        self.redraws = 0                   # draws the node refused, over all resets
         self.duration = _setting('duration', duration, 0.0, strict=True)
         self.target = DEFAULT_TARGET if target is None else target
         if not callable(self.target):
@@ -220,9 +220,8 @@ class ScrewgearTableEnv(gymnasium.Env):
     def reset(self, *, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
-        drawn = {name: float(self.np_random.uniform(lo, hi))
-                 for name, (lo, hi) in self.randomize.items()}
-        self.simulation = self.base.with_values(**drawn) if drawn else self.base
+        drawn, self.simulation, redraws = self.randomizer.draw(self.np_random)
+        self.redraws += redraws
         limit = self.simulation.params.max_torque
         if limit != self._limit:
             raise ValueError('randomize must not change max_torque (it is the action space)')
@@ -231,7 +230,8 @@ class ScrewgearTableEnv(gymnasium.Env):
         self._steps = 0
         target = self._target(0.0)
         return self._scales.observe(first, target), {
-            'parameters': drawn, 'time': first.time, 'observation': first, 'target': target}
+            'parameters': drawn, 'time': first.time, 'observation': first, 'target': target,
+            'redraws': redraws}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         a = min(1.0, max(-1.0, _action(action)))

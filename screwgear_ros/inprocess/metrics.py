@@ -16,20 +16,126 @@
   to hold the other flank) plus the change of the mesh's elastic deflection under the
   changed force (the static transmission error's ripple is not in δ).
 * **peak mesh forces** |F1|, |F3|, N; the **fault**, if the model diverged.
+* **user metrics**: ``name: module:callable`` of a scenario, each
+  ``callable(run, setpoint) -> float`` (:class:`UserMetric`).
+
+:data:`METRIC_DOCS` names every column of :meth:`Metrics.as_dict` with its meaning (what
+sweeps keep, docs/scenarios.md lists them).
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable
+import numbers
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
 
+from ..errors import ScrewgearError
+
 #: A step has settled once |target − angle| stays within this fraction of the step.
 SETTLING_BAND = 0.02
+
+#: Every column of :meth:`Metrics.as_dict`: its meaning (docs/scenarios.md lists them).
+METRIC_DOCS = {
+    'max_abs_te_m': 'largest |transmission error| of the active path over the run, m',
+    'rms_tracking_error_rad': 'RMS of setpoint − angle of the setpoint\'s joint over every '
+                              'sample, rad (NaN: no setpoint)',
+    'max_overshoot_rad': 'largest overshoot past a step\'s new target, in the step\'s '
+                         'direction, rad (NaN: no step)',
+    'max_overshoot_percent': 'the same as a percentage of that step\'s size',
+    'max_settling_time_s': 'longest time from a step until the angle stays within the '
+                           'settling band up to the next step, s; inf: a step never settled',
+    'reversals': 'number of changes of the commanded drive direction',
+    'max_lost_motion_rad': 'largest lost motion at a reversal (change of pinion 1\'s mesh '
+                           'deflection over the table radius), rad at the table',
+    'peak_mesh_force_1_n': 'largest |F1|, the force of mesh 1, N',
+    'peak_mesh_force_3_n': 'largest |F3|, the force of mesh 3, N',
+    'rejected': 'number of commands the session refused',
+    'faulted': '1 if the model diverged, else 0',
+}
+
+
+class BandUnit(StrEnum):
+    """How a settling band is given: a fraction of the step, or absolute."""
+
+    FRACTION = 'fraction'        # of |step|
+    RAD = 'rad'                  # of the joint's angle
+    COUNTS = 'counts'            # of the joint's encoder
+
+
+@dataclass(frozen=True)
+class SettlingBand:
+    """The band a step settles into: ``value`` in ``unit`` (:class:`BandUnit`).
+
+    Examples
+    --------
+    >>> SettlingBand(2, 'counts').width(0.1, 2 ** 26) == 2 * 2 * math.pi / 2 ** 26
+    True
+    >>> SettlingBand(0.02).describe()
+    'band ±2 % of the step'
+    """
+
+    value: float = SETTLING_BAND
+    unit: BandUnit = BandUnit.FRACTION
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, 'unit', BandUnit(self.unit))
+        if isinstance(self.value, bool) or not isinstance(self.value, numbers.Real) \
+                or not (math.isfinite(self.value) and self.value > 0.0):
+            raise ValueError(f'a settling band is a finite number > 0 of {self.unit.value}, '
+                             f'not {self.value!r}')
+
+    def width(self, size: float, counts: int) -> float:
+        """The band's half-width in rad for a step of ``size`` rad, on a joint whose
+        encoder has ``counts`` per revolution (ValueError: counts needs an encoder)."""
+        if self.unit is BandUnit.FRACTION:
+            return self.value * abs(size)
+        if self.unit is BandUnit.RAD:
+            return float(self.value)
+        if counts <= 0:
+            raise ValueError('a settling band in encoder counts needs the joint\'s encoder: '
+                             'its encoder_counts is 0 (an ideal sensor); give the band in rad')
+        return self.value * 2.0 * math.pi / counts
+
+    def describe(self) -> str:
+        if self.unit is BandUnit.FRACTION:
+            return f'band ±{100 * self.value:.3g} % of the step'
+        return f'band ±{self.value:.6g} {self.unit.value}'
+
+
+#: The default settling band: ±SETTLING_BAND of the step.
+DEFAULT_BAND = SettlingBand()
+
+
+@dataclass(frozen=True)
+class UserMetric:
+    """A metric of the user's: ``name`` (a column of :meth:`Metrics.as_dict`) and
+    ``function(run, setpoint) -> float`` (``setpoint``: the scenario's profile or None)."""
+
+    name: str
+    function: Callable[[Any, Any], float]
+    use: str = ''                 # module:callable, for messages
+
+    def __call__(self, run: Any, setpoint: Any) -> float:
+        try:
+            value = self.function(run, setpoint)
+        except Exception as exc:  # noqa: BLE001 - the user's code: named, not shown raw
+            raise MetricFailed(f'metric {self.name} ({self.use}) raised '
+                               f'{type(exc).__name__}: {exc}') from None
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise MetricFailed(f'metric {self.name} ({self.use}) returned {value!r:.60} '
+                               f'({type(value).__name__}): a metric returns a number '
+                               '(float; NaN where it does not apply)')
+        return float(value)
+
+
+class MetricFailed(ScrewgearError, ValueError):
+    """A user metric that raised or returned no number; the message names it."""
 
 
 @dataclass(frozen=True)
@@ -66,6 +172,8 @@ class Metrics:
     peak_mesh_force: tuple[float, float]  # N: max |F1|, max |F3|
     fault: str | None
     rejected: int                         # commands the session refused
+    band: SettlingBand = DEFAULT_BAND     # the steps' settling band
+    user: tuple[tuple[str, float], ...] = ()   # user metrics, by name
 
     @property
     def max_overshoot(self) -> float | None:
@@ -108,6 +216,7 @@ class Metrics:
             'peak_mesh_force_3_n': self.peak_mesh_force[1],
             'rejected': float(self.rejected),
             'faulted': float(self.fault is not None),
+            **dict(self.user),
         }
 
     def details(self) -> dict[str, Any]:
@@ -123,7 +232,9 @@ class Metrics:
 
 def run_metrics(run: Any, setpoint: Callable[[float], float] | None = None,
                 joint: int | str = 'table',
-                jumps: list[tuple[float, float, float]] | None = None) -> Metrics:
+                jumps: list[tuple[float, float, float]] | None = None,
+                band: SettlingBand = DEFAULT_BAND,
+                user: Sequence[UserMetric] = ()) -> Metrics:
     """The metrics of a run: transmission error, tracking, steps, reversals, mesh forces.
 
     Parameters
@@ -137,6 +248,10 @@ def run_metrics(run: Any, setpoint: Callable[[float], float] | None = None,
     jumps : list of (float, float, float), optional
         The setpoint's steps as (time, before, after); default: the setpoint's own
         ``steps(duration)`` if it has them, else none.
+    band : SettlingBand
+        The band a step settles into (default ±2 % of the step).
+    user : sequence of UserMetric
+        Metrics of the user's, each called with the run and ``setpoint``.
 
     Returns
     -------
@@ -146,8 +261,10 @@ def run_metrics(run: Any, setpoint: Callable[[float], float] | None = None,
     Raises
     ------
     ValueError
-        ``joint`` is not a joint of the run, or ``setpoint`` is a profile whose
-        ``check_tick`` refuses the run's tick (a square period under two ticks).
+        ``joint`` is not a joint of the run, ``setpoint`` is a profile whose
+        ``check_tick`` refuses the run's tick (a square period under two ticks), a band
+        in counts on a joint without an encoder, or a user metric that fails
+        (:class:`MetricFailed`).
 
     Examples
     --------
@@ -178,14 +295,17 @@ def run_metrics(run: Any, setpoint: Callable[[float], float] | None = None,
             own = getattr(setpoint, 'steps', None)
             jumps = own(float(t[-1])) if own is not None else []
         start = (0.0, float(angle[0]), float(target[0]))
-        steps = _steps(t, angle, [start, *jumps])
+        from ..params.sensors import JOINTS
+        counts = int(getattr(run.settings, f'encoder_counts_{JOINTS[joint]}', 0))
+        steps = _steps(t, angle, [start, *jumps], band, counts)
+    values = tuple((m.name, m(run, setpoint)) for m in user)
     return Metrics(float(np.max(np.abs(run.transmission_error))) if len(run) else 0.0,
                    rms, tuple(steps), tuple(_reversals(run, t)), peak, run.fault,
-                   len(getattr(run, 'rejected', ())))
+                   len(getattr(run, 'rejected', ())), band, values)
 
 
-def _steps(t: np.ndarray, angle: np.ndarray,
-           jumps: list[tuple[float, float, float]]) -> list[StepResponse]:
+def _steps(t: np.ndarray, angle: np.ndarray, jumps: list[tuple[float, float, float]],
+           band: SettlingBand, counts: int) -> list[StepResponse]:
     out = []
     for k, (t0, before, after) in enumerate(jumps):
         size = after - before
@@ -197,7 +317,7 @@ def _steps(t: np.ndarray, angle: np.ndarray,
             continue
         seen, times = angle[window], t[window]
         overshoot = max(0.0, float(np.max(np.sign(size) * (seen - after))))
-        outside = np.flatnonzero(np.abs(seen - after) > SETTLING_BAND * abs(size))
+        outside = np.flatnonzero(np.abs(seen - after) > band.width(size, counts))
         if not len(outside):
             settling: float | None = 0.0
         elif outside[-1] + 1 < len(seen):
@@ -236,7 +356,7 @@ def format_metrics(m: Metrics, details: int = 5) -> str:
                   else f'settles in {s.settling_time:.4f} s')
         lines.append(f'step at {s.time:8.4f} s  {s.size * 1e3:+9.4f} mrad: overshoot '
                      f'{s.overshoot * 1e3:.5f} mrad ({100 * s.overshoot / abs(s.size):.2f} %), '
-                     f'{settle} (band {SETTLING_BAND:.0%})')
+                     f'{settle} ({m.band.describe()})')
     if len(m.steps) > details:
         assert m.max_overshoot is not None and m.max_settling_time is not None
         lines.append(f'... {len(m.steps) - details} more steps; worst overshoot '
@@ -254,15 +374,23 @@ def format_metrics(m: Metrics, details: int = 5) -> str:
                  f'{m.peak_mesh_force[1]:.1f} N (mesh 3)')
     if m.rejected:
         lines.append(f'commands refused        {m.rejected:12d}')
+    for name, value in m.user:
+        lines.append(f'{name:<24}{value:12.6g}')
     lines.append(f'fault                   {m.fault or "none"}')
     return '\n'.join(lines)
 
 
 __all__ = [
+    'DEFAULT_BAND',
+    'METRIC_DOCS',
     'SETTLING_BAND',
+    'BandUnit',
+    'MetricFailed',
     'Metrics',
     'Reversal',
+    'SettlingBand',
     'StepResponse',
+    'UserMetric',
     'format_metrics',
     'run_metrics',
 ]

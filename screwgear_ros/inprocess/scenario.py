@@ -12,7 +12,7 @@ is what ``replay_run --script`` plays into a live node over DDS (actions only).
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,28 +21,39 @@ import yaml
 
 from ..errors import ScrewgearError
 from ..interface import Input
-from ..params.declarations import declared
-from ..params.table import ParameterError, SimSettings, TableParams
 from ..params.yaml_reader import YamlReader
 from ..sim.commands import INPUT_TOPICS, InputRejected, apply_command
 from ..sim.control import TABLE_JOINT, DemoController
 from ..sim.events import Command, Event, ParameterChange, Reset
-from ..sim.parameter_set import default_values, split_parameters
+from ..sim.parameter_set import split_parameters
 from ..sim.plant import DriveInput
 from ..sim.schedule import Schedule
+from .metrics import (
+    DEFAULT_BAND,
+    Metrics,
+    SettlingBand,
+    UserMetric,
+    run_metrics,
+)
 from .scenario_controller import ControllerSpec, read_controller, resolve_callable
+from .scenario_parts import (
+    READ_ONLY,
+    check_changeable,
+    read_band,
+    read_base,
+    read_command,
+    read_parameters,
+    read_user_metrics,
+)
 from .setpoint_profile import PROFILES, SetpointProfile, read_setpoint
 from .simulation import Controller, Run, Simulation
 
 #: The top-level keys of a scenario.
-KEYS = ('parameters', 'duration', 'actions', 'controller', 'setpoint')
+KEYS = ('parameters_file', 'parameters', 'duration', 'actions', 'controller', 'setpoint',
+        'settling_band', 'metrics')
 #: What an action can do besides its ``time``: a command on an input topic, a parameter
 #: change, a reset.
 ACTIONS = (*INPUT_TOPICS, 'parameters', 'reset')
-#: Parameters the node refuses to change while it runs (read-only): an action may not
-#: change them, whatever the value.
-READ_ONLY = frozenset(p.name for cls in (TableParams, SimSettings) for p in declared(cls)
-                      if p.declaration.read_only)
 
 
 class ScenarioError(ScrewgearError, ValueError):
@@ -91,6 +102,15 @@ class Scenario:
         The controller closing the loop (``demo`` or ``module:callable``).
     setpoint : SetpointProfile or None
         The target the controller and the metrics follow.
+    band : SettlingBand
+        The settling band of its steps (``settling_band``; default ±2 % of the step).
+    user_metrics : tuple of (str, str, str)
+        Its own metrics (``metrics``): name, ``module:callable``, the directory the module
+        is looked for in first.
+    parameters_file : str or None
+        The parameter file its start values are on top of (the scenario's
+        ``parameters_file``, or the one :func:`load_scenario` was given in its place);
+        None: the node's defaults, the paper's ideal table.
 
     Examples
     --------
@@ -109,6 +129,41 @@ class Scenario:
     actions: tuple[Action, ...] = ()
     controller: ControllerSpec | None = None
     setpoint: SetpointProfile | None = None
+    parameters_file: str | None = None
+    band: SettlingBand = DEFAULT_BAND
+    user_metrics: tuple[tuple[str, str, str], ...] = ()
+
+    def metrics(self, run: Run) -> Metrics:
+        """The run's metrics (:func:`~.metrics.run_metrics`) with the scenario's setpoint,
+        settling band and user metrics.
+
+        Parameters
+        ----------
+        run : Run
+            A run of this scenario.
+
+        Returns
+        -------
+        Metrics
+        """
+        user = [UserMetric(name, resolve_callable(use, directory), use)
+                for name, use, directory in self.user_metrics]
+        return run_metrics(run, self.setpoint,
+                           self.setpoint.joint if self.setpoint else 'table',
+                           band=self.band, user=user)
+
+    def table(self) -> str:
+        """What the run starts from, for a person: the parameter file, or the defaults.
+
+        Returns
+        -------
+        str
+            One phrase, e.g. ``parameters: config/realistic.yaml, then the scenario's``.
+        """
+        source = (self.parameters_file if self.parameters_file is not None
+                  else "the node's defaults (the paper's ideal table: no friction, ideal "
+                  'sensors and drive)')
+        return f'parameters: {source}, then the scenario\'s own'
 
     def simulation(self, **overrides: Any) -> Simulation:
         """The scenario's simulation, some parameters changed (validated).
@@ -221,13 +276,18 @@ class Scenario:
                         end_step=round(self.duration / simulation.settings.dt))
 
 
-def load_scenario(path: str | os.PathLike[str]) -> Scenario:
+def load_scenario(path: str | os.PathLike[str],
+                  params: str | os.PathLike[str] | Mapping[str, Any] | None = None) -> Scenario:
     """Read and validate a scenario file (``docs/scenarios.md``).
 
     Parameters
     ----------
     path : str or path-like
         The scenario file (YAML).
+    params : str, path-like or mapping, optional
+        A parameter file (or its values) that takes the place of the scenario's
+        ``parameters_file``: the scenario's ``parameters`` go on top of it
+        (``run_scenario --params FILE``).
 
     Returns
     -------
@@ -258,9 +318,9 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
         raise reader.error(reader.root, 'a scenario needs a duration (s of simulation time)')
     duration = reader.number(top['duration'][1], 'duration', low=0.0, strict=True)
 
-    values = default_values()
+    values, parameters_file = read_base(reader, top, path, params)
     if 'parameters' in top:
-        values = _parameters(reader, top['parameters'][1], values, 'parameters')
+        values = read_parameters(reader, top['parameters'][1], values, 'parameters')
     start = values
     actions: list[Action] = []
     if 'actions' in top:
@@ -289,8 +349,8 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
             line = item.start_mark.line + 1
             if kind == 'parameters':
                 before = values
-                _changeable(reader, value_node, f'parameters at {t:g} s')
-                values = _parameters(reader, value_node, values, f'parameters at {t:g} s')
+                check_changeable(reader, value_node, f'parameters at {t:g} s')
+                values = read_parameters(reader, value_node, values, f'parameters at {t:g} s')
                 change = {k: v for k, v in values.items() if before.get(k) != v}
                 actions.append(Action(t, kind, change, line))
             elif kind == 'reset':
@@ -298,10 +358,10 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
                     raise reader.error(value_node, 'reset takes the value true')
                 actions.append(Action(t, kind, True, line))
             else:
-                command = _command(reader, kind, value_node)
-                params, settings = split_parameters(values)
+                command = read_command(reader, kind, value_node)
+                table, settings = split_parameters(values)
                 try:
-                    apply_command(DriveInput(), kind, command, params, settings.joint_names)
+                    apply_command(DriveInput(), kind, command, table, settings.joint_names)
                 except InputRejected as exc:
                     raise reader.error(value_node, f'the node would refuse this command: '
                                        f'{exc}') from None
@@ -314,56 +374,11 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
     if setpoint is not None and setpoint.joint not in values['joint_names']:
         raise reader.error(top[Input.SETPOINT][1], f'setpoint joint {setpoint.joint!r} is not one '
                            f'of the joint_states names {values["joint_names"]}')
+    band = read_band(reader, top['settling_band'][1], start, setpoint) \
+        if 'settling_band' in top else DEFAULT_BAND
+    user = read_user_metrics(reader, top['metrics'][1], path) if 'metrics' in top else ()
     return Scenario(str(path), tuple(start.items()), duration, tuple(actions), controller,
-                    setpoint)
-
-
-def _parameters(reader: YamlReader, node: yaml.Node, values: dict[str, Any],
-                what: str) -> dict[str, Any]:
-    """``values`` with the parameters of a mapping node, validated as the node validates
-    them; the error names the line of the parameter it is about."""
-    entries = reader.mapping(node, what)
-    merged = {**values, **{name: reader.value(v) for name, (_, v) in entries.items()}}
-    try:
-        split_parameters(merged)
-    except ParameterError as exc:
-        key = entries.get(exc.name)
-        raise reader.error(key[0] if key is not None else node, f'{what}: {exc}') from None
-    return merged
-
-
-def _changeable(reader: YamlReader, node: yaml.Node, what: str) -> None:
-    """Refuse a read-only parameter in an action's parameters, at its line: the node
-    refuses to change it while it runs."""
-    for name, (key, _) in reader.mapping(node, what).items():
-        if name in READ_ONLY:
-            raise reader.error(key, f'{what}: {name} is read-only: the node refuses to '
-                               'change it while it runs; set it under the scenario\'s '
-                               'parameters')
-
-
-def _command(reader: YamlReader, topic: str, node: yaml.Node) -> Any:
-    """The value of a command action, as its message would carry it."""
-    value = reader.value(node)
-    if topic == Input.CMD_EFFORT:
-        if not isinstance(value, list):
-            raise reader.error(node, 'cmd_effort takes a list of one signed torque, e.g. '
-                               '[-350.0]')
-        return value
-    if topic == Input.JOINT_COMMANDS:
-        from ..sim.commands import JointCommand
-        if not isinstance(value, dict) or not set(value) <= {'name', 'position', 'velocity',
-                                                             'effort'}:
-            raise reader.error(node, 'joint_commands takes {name: [...], effort: [...]}')
-        return JointCommand(tuple(value.get('name', ())), tuple(value.get('position', ())),
-                            tuple(value.get('velocity', ())), tuple(value.get('effort', ())))
-    if topic == Input.CMD_DIRECTION:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise reader.error(node, f'cmd_direction takes +1 or -1, not {value!r}')
-        return value
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise reader.error(node, f'{topic} takes a number, not {value!r}')
-    return float(value)
+                    setpoint, parameters_file, band, user)
 
 
 def schedule_from_scenario(path: str | Path) -> Schedule:

@@ -5,13 +5,16 @@ scenario's directory."""
 from __future__ import annotations
 
 import importlib
+import numbers
 import sys
+import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import yaml
 
+from ..errors import ScrewgearError
 from ..params.yaml_reader import YamlReader
 from ..sim.control import DemoController, DemoGains
 from .setpoint_profile import SetpointProfile
@@ -39,7 +42,89 @@ class ControllerSpec:
             return DemoController(DemoGains(**values), dt=simulation.settings.dt,
                                   joint_names=simulation.settings.joint_names, setpoint=setpoint)
         factory = resolve_callable(self.use, self.directory)
-        return factory(setpoint, **values)
+        return make_checked(f'controller {self.use} (line {self.line})', factory, setpoint,
+                            **values)
+
+
+class ControllerFailed(ScrewgearError, RuntimeError):
+    """A user's controller (or its factory) raised, or answered with something that is no
+    effort; the message names the controller, the tick and the rule."""
+
+
+#: What a controller must answer, said in every refusal of an answer.
+ANSWER_RULE = ('a controller answers each observation with the signed drive torque in N·m '
+               '(a real number) or None (no command this tick)')
+
+
+def _where(exc: BaseException) -> str:
+    """The file and line of the innermost frame of ``exc``'s traceback (the user's own
+    code, where the failure is)."""
+    frames = traceback.extract_tb(exc.__traceback__)
+    return f' ({frames[-1].filename}, line {frames[-1].lineno})' if frames else ''
+
+
+def make_checked(name: str, factory: Callable[..., Any], *args: Any,
+                 **kwargs: Any) -> CheckedController:
+    """``factory(*args, **kwargs)`` as a :class:`CheckedController` named ``name``; a
+    factory that raises or returns no callable is a :class:`ControllerFailed`.
+
+    Examples
+    --------
+    >>> make_checked('mine', lambda setpoint: (lambda obs: 1.0), None).name
+    'mine'
+    """
+    try:
+        controller = factory(*args, **kwargs)
+    except ScrewgearError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - the user's code: named, not shown raw
+        raise ControllerFailed(f'{name}: its factory raised {type(exc).__name__}: {exc}'
+                               f'{_where(exc)}; a factory returns the controller, a '
+                               'callable') from None
+    return CheckedController(name, controller)
+
+
+class CheckedController:
+    """A user's controller whose failures are named (:class:`ControllerFailed`): one that
+    raises, by its exception, tick and line; one that answers anything but a real number
+    or None (text, a list), by the answer and :data:`ANSWER_RULE`. The value of a number
+    is the session's to judge, as the node judges a message.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> checked = CheckedController('mine', lambda obs: 'left')
+    >>> try:
+    ...     checked(SimpleNamespace(step=3, time=0.003))
+    ... except ControllerFailed as exc:
+    ...     print(str(exc)[:47])
+    mine answered 'left' (str) at t = 0.003 s (step
+    """
+
+    __slots__ = ('controller', 'name')
+
+    def __init__(self, name: str, controller: Any) -> None:
+        if not callable(controller):
+            raise ControllerFailed(f'{name}: the factory returned {controller!r:.60} '
+                                   f'({type(controller).__name__}), not a controller: '
+                                   f'{ANSWER_RULE}')
+        self.name, self.controller = name, controller
+
+    def __call__(self, observation: Any) -> Any:
+        try:
+            effort = self.controller(observation)
+        except ScrewgearError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - the user's code: named, not shown raw
+            raise ControllerFailed(f'{self.name} raised {type(exc).__name__} at t = '
+                                   f'{observation.time:.6g} s (step {observation.step}): '
+                                   f'{exc}{_where(exc)}') from None
+        if effort is None or type(effort) is float or (
+                isinstance(effort, numbers.Real) and not isinstance(effort, bool)):
+            return effort
+        raise ControllerFailed(f'{self.name} answered {effort!r:.60} '
+                               f'({type(effort).__name__}) at t = {observation.time:.6g} s '
+                               f'(step {observation.step}): {ANSWER_RULE}')
 
 
 def resolve_callable(text: str, directory: str = '') -> Callable[..., Any]:
@@ -91,4 +176,5 @@ def read_controller(reader: YamlReader, node: yaml.Node) -> ControllerSpec:
                           directory)
 
 
-__all__ = ['CONTROLLER_KEYS', 'ControllerSpec', 'read_controller', 'resolve_callable']
+__all__ = ['ANSWER_RULE', 'CONTROLLER_KEYS', 'CheckedController', 'ControllerFailed',
+           'ControllerSpec', 'make_checked', 'read_controller', 'resolve_callable']

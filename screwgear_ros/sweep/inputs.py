@@ -56,17 +56,19 @@ def base_values(reader: YamlReader, node: yaml.Node, here: Path) -> tuple[dict[s
     return base, path
 
 
-def scenario_of(reader: YamlReader, node: yaml.Node, here: Path) -> tuple[Any, Path, str]:
-    """The scenario the ``scenario`` entry names: the loaded scenario, its path and its
-    text. A scenario that changes publish_rate after its start is refused here, as
-    ``Scenario.run`` refuses it, before any run."""
+def scenario_of(reader: YamlReader, node: yaml.Node, here: Path,
+                base_file: str | None = None) -> tuple[Any, Path, str]:
+    """The scenario the ``scenario`` entry names: the loaded scenario (on ``base_file``,
+    the sweep's parameter file, in the place of the scenario's ``parameters_file``), its
+    path and its text. A scenario that changes publish_rate after its start is refused
+    here, as ``Scenario.run`` refuses it, before any run."""
     name = reader.value(node)
     if not isinstance(name, str) or not name:
         raise reader.error(node, 'scenario names a scenario file (path relative to the '
                            'sweep file)')
     path = here / name
     try:
-        scenario = load_scenario(path)
+        scenario = load_scenario(path, base_file)
         text = path.read_text(encoding='utf-8')
     except _UNREADABLE as exc:
         raise reader.error(node, f'scenario: {_why(exc)}') from None
@@ -78,6 +80,19 @@ def scenario_of(reader: YamlReader, node: yaml.Node, here: Path) -> tuple[Any, P
     return scenario, path, text
 
 
+def scenario_file_values(reader: YamlReader, node: yaml.Node,
+                         scenario: Any) -> dict[str, Any]:
+    """The values of the scenario's own ``parameters_file`` (none: {}), the node's
+    settings dropped, as a sweep's base file."""
+    if scenario.parameters_file is None:
+        return {}
+    try:
+        values = file_values(scenario.parameters_file)
+    except _UNREADABLE as exc:
+        raise reader.error(node, f'scenario: {_why(exc)}') from None
+    return {k: v for k, v in values.items() if k not in NODE_ONLY}
+
+
 def explicit_parameters(text: str) -> tuple[str, ...]:
     """The names of the parameters a scenario's text sets itself."""
     document = yaml.safe_load(text) or {}
@@ -86,16 +101,19 @@ def explicit_parameters(text: str) -> tuple[str, ...]:
 
 
 def controller_sources(scenario: Any, directory: Path) -> tuple[tuple[str, str], ...]:
-    """The controller's module file when it sits beside the scenario (shipped to the
-    workers); an installed module is the workers' to have."""
+    """The module files of the controller and of the user metrics that sit beside the
+    scenario (shipped to the workers); an installed module is the workers' to have."""
     spec = scenario.controller
-    if spec is None or spec.use == 'demo':
-        return ()
-    module = spec.use.partition(':')[0]
-    candidate = directory / (module.replace('.', '/') + '.py')
-    if '.' not in module and candidate.is_file():
-        return ((candidate.name, candidate.read_text(encoding='utf-8')),)
-    return ()
+    uses = [use for _, use, _ in scenario.user_metrics]
+    if spec is not None and spec.use != 'demo':
+        uses.insert(0, spec.use)
+    found: dict[str, str] = {}
+    for use in uses:
+        module = use.partition(':')[0]
+        candidate = directory / (module.replace('.', '/') + '.py')
+        if '.' not in module and candidate.is_file() and candidate.name not in found:
+            found[candidate.name] = candidate.read_text(encoding='utf-8')
+    return tuple(found.items())
 
 
 def finite_product(values: tuple[float, ...]) -> bool:
@@ -114,4 +132,4 @@ def _why(exc: BaseException) -> str:
 
 
 __all__ = ['NODE_ONLY', 'base_values', 'controller_sources', 'explicit_parameters',
-           'finite_product', 'plain_value', 'scenario_of']
+           'finite_product', 'plain_value', 'scenario_file_values', 'scenario_of']

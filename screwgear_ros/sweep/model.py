@@ -69,16 +69,29 @@ TAIL_SIGMAS = 5.0
 @dataclass(frozen=True)
 class Axis:
     """A swept parameter: its grid values or its draw; ``scale``: the values multiply
-    the base value (each element of a list parameter) instead of replacing it."""
+    the base value (each element of a list parameter) instead of replacing it.
+    Correlated draws: ``factor`` names a shared factor (:attr:`Sweep.factors`) whose draw
+    this axis takes instead of its own (so parameters scaled by one factor move
+    together); ``of`` makes it derived: the run's value of parameter ``of`` times this
+    axis' draw, the ratio (static = Coulomb × ratio keeps static >= Coulomb for a ratio
+    >= 1). A factor itself is an axis with ``shared`` set: drawn once per run, set no
+    parameter."""
 
     name: str
     line: int
     scale: bool = False
     values: tuple[Any, ...] = ()      # grid
     draw: Draw | None = None          # Monte Carlo
+    factor: str | None = None         # takes this shared factor's draw
+    of: str | None = None             # derived: (the value of ``of``) × the draw
+    shared: bool = False              # a shared factor (sets no parameter)
 
     @property
     def column(self) -> str:
+        if self.shared:
+            return f'factor_{self.name}'
+        if self.of is not None:
+            return f'{self.name}_ratio'
         return f'{self.name}_scale' if self.scale else self.name
 
     def sample(self, rng: np.random.Generator) -> float:
@@ -106,6 +119,7 @@ class RunSpec:
     swept: tuple[tuple[str, Any], ...]
     overrides: tuple[tuple[str, Any], ...]
     key: str
+    redraws: int = 0          # draws the node refused before this one (redrawn)
 
 
 @dataclass(frozen=True)
@@ -141,10 +155,17 @@ class Sweep:
     runs: tuple[RunSpec, ...]
     base_file: str | None
     scenario_file: str
+    factors: tuple[Axis, ...] = ()
+    first_refusal: str = ''           # why the first redrawn draw was refused
 
     @property
     def columns(self) -> tuple[str, ...]:
-        return tuple(a.column for a in (*self.grid, *self.draws))
+        return tuple(a.column for a in (*self.grid, *self.factors, *self.draws))
+
+    @property
+    def redraws(self) -> int:
+        """Draws the node refused and that were drawn again, over all runs."""
+        return sum(r.redraws for r in self.runs)
 
     def resolved(self) -> dict[str, Any]:
         """The resolved sweep (every drawn value), as written to DIR/sweep.yaml."""
@@ -160,11 +181,23 @@ class Sweep:
             'time_limit': b.time_limit,
             'grid': {a.column: plain(list(a.values)) for a in self.grid},
             'monte_carlo': {'count': self.count, 'seed': self.seed,
-                            'parameters': {a.column: {a.draw.law.value: list(a.draw.arguments)}
-                                           for a in self.draws if a.draw is not None}},
+                            **({'factors': {a.name: {a.draw.law.value: list(a.draw.arguments)}
+                                            for a in self.factors if a.draw is not None}}
+                               if self.factors else {}),
+                            'parameters': {a.column: _law(a) for a in self.draws},
+                            **({'redraws': self.redraws} if self.redraws else {})},
             'runs': [{'index': r.index, 'seed': r.seed, 'key': r.key,
-                      'values': plain(dict(r.swept))} for r in self.runs],
+                      'values': plain(dict(r.swept)),
+                      **({'redraws': r.redraws} if r.redraws else {})} for r in self.runs],
         }
+
+
+def _law(axis: Axis) -> dict[str, Any]:
+    """An axis' draw as the resolved sweep writes it."""
+    if axis.factor is not None:
+        return {'factor': axis.factor}
+    law = {axis.draw.law.value: list(axis.draw.arguments)} if axis.draw is not None else {}
+    return {'times': axis.of, 'ratio': law} if axis.of is not None else law
 
 
 def plain(value: Any) -> Any:

@@ -72,7 +72,10 @@ def report(sweep: Sweep, store: Store, done: dict[int, Any], out: Path, *, plot:
         swept = ', '.join(f'{c} = {table[c][position]:.6g}' if isinstance(table[c][position],
                           float) else f'{c} = {table[c][position]}' for c in sweep.columns)
         path = rerun_file(sweep, store, index)
-        print(f'  run {index}: {metrics[0]} = {table[metrics[0]][position]:.6g} ({swept})')
+        value = table[metrics[0]][position]
+        shown = ('inf (a step never settled)' if value == float('inf')
+                 and metrics[0] == 'max_settling_time_s' else f'{value:.6g}')
+        print(f'  run {index}: {metrics[0]} = {shown} ({swept})')
         print(f'    run_scenario {path} --record {path.with_suffix("")}_bag')
     print(('up to date, kept: ' if kept is not None else 'wrote ')
           + ', '.join(str(p) for p in written))
@@ -100,6 +103,7 @@ def rerun_file(sweep: Sweep, store: Store, index: int) -> Path:
     directory.mkdir(exist_ok=True)
     document = yaml.safe_load(bundle.scenario_text) or {}
     document['parameters'] = {**dict(bundle.base), **dict(spec.overrides)}
+    document.pop('parameters_file', None)       # its values are in the parameters above
     for name, text in bundle.sources:
         (directory / name).write_text(text, encoding='utf-8')
     path = directory / f'run_{index:06d}.yaml'

@@ -15,7 +15,7 @@ from ..params.declarations import ParameterError, declared
 from ..params.table import SimSettings, TableParams
 from ..params.yaml_reader import YamlReader
 from ..sim.parameter_set import default_values, split_parameters
-from .model import Axis, Bundle, RunSpec, digest, plain, run_seed
+from .model import Axis, Bundle, RunSpec, SweepError, digest, plain, run_seed
 
 #: Parameters the node refuses to change while it runs.
 READ_ONLY = frozenset(p.name for cls in (TableParams, SimSettings) for p in declared(cls)
@@ -24,31 +24,79 @@ READ_ONLY = frozenset(p.name for cls in (TableParams, SimSettings) for p in decl
 
 def resolve_runs(reader: YamlReader, bundle: Bundle, scenario: Any, grid: tuple[Axis, ...],
                  draws: tuple[Axis, ...], count: int, seed: int,
-                 validated: Collection[str] = frozenset()) -> list[RunSpec]:
+                 validated: Collection[str] = frozenset(), factors: tuple[Axis, ...] = (),
+                 redraw: int = 0) -> tuple[list[RunSpec], str]:
     """Every run, in index order (grid point major, then draw), each validated but those
     whose key is in ``validated`` (a key digests everything a run depends on, so a run
-    finished before under it was validated then, by the same rules)."""
+    finished before under it was validated then, by the same rules); and why the first
+    redrawn draw was refused ('' if none was).
+
+    A draw the node refuses is drawn again from the run's own generator, at most
+    ``redraw`` times (then the sweep is refused with the last reason); the run counts its
+    redraws (:attr:`RunSpec.redraws`). The shared factors are drawn first, then each
+    drawn parameter in file order, then the derived ones take their ratio's draw."""
     base = dict(bundle.base)
     start = {**default_values(), **base}      # what each swept value applies to
     shared = bundle.digest
     runs = []
+    first_refusal = ''
     for index in range(run_count(grid, count)):
         point = grid_point(grid, index // count)
         rng_seed = run_seed(seed, index)
         rng = np.random.default_rng(rng_seed)
-        chosen = [*zip(grid, point, strict=True), *((a, a.sample(rng)) for a in draws)]
-        for axis, value in chosen[len(grid):]:
-            if not math.isfinite(value):
-                raise reader.error(axis.line, f'run {index}: {axis.column} drew {value!r}')
-        overrides = {a.name: a.apply(start[a.name], v)
-                     for a, v in chosen}
-        key = digest({'bundle': shared, 'index': index, 'seed': rng_seed,
-                       'overrides': overrides})
-        if key not in validated:
-            _validate(reader, scenario, base, overrides, chosen, index)
+        for attempt in range(redraw + 1):
+            chosen = [*zip(grid, point, strict=True), *_draw(reader, index, rng, factors,
+                                                               draws)]
+            overrides = _overrides(reader, index, start, chosen)
+            key = digest({'bundle': shared, 'index': index, 'seed': rng_seed,
+                          'overrides': overrides})
+            if key in validated:
+                break
+            try:
+                _validate(reader, scenario, base, overrides,
+                          [(a, v) for a, v in chosen if not a.shared], index)
+                break
+            except SweepError as exc:
+                if not draws or attempt == redraw:
+                    if attempt:
+                        raise SweepError(f'{exc} (after {attempt} redraws of its draw; '
+                                         'monte_carlo redraw sets the most)') from None
+                    raise
+                first_refusal = first_refusal or str(exc)
         swept = tuple((a.column, plain(v)) for a, v in chosen)
-        runs.append(RunSpec(index, rng_seed, swept, tuple(plain(overrides).items()), key))
-    return runs
+        runs.append(RunSpec(index, rng_seed, swept, tuple(plain(overrides).items()), key,
+                            attempt))
+    return runs, first_refusal
+
+
+def _draw(reader: YamlReader, index: int, rng: np.random.Generator,
+          factors: tuple[Axis, ...], draws: tuple[Axis, ...]) -> list[tuple[Axis, float]]:
+    """One draw of a run: the shared factors, then each drawn axis (a factor's user takes
+    the factor's value)."""
+    values = {f.name: f.sample(rng) for f in factors}
+    chosen = [(f, values[f.name]) for f in factors]
+    chosen += [(a, values[a.factor] if a.factor is not None else a.sample(rng)) for a in draws]
+    for axis, value in chosen:
+        if not math.isfinite(value):
+            raise reader.error(axis.line, f'run {index}: {axis.column} drew {value!r}')
+    return chosen
+
+
+def _overrides(reader: YamlReader, index: int, start: dict[str, Any],
+               chosen: list[tuple[Axis, Any]]) -> dict[str, Any]:
+    """The parameters a run's values set: each axis' value (scaled or not), then each
+    derived parameter: the value of the parameter it names in this run × its ratio."""
+    overrides = {a.name: a.apply(start[a.name], v)
+                 for a, v in chosen if not a.shared and a.of is None}
+    for axis, ratio in chosen:
+        if axis.of is None:
+            continue
+        other = overrides.get(axis.of, start[axis.of])
+        if isinstance(other, bool) or not isinstance(other, (int, float)):
+            raise reader.error(axis.line, f'run {index}: {axis.name} is {axis.of} × a ratio, '
+                               f'but {axis.of} is {other!r}, not a number')
+        overrides[axis.name] = float(other) * ratio
+    return overrides
 
 
 def run_count(grid: tuple[Axis, ...], count: int) -> int:

@@ -31,6 +31,7 @@ from .inputs import (
     controller_sources,
     explicit_parameters,
     plain_value,
+    scenario_file_values,
     scenario_of,
 )
 from .model import Sweep, SweepError, plain
@@ -38,7 +39,10 @@ from .resolve import resolve_runs, run_count
 
 #: The top-level keys of a sweep file.
 KEYS = ('parameters', 'scenario', 'metrics', 'time_limit', 'grid', 'monte_carlo')
-MONTE_CARLO_KEYS = ('count', 'seed', 'parameters')
+MONTE_CARLO_KEYS = ('count', 'seed', 'factors', 'parameters', 'redraw')
+#: The most times one run's draw is drawn again when the node refuses it (monte_carlo
+#: ``redraw``; 0: a refused draw refuses the sweep).
+REDRAWS = 100
 #: The metrics a sweep can keep: the flat names of a run's metrics.
 METRICS = tuple(Metrics(0.0, None, (), (), (0.0, 0.0), None, 0).as_dict())
 #: Default wall-time limit of one run, s.
@@ -119,7 +123,10 @@ def _load(reader: YamlReader, path: Path, limit: int | None,
     base_file = None
     if 'parameters' in top:
         base, base_file = base_values(reader, top['parameters'][1], here)
-    scenario, scenario_file, scenario_text = scenario_of(reader, top['scenario'][1], here)
+    scenario, scenario_file, scenario_text = scenario_of(reader, top['scenario'][1], here,
+                                                         base_file)
+    if base_file is None:             # the sweep's parameter file replaces the scenario's
+        base = scenario_file_values(reader, top['scenario'][1], scenario)
     values = dict(scenario.values)
     base = {**base, **{k: values[k] for k in explicit_parameters(scenario_text)}}
     try:
@@ -128,7 +135,8 @@ def _load(reader: YamlReader, path: Path, limit: int | None,
         raise reader.error(top['scenario'][1], f'scenario: its controller module cannot '
                            f'be read: {exc}') from None
 
-    metrics = _metrics(reader, top['metrics'][1])
+    metrics = _metrics(reader, top['metrics'][1],
+                       METRICS + tuple(name for name, _, _ in scenario.user_metrics))
     time_limit = TIME_LIMIT
     if 'time_limit' in top:
         time_limit = reader.number(top['time_limit'][1], 'time_limit (s of wall time per '
@@ -136,8 +144,10 @@ def _load(reader: YamlReader, path: Path, limit: int | None,
     grid = _grid(reader, top['grid'][1]) if 'grid' in top else ()
     count, seed = 1, 0
     draws: tuple[model.Axis, ...] = ()
+    factors: tuple[model.Axis, ...] = ()
+    redraw = REDRAWS
     if 'monte_carlo' in top:
-        count, seed, draws = _monte_carlo(reader, top['monte_carlo'][1])
+        count, seed, draws, factors, redraw = _monte_carlo(reader, top['monte_carlo'][1])
     names = [a.name for a in (*grid, *draws)]
     for axis in (*grid, *draws):
         if names.count(axis.name) > 1:
@@ -158,9 +168,10 @@ def _load(reader: YamlReader, path: Path, limit: int | None,
         announce(total, simulated)
     bundle = model.Bundle(scenario_file.name, scenario_text, sources,
                           tuple(plain(base).items()), metrics, time_limit)
-    runs = resolve_runs(reader, bundle, scenario, grid, draws, count, seed, validated)
+    runs, refusal = resolve_runs(reader, bundle, scenario, grid, draws, count, seed,
+                                 validated, factors, redraw)
     return Sweep(str(path), bundle, grid, draws, count, seed, tuple(runs), base_file,
-                 str(scenario_file.resolve()))
+                 str(scenario_file.resolve()), factors, refusal)
 
 
 def _unreadable(path: Path, exc: BaseException) -> str:
@@ -189,17 +200,20 @@ def _scalable(reader: YamlReader, axis: model.Axis, base: Any) -> None:
                        f'numbers; {axis.name} is {base!r}: give its values instead')
 
 
-def _metrics(reader: YamlReader, node: yaml.Node) -> tuple[str, ...]:
+def _metrics(reader: YamlReader, node: yaml.Node, known: tuple[str, ...]) -> tuple[str, ...]:
+    """The metric names of the sweep: the built-in ones (docs/scenarios.md, Metrics) and
+    the scenario's own (its ``metrics``)."""
     value = reader.value(node)
     if isinstance(value, str):
         value = [value]
     if not isinstance(value, list) or not value:
         raise reader.error(node, f'metrics is a list of metric names (known: '
-                           f'{", ".join(METRICS)})')
+                           f'{", ".join(known)}; docs/scenarios.md says what each means)')
     for item, name in zip(node.value if isinstance(node, yaml.SequenceNode) else [node],
                           value, strict=True):
-        if name not in METRICS:
-            raise reader.error(item, f'unknown metric {name!r} (known: {", ".join(METRICS)})')
+        if not isinstance(name, str) or name not in known:
+            raise reader.error(item, f'unknown metric {name!r} (known: {", ".join(known)}; '
+                               'docs/scenarios.md says what each means)')
     if len(set(value)) != len(value):
         raise reader.error(node, 'a metric is named twice')
     return tuple(value)
@@ -246,8 +260,9 @@ def _grid(reader: YamlReader, node: yaml.Node) -> tuple[model.Axis, ...]:
     return tuple(axes)
 
 
-def _monte_carlo(reader: YamlReader,
-                 node: yaml.Node) -> tuple[int, int, tuple[model.Axis, ...]]:
+def _monte_carlo(reader: YamlReader, node: yaml.Node
+                 ) -> tuple[int, int, tuple[model.Axis, ...], tuple[model.Axis, ...], int]:
+    """count, seed, the drawn axes, the shared factors and the most redraws of a run."""
     entries = reader.mapping(node, 'monte_carlo')
     reader.known(entries, MONTE_CARLO_KEYS, 'monte_carlo key')
     for needed in ('count', 'parameters'):
@@ -257,40 +272,104 @@ def _monte_carlo(reader: YamlReader,
     if isinstance(count, bool) or not isinstance(count, int) or count < 1:
         raise reader.error(entries['count'][1], f'monte_carlo count is a whole number >= 1, '
                            f'not {count!r}')
-    seed = reader.value(entries['seed'][1]) if 'seed' in entries else 0
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise reader.error(entries['seed'][1], f'monte_carlo seed is a whole number >= 0, '
-                           f'not {seed!r}')
+    seed = _whole(reader, entries, 'seed', 0)
+    redraw = _whole(reader, entries, 'redraw', REDRAWS)
+    factors = []
+    if 'factors' in entries:
+        for name, (key, value) in reader.mapping(entries['factors'][1],
+                                                 'monte_carlo factors').items():
+            if not isinstance(name, str) or not name.isidentifier():
+                raise reader.error(key, f'monte_carlo factor name {name!r}: a word '
+                                   '(letters, digits, _)')
+            factors.append(model.Axis(name, key.start_mark.line + 1,
+                                      draw=_draw(reader, value, f'monte_carlo factor {name}'),
+                                      shared=True))
+    shared = {f.name for f in factors}
     axes = []
     for name, (key, value) in reader.mapping(entries['parameters'][1],
                                              'monte_carlo parameters').items():
         _parameter_name(reader, key, name)
+        line = key.start_mark.line + 1
+        derived = (reader.mapping(value, f'monte_carlo {name}')
+                   if isinstance(value, yaml.MappingNode) else {})
+        if 'times' in derived:
+            axes.append(_derived(reader, value, name, line))
+            continue
         scale, law_node = _scaled(reader, value, f'monte_carlo {name}')
         laws = reader.mapping(law_node, f'monte_carlo {name}')
-        known = tuple(law.value for law in model.Law)
-        if len(laws) != 1 or next(iter(laws)) not in known:
-            raise reader.error(law_node, f'monte_carlo {name}: one distribution of '
-                               f'{", ".join(known)}, e.g. {{uniform: [low, high]}}')
-        (law_name, (_, args_node)), = laws.items()
-        law = model.Law(law_name)
-        expected = model.ARGUMENTS[law]
-        if not isinstance(args_node, yaml.SequenceNode) or len(args_node.value) != len(expected):
-            raise reader.error(args_node, f'monte_carlo {name}: {law.value} takes '
-                               f'[{", ".join(expected)}]')
-        args = tuple(reader.number(n, f'monte_carlo {name}: {arg}')
-                     for n, arg in zip(args_node.value, expected, strict=True))
-        if law is not model.Law.UNIFORM and args[1] <= 0.0:
-            raise reader.error(args_node, f'monte_carlo {name}: std must be > 0')
-        low_high = args[-2:] if law is not model.Law.NORMAL else None
-        if low_high is not None and not low_high[0] < low_high[1]:
-            raise reader.error(args_node, f'monte_carlo {name}: low must be below high')
-        _drawable(reader, args_node, f'monte_carlo {name}', law, args)
-        axes.append(model.Axis(name, key.start_mark.line + 1, scale,
-                               draw=model.Draw(law, args)))
+        if set(laws) == {'factor'}:
+            factor = reader.value(laws['factor'][1])
+            if factor not in shared:
+                raise reader.error(laws['factor'][1], f'monte_carlo {name}: factor '
+                                   f'{factor!r} is not one of monte_carlo factors '
+                                   f'({", ".join(sorted(shared)) or "none given"})')
+            axes.append(model.Axis(name, line, scale, factor=factor))
+            continue
+        axes.append(model.Axis(name, line, scale,
+                               draw=_draw(reader, law_node, f'monte_carlo {name}')))
     if not axes:
         raise reader.error(entries['parameters'][1], 'monte_carlo parameters: name at least '
                            'one parameter with its distribution')
-    return count, seed, tuple(axes)
+    drawn = {a.name for a in axes}
+    for axis in axes:
+        if axis.of is not None and axis.of in drawn and next(
+                a for a in axes if a.name == axis.of).of is not None:
+            raise reader.error(axis.line, f'monte_carlo {axis.name}: times {axis.of}, which '
+                               'is derived itself: derive from a drawn or fixed parameter')
+    return count, seed, tuple(axes), tuple(factors), redraw
+
+
+def _whole(reader: YamlReader, entries: dict[str, Any], key: str, default: int) -> int:
+    """A whole number >= 0 under ``key`` of monte_carlo, else ``default``."""
+    if key not in entries:
+        return default
+    value = reader.value(entries[key][1])
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise reader.error(entries[key][1], f'monte_carlo {key} is a whole number >= 0, '
+                           f'not {value!r}')
+    return value
+
+
+def _derived(reader: YamlReader, node: yaml.Node, name: str, line: int) -> model.Axis:
+    """``{times: OTHER, ratio: {law: [...]}}``: the value of OTHER in the run × a drawn
+    ratio."""
+    entries = reader.mapping(node, f'monte_carlo {name}')
+    if set(entries) != {'times', 'ratio'}:
+        raise reader.error(node, f'monte_carlo {name}: a derived parameter is {{times: '
+                           'OTHER_PARAMETER, ratio: {uniform: [low, high]}}')
+    other = reader.value(entries['times'][1])
+    if not isinstance(other, str):
+        raise reader.error(entries['times'][1], f'monte_carlo {name}: times names a '
+                           'parameter')
+    _parameter_name(reader, entries['times'][1], other)
+    if other == name:
+        raise reader.error(entries['times'][1], f'monte_carlo {name}: times itself')
+    return model.Axis(name, line, draw=_draw(reader, entries['ratio'][1],
+                                             f'monte_carlo {name} ratio'), of=other)
+
+
+def _draw(reader: YamlReader, law_node: yaml.Node, what: str) -> model.Draw:
+    """``{law: [arguments]}`` as a :class:`~.model.Draw`."""
+    laws = reader.mapping(law_node, what)
+    known = tuple(law.value for law in model.Law)
+    if len(laws) != 1 or next(iter(laws)) not in known:
+        raise reader.error(law_node, f'{what}: one distribution of {", ".join(known)}, e.g. '
+                           '{uniform: [low, high]}; or {factor: NAME} (a shared factor), or '
+                           '{times: OTHER, ratio: {...}} (a derived parameter)')
+    (law_name, (_, args_node)), = laws.items()
+    law = model.Law(law_name)
+    expected = model.ARGUMENTS[law]
+    if not isinstance(args_node, yaml.SequenceNode) or len(args_node.value) != len(expected):
+        raise reader.error(args_node, f'{what}: {law.value} takes [{", ".join(expected)}]')
+    args = tuple(reader.number(n, f'{what}: {arg}')
+                 for n, arg in zip(args_node.value, expected, strict=True))
+    if law is not model.Law.UNIFORM and args[1] <= 0.0:
+        raise reader.error(args_node, f'{what}: std must be > 0')
+    low_high = args[-2:] if law is not model.Law.NORMAL else None
+    if low_high is not None and not low_high[0] < low_high[1]:
+        raise reader.error(args_node, f'{what}: low must be below high')
+    _drawable(reader, args_node, what, law, args)
+    return model.Draw(law, args)
 
 
 def _drawable(reader: YamlReader, node: yaml.Node, what: str, law: model.Law,
@@ -314,6 +393,7 @@ def _drawable(reader: YamlReader, node: yaml.Node, what: str, law: model.Law,
 
 
 
-__all__ = ['KEYS', 'METRICS', 'MONTE_CARLO_KEYS', 'NODE_ONLY', 'RUN_LIMIT', 'SWEEPABLE',
+__all__ = ['KEYS', 'METRICS', 'MONTE_CARLO_KEYS', 'NODE_ONLY', 'REDRAWS', 'RUN_LIMIT',
+           'SWEEPABLE',
            'TIME_LIMIT',
            'Sweep', 'SweepError', 'load_sweep']

@@ -67,9 +67,31 @@ def _difference(old: Any, new: Any, where: str = '') -> str | None:
         return None
     if old != new and not (isinstance(old, float) and isinstance(new, float)
                            and math.isnan(old) and math.isnan(new)):
-        shown = (lambda v: repr(v) if len(repr(v)) < 60 else 'a different text')
-        return f'{where.rstrip(".")} is {shown(new)}, was {shown(old)}'
+        if isinstance(old, str) and isinstance(new, str) and len(repr(old) + repr(new)) >= 60:
+            return _text_difference(where.rstrip('.'), old, new)
+        return f'{where.rstrip(".")} is {new!r}, was {old!r}'
     return None
+
+
+def _text_difference(what: str, old: str, new: str) -> str:
+    r"""Where two texts (a controller module, a scenario) first differ: the line, and
+    what it says now and said before (each cut to 70 characters).
+
+    Examples
+    --------
+    >>> print(_text_difference('controller_sources.pid.py', 'a\nkp = 1\n', 'a\nkp = 2\n'))
+    controller_sources.pid.py changed at line 2: now 'kp = 2', was 'kp = 1'
+    """
+    before, after = old.splitlines(), new.splitlines()
+    for line, (a, b) in enumerate(zip(before, after, strict=False), start=1):
+        if a != b:
+            return f'{what} changed at line {line}: now {b[:70]!r}, was {a[:70]!r}'
+    line = min(len(before), len(after)) + 1
+    if len(after) > len(before):
+        return f'{what} has new lines from line {line} on: {after[line - 1][:70]!r} ...'
+    if len(after) < len(before):
+        return f'{what} lost its lines from line {line} on: {before[line - 1][:70]!r} ...'
+    return f'{what} changed in its line endings or trailing blanks'
 
 
 def finished_keys(directory: str | os.PathLike[str]) -> frozenset[str]:
@@ -222,7 +244,8 @@ class Store:
 
     def table(self, rows: dict[int, dict[str, Any]]) -> dict[str, list[Any]]:
         """Column → values of the finished runs, in run order: index, seed, the swept
-        values, the metrics, status, reason."""
+        values (a scaled parameter: its factor ``NAME_scale`` and the value it gave,
+        ``NAME``), the metrics, status, reason."""
         sweep = self.sweep
         runs = [r for r in sweep.runs if r.index in rows]
         table: dict[str, list[Any]] = {'index': [r.index for r in runs],
@@ -231,6 +254,11 @@ class Store:
             number = drawn_column_is_number(sweep, column)
             table[column] = [float(dict(r.swept)[column]) if number
                              else json.dumps(dict(r.swept)[column]) for r in runs]
+        for axis in (*sweep.grid, *sweep.draws):
+            if axis.column != axis.name and not axis.shared:   # the value it gave
+                values = [dict(r.overrides)[axis.name] for r in runs]
+                table[axis.name] = [float(v) if isinstance(v, (int, float))
+                                    else json.dumps(v) for v in values]
         for k, name in enumerate(sweep.bundle.metrics):
             table[name] = [float(rows[r.index]['metrics'][k]) for r in runs]
         table['status'] = [rows[r.index]['status'] for r in runs]

@@ -18,10 +18,19 @@ WORST = 5
 
 
 def worst(table: dict[str, list[Any]], metric: str, count: int = WORST) -> list[int]:
-    """Positions in ``table`` of the ``count`` largest finite values of ``metric``."""
+    """Positions in ``table`` of the ``count`` largest values of ``metric``, +inf first
+    (a step that never settles is the worst settling there is), ties by run index; NaN
+    (no value: no step, a failed run) and -inf are never the worst.
+
+    Examples
+    --------
+    >>> inf = float('inf')
+    >>> worst({'index': [0, 1, 2], 'm': [1.0, inf, float('nan')]}, 'm')
+    [1, 0]
+    """
     values = table[metric]
-    finite = [k for k, v in enumerate(values) if not math.isnan(v) and not math.isinf(v)]
-    return sorted(finite, key=lambda k: (-values[k], table['index'][k]))[:count]
+    ranked = [k for k, v in enumerate(values) if not math.isnan(v) and v != -math.inf]
+    return sorted(ranked, key=lambda k: (-values[k], table['index'][k]))[:count]
 
 
 def label(column: str) -> str:
@@ -50,10 +59,17 @@ def _tidy(ax: Any) -> None:
 def _mark_worst(ax: Any, x: Any, y: Any, marked: list[int], table: dict[str, list[Any]],
                 metric: str) -> None:
     """The worst runs in red, named in a column right of the panel, worst first, each
-    joined to its point."""
-    ax.scatter(x[marked], y[marked], s=30, color='tab:red', label='worst', zorder=3)
+    joined to its point; a run whose value is +inf (never settled) at the panel's top,
+    named so."""
+    import numpy as np
+
+    shown = [m for m in marked if np.isfinite(y[m])]
+    ax.scatter(x[shown], y[shown], s=30, color='tab:red', label='worst', zorder=3)
     for rank, m in enumerate(marked):
-        ax.annotate(f'run {table["index"][m]}', xy=(x[m], y[m]), xycoords='data',
+        finite = bool(np.isfinite(y[m]))
+        ax.annotate(f'run {table["index"][m]}' + ('' if finite else ' (inf: off the top)'),
+                    xy=(x[m], y[m] if finite else 1.0),
+                    xycoords='data' if finite else ('data', 'axes fraction'),
                     xytext=(1.03, 0.95 - 0.16 * rank), textcoords='axes fraction',
                     fontsize=7, va='center', color='tab:red', annotation_clip=False,
                     arrowprops={'arrowstyle': '-', 'color': 'tab:red', 'lw': 0.5,

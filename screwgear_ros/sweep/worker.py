@@ -126,7 +126,9 @@ def _scenario(bundle: Bundle) -> Any:
             (directory / name).write_text(text, encoding='utf-8')
         path = directory / bundle.scenario_name
         path.write_text(bundle.scenario_text, encoding='utf-8')
-        _SCENARIOS[digest] = load_scenario(path)
+        # the base values in the place of the scenario's parameters_file (a path beside
+        # the scenario on the client, not here): the runs start from them anyway
+        _SCENARIOS[digest] = load_scenario(path, dict(bundle.base))
     return _SCENARIOS[digest]
 
 
@@ -201,7 +203,6 @@ def execute(bundle: Bundle, spec: RunSpec) -> Outcome:
 
 
 def _execute(bundle: Bundle, spec: RunSpec) -> Outcome:
-    from ..inprocess.metrics import run_metrics
     from ..inprocess.simulation import Simulation
     from ..sim.commands import InputRejected
 
@@ -214,9 +215,7 @@ def _execute(bundle: Bundle, spec: RunSpec) -> Outcome:
             scenario = _scenario(bundle)
             simulation = Simulation.from_values(dict(bundle.base), **dict(spec.overrides))
             run = scenario.run(simulation=simulation, guard=guard.around)
-            setpoint = scenario.setpoint
-            metrics = run_metrics(run, setpoint,
-                                  setpoint.joint if setpoint else 'table').as_dict()
+            metrics = scenario.metrics(run).as_dict()
             values = tuple(float(metrics[name]) for name in bundle.metrics)
             status, reason = (Status.FAULT, run.fault) if run.fault else (Status.OK, '')
         finally:

@@ -154,7 +154,8 @@ BAD = {
     'unknown_parameter': ('grid:\n  backlash_gap: [0.0]\n', 'backlash_gap', 'not a parameter'),
     'refused_value': ('grid:\n  preload_torque: [100.0, -5.0]\n', 'preload_torque',
                       'refused by table_sim'),
-    'drawn_value_refused': (('monte_carlo:\n  count: 40\n  seed: 1\n  parameters:\n'
+    # redraw: 0: a draw the node refuses refuses the sweep (by default it is drawn again)
+    'drawn_value_refused': (('monte_carlo:\n  count: 40\n  seed: 1\n  redraw: 0\n  parameters:\n'
                             '    backlash: {normal: [1.0e-5, 2.0e-5]}\n'), 'backlash',
                             'refused by table_sim'),
     'rk4_stability': ('grid:\n  mesh_stiffness_mean: [1.0e+7, 1.0e+12]\n',
