@@ -20,7 +20,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .drive import DrivePiece, active_speed, drive_piece, drive_targets
 from .friction import FrictionPiece
@@ -93,6 +92,9 @@ def steady_table_speed(model: PackedModel, torque: float, load: float,
             return sense * math.inf
     near = 0.0 if far == 1.0 else far / 2.0
     ends = sorted((sense * near, sense * far))
+    # imported here: the node imports this module at start, and scipy.optimize costs its
+    # start a tenth of a second it never needs (test_node_start)
+    from scipy.optimize import brentq
     return float(brentq(g, ends[0], ends[1], args=(sense,), xtol=1e-300,
                         rtol=4.0 * np.finfo(float).eps))
 

@@ -95,7 +95,10 @@ class TableSim(Node):
         super().__init__('table_sim')
         self._stop = stop
         self._values, completed = parameters.declare(self, self.get_logger().info)
-        params, settings = split_parameters(self._values)   # ParameterError: refuse to start
+        # the validation's stability limit already calls the model's kernels: loaded as
+        # the session's are below (without SciPy's BLAS or numba's registries)
+        with without_blas_probe(), loads_without_registries():
+            params, settings = split_parameters(self._values)   # ParameterError: refuse
         self._gate = AnswerGate()
         self._wake = threading.Event()     # set when a parameter change is submitted
         self._refusals = RateLimiter(1.0)          # inputs refused unread (executor thread)
