@@ -98,10 +98,13 @@ def _prediction_sensors(settings: SimSettings, speeds: bool) -> SensorConfig:
 
 def mesh_hz(values: Mapping[str, Any]) -> float:
     """The highest mesh mode of the linear model of ``values`` (its oscillating modes
-    other than the rigid body's), Hz (NaN where it cannot be linearized)."""
+    other than the rigid body's), Hz (NaN where it cannot be linearized). Bearing friction
+    is left out: stuck at rest, its switch would read as a huge damping that hides the
+    mesh mode (design.friction_state), and it does not move the mode's frequency."""
+    from ..design.friction_state import without_friction
     from ..design.linearize import linearize
     try:
-        modes = linearize(model(values)[0]).modes()
+        modes = linearize(without_friction(model(values)[0])).modes()
     except (ScrewgearError, ArithmeticError, ValueError):
         return float('nan')
     found = [m.hz for m in modes if m.oscillating and not m.shape.startswith('rigid')]
