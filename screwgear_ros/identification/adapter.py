@@ -31,13 +31,18 @@ from ..physics.sensors import SensorChain, SensorConfig
 from ..sim.commands import InputRejected, carries_no_command, command_value
 from ..sim.events import Command
 from ..sim.session import ROW, Session, Tick
-from .errors import FitParameterError, RecordingError
+from .errors import FitParameterError
 from .samples import Recording
 
 
 class Diverged(ScrewgearError, ArithmeticError):
     """The model cannot be run or diverged at a trial point (a large residual, never
     seen outside the fit)."""
+
+
+class CommandRefused(Diverged):
+    """The node refuses a recorded command with a trial point's parameters (a large
+    residual; at the base values, a recording the fit cannot use)."""
 
 
 def base_values(path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -94,18 +99,19 @@ def _prediction_sensors(settings: SimSettings, speeds: bool) -> SensorConfig:
     return SensorConfig(joints, config.seed)  # type: ignore[arg-type]
 
 
-def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = False
-             ) -> np.ndarray:
+def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = False,
+             reversals: list[int] | None = None) -> np.ndarray:
     """(n, 6) θ and ω of the three joints as joint_states would publish them, at the
     recording's samples, for the model of ``values``, from the preload equilibrium
     (``speeds``: ω as counting encoders measure it, else the exact ω, delayed and
-    filtered as the angles).
+    filtered as the angles); ``reversals``, if given, gets the number of reversals of the
+    drive direction the node applied (an effort inside ``effort_deadband`` is none).
 
     Raises
     ------
     Diverged
         The node refuses ``values``, or the model diverged.
-    RecordingError
+    CommandRefused
         A recorded command the node refuses (with these parameters).
     """
     params, settings = model(values)
@@ -119,17 +125,22 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
     events = [Command(str(topic), value, step=(i - 1) * per_tick)
               for i, topic, value in recording.inputs]
     refused: list[tuple[int, InputRejected]] = []
+    turns = [0]
 
     def monitor(tick: Tick | None) -> bool:
         if tick is not None and tick.rejected:
             refused.append((tick.start // per_tick + 1, tick.rejected[0]))
             return True
+        if tick is not None and tick.reversal:
+            turns[0] += 1
         return session.plant.fault is not None
 
     session.advance(n - 1, events=events, rows=rows[1:], monitor=monitor)
+    if reversals is not None:
+        reversals.append(turns[0])
     if refused:
         i, error = refused[0]
-        raise RecordingError(f'{recording.path}: tick {i}: the node refuses a recorded '
+        raise CommandRefused(f'{recording.path}: tick {i}: the node refuses a recorded '
                              f'command: {error}')
     if session.plant.fault is not None:
         raise Diverged(session.plant.fault)
@@ -154,6 +165,7 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
 
 __all__ = [
     'SENSOR_JOINTS',
+    'CommandRefused',
     'Diverged',
     'base_values',
     'carries_no_command',

@@ -12,24 +12,35 @@ correlations and the parameters the data cannot determine
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from .adapter import Diverged, base_values, simulate, tick_period
-from .errors import TooShortError
-from .fit import minimize
-from .output import write_fitted
+from .adapter import CommandRefused, Diverged, base_values, simulate, tick_period
+from .checks import (
+    check_joints,
+    check_options,
+    check_paths,
+    check_recordings,
+    probe_bounds,
+    report_stem,
+    written_paths,
+)
+from .errors import FitFailed, IdentifyError, RecordingError, TooShortError, WrittenInterrupt
+from .fit import FitOutcome, minimize
+from .output import rehearse, write_fitted
 from .parameters import fit_parameters, starts, values_of
-from .problem import Comparison, Problem, compare
+from .problem import DIVERGED, Comparison, Problem, compare
 from .recording import check_alike, read_recording
 from .report import write_report
-from .samples import Recording
-from .stats import Estimate, Statistics, statistics
+from .samples import NODE_JOINTS, Recording
+from .stats import Estimate, Statistics, disagreements, start_disagreements, statistics
 from .workers import Evaluator
 
 #: Samples (per compared joint, over all fit recordings) needed per fitted parameter.
@@ -62,6 +73,7 @@ class IdentifyResult:
     report: Path | None = None
     figure: Path | None = None
     start_costs: list[float] = field(default_factory=list)
+    start_values: list[dict[str, float]] = field(default_factory=list)
 
     @property
     def estimates(self) -> tuple[Estimate, ...]:
@@ -95,10 +107,41 @@ class IdentifyResult:
 
 
 def _read(bags: Sequence[str | os.PathLike[str]], joints: Mapping[str, str] | None,
-          input_delay: int, period: float) -> tuple[Recording, ...]:
-    recordings = tuple(read_recording(b, joints, input_delay) for b in bags)
+          input_delay: int, period: float, namespace: str | None) -> tuple[Recording, ...]:
+    recordings = tuple(read_recording(b, joints, input_delay, namespace) for b in bags)
     check_alike(recordings, period)
     return recordings
+
+
+def _reversals(base: Mapping[str, Any], recordings: Sequence[Recording]) -> list[int]:
+    """The reversals the node applies in each recording at the base values (a recorded
+    command the node refuses there is refused now; base values at which the model
+    diverges are a large residual to fit from)."""
+    counts: list[int] = []
+    for recording in recordings:
+        try:
+            simulate(base, recording, reversals=counts)
+        except CommandRefused as exc:
+            raise RecordingError(str(exc)) from None
+        except Diverged:
+            pass
+    return counts
+
+
+def _diverged_everywhere(problem: Problem, values: Mapping[str, Any], simulations: int) -> str:
+    """Why the model cannot run at ``values``, for a fit that found no point it runs at."""
+    for recording in problem.recordings:
+        try:
+            simulate(values, recording, problem.speeds)
+        except Diverged as exc:
+            where = str(exc)
+            break
+    else:
+        where = 'no finite residual'
+    fitted = ', '.join(f'{p.name} = {values[p.name]:.6g}' for p in problem.fitted)
+    return (f'the model diverged at every point the fit tried ({simulations} simulations): '
+            f'at the best of them ({fitted}), {where}; narrow --bounds to values where the '
+            'model runs, or start from a base file it runs with')
 
 
 def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[str],
@@ -108,7 +151,8 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
              workers: int = 1, scheduler: str | None = None,
              joints: Mapping[str, str] | None = None, input_delay: int = 0,
              speeds: bool = False, starts_count: int = 3, seed: int = 0,
-             max_evaluations: int = 40, progress: bool = False) -> IdentifyResult:
+             max_evaluations: int = 40, progress: bool = False,
+             namespace: str | None = None) -> IdentifyResult:
     """Fit the parameters ``fit`` of the base file ``params`` to the recordings ``bags``.
 
     Parameters
@@ -132,7 +176,7 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
     scheduler : str, optional
         A Dask scheduler address to simulate them on instead.
     joints : mapping, optional
-        Node joint name → the bags' name.
+        Node joint name → the bags' name (written to ``output`` as ``joint_names``).
     input_delay : int
         Ticks a command takes effect after the node would apply it (hardware).
     speeds : bool
@@ -143,6 +187,8 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
         Residual evaluations per starting point.
     progress : bool
         Show a progress bar (tqdm) with the cost and iteration.
+    namespace : str, optional
+        The table's namespace in bags that hold several tables' topics.
 
     Returns
     -------
@@ -152,7 +198,10 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
     Raises
     ------
     IdentifyError
-        Bad input (:mod:`~screwgear_ros.identification.errors`), before any fit starts.
+        Bad input (:mod:`~screwgear_ros.identification.errors`), before any fit starts,
+        or a model that diverged at every point tried.
+    WrittenInterrupt
+        Ctrl-C while the files were being written; it names those already complete.
 
     Examples
     --------
@@ -163,11 +212,23 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
     46.1
     """
     began = time.perf_counter()
+    workers, starts_count, seed, max_evaluations, input_delay = check_options(
+        workers, scheduler, starts_count, seed, max_evaluations, input_delay)
+    if isinstance(fit, str) or isinstance(bags, str | os.PathLike):
+        raise IdentifyError('bags and fit are sequences (a list of paths, a list of names)')
+    check_paths(bags, validate, params, written_paths(output, report))
+    check_joints(joints)
     base = base_values(params)
     fitted = fit_parameters(list(fit), base, bounds)
+    trials = probe_bounds(base, fitted)
+    settings = {'joint_names': [dict(joints or {}).get(j, j) for j in NODE_JOINTS]} \
+        if joints else {}
+    if output is not None:
+        rehearse(params, output, trials, settings)
     period = tick_period(base)
-    recordings = _read(bags, joints, input_delay, period)
-    checks = _read(validate, joints, input_delay, period)
+    recordings = _read(bags, joints, input_delay, period, namespace)
+    checks = _read(validate, joints, input_delay, period, namespace)
+    check_recordings((*recordings, *checks), input_delay, speeds)
     problem = Problem(base, fitted, recordings, speeds)
     needed = SAMPLES_PER_PARAMETER * len(fitted)
     have = sum(r.samples for r in recordings)
@@ -175,43 +236,67 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
         raise TooShortError(f'{have} samples ({have * period:.3g} s) are too short to fit '
                             f'{len(fitted)} parameter(s): at least {needed} samples '
                             f'({needed * period:.3g} s at {1 / period:g} Hz) are needed')
-    for recording in (*recordings, *checks):
-        # a recorded command the node refuses is refused now; base values at which the
-        # model diverges are a large residual to fit from
-        with contextlib.suppress(Diverged):
-            simulate(base, recording)
+    reversals = _reversals(base, recordings)
+    _reversals(base, checks)
     weights = problem.weights
-    with Evaluator(problem, weights, workers, scheduler) as evaluator:
+    with contextlib.ExitStack() as stack:
+        try:
+            evaluator = stack.enter_context(Evaluator(problem, weights, workers, scheduler))
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise IdentifyError(f'--scheduler {scheduler}: cannot connect: {exc}') from None
         outcome = minimize(evaluator, fitted, starts(fitted, starts_count, seed),
                            max_evaluations, progress)
         describe = evaluator.describe()
         simulations, sim_seconds = evaluator.simulations, evaluator.sim_seconds
-    stats = statistics(fitted, outcome.x, outcome.residual, outcome.jacobian,
-                       problem.lag_correlation(outcome.residual),
-                       sum(r.reversals for r in recordings))
+    if np.all(outcome.residual == DIVERGED):
+        raise FitFailed(_diverged_everywhere(problem, problem.values(outcome.x), simulations))
+    stats = judged(problem, outcome, sum(reversals))
     values = values_of(fitted, outcome.x)
     after = {**base, **values}
     comparisons = compare(problem, recordings, base, after, 'fit') + \
         compare(problem, checks, base, after, 'validate')
     result = IdentifyResult(values, stats, comparisons, outcome.finished, outcome.cost,
                             simulations, 0.0, sim_seconds, outcome.message,
-                            start_costs=outcome.start_costs)
-    if output is not None:
-        header = [(f'Fitted by identify to {", ".join(str(b) for b in bags)}: '
-                  f'{", ".join(values)}.')]
-        if not outcome.finished:
-            header.insert(0, 'UNFINISHED: the fit was interrupted; these are the best '
-                          'values found so far.')
-        result.output = write_fitted(params, output, stats.estimates, header)
-    stem = report if report is not None else (
-        None if output is None else Path(output).with_name(Path(output).stem + '_report'))
-    result.seconds = time.perf_counter() - began
-    if stem is not None:
-        result.report, result.figure = write_report(
-            stem, stats, comparisons, finished=outcome.finished,
-            fitted_path=str(output), simulations=simulations, seconds=result.seconds,
-            sim_seconds=sim_seconds, workers=describe, speeds=speeds)
+                            start_costs=outcome.start_costs,
+                            start_values=[values_of(fitted, x) for x in outcome.start_points])
+    written: list[Path] = []
+    try:
+        if output is not None:
+            header = [(f'Fitted by identify to {", ".join(str(b) for b in bags)}: '
+                      f'{", ".join(values)}.')]
+            if not outcome.finished:
+                header.insert(0, 'UNFINISHED: the fit was interrupted; these are the best '
+                              'values found so far.')
+            result.output = write_fitted(params, output, stats.estimates, header, settings)
+            written.append(result.output)
+        stem = report_stem(output, report)
+        result.seconds = time.perf_counter() - began
+        if stem is not None:
+            result.report, result.figure = write_report(
+                stem, stats, comparisons, finished=outcome.finished,
+                fitted_path=str(output), simulations=simulations, seconds=result.seconds,
+                sim_seconds=sim_seconds, workers=describe, speeds=speeds,
+                starts=list(zip(result.start_values, outcome.start_costs, strict=True)))
+    except KeyboardInterrupt:
+        raise WrittenInterrupt(written) from None
     return result
 
 
-__all__ = ['SAMPLES_PER_PARAMETER', 'IdentifyResult', 'identify']
+def judged(problem: Problem, outcome: FitOutcome, reversals: int) -> Statistics:
+    """The statistics of a fit's outcome, with the recordings' and the starts'
+    disagreements."""
+    rho = problem.lag_correlation(outcome.residual)
+    stats = statistics(problem.fitted, outcome.x, outcome.residual, outcome.jacobian, rho,
+                       reversals)
+    warnings: list[str] = []
+    if outcome.jacobian is not None:
+        sizes = [r.samples * len(problem.columns) for r in problem.recordings]
+        warnings += disagreements(problem.fitted, outcome.x, outcome.residual,
+                                  outcome.jacobian, sizes,
+                                  [r.path for r in problem.recordings], rho)
+    warnings += start_disagreements(problem.fitted, stats.estimates, outcome.start_points,
+                                    outcome.start_costs)
+    return dataclasses.replace(stats, warnings=tuple(warnings))
+
+
+__all__ = ['SAMPLES_PER_PARAMETER', 'IdentifyResult', 'identify', 'judged']

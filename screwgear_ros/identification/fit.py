@@ -21,6 +21,9 @@ from .workers import Evaluator
 
 #: Forward-difference step in scaled coordinates (ln value, or a fraction of the bounds).
 STEP = 1.0e-4
+#: Iterations the progress bar plans a start to take until one has ended (the fits of
+#: docs/identification.md took 6 to 8); then it plans by the starts that ended.
+PLANNED_ITERATIONS = 8
 
 
 @dataclass
@@ -36,6 +39,7 @@ class FitOutcome:
     finished: bool
     message: str
     start_costs: list[float] = field(default_factory=list)
+    start_points: list[np.ndarray] = field(default_factory=list)
 
 
 class _Search:
@@ -90,13 +94,18 @@ def minimize(evaluator: Evaluator, fitted: Sequence[FitParameter],
     """
     from tqdm import tqdm
     p = len(fitted)
-    with tqdm(total=len(starts) * max_evaluations * (p + 1), unit='sim', desc='identify',
+    planned = len(starts) * min(max_evaluations, PLANNED_ITERATIONS) * (p + 1)
+    with tqdm(total=planned, unit='sim', desc='identify (≈ total)',
               disable=not progress, leave=False) as bar:
         search = _Search(evaluator, fitted, bar)
         best: Any = None
         costs: list[float] = []
+        points: list[np.ndarray] = []
         message, finished = '', True
-        for x0 in starts:
+        for done, x0 in enumerate(starts):
+            if done:     # plan the starts left by those that ended
+                bar.total = bar.n + round(bar.n / done * (len(starts) - done))
+                bar.refresh()
             try:
                 result = least_squares(search.fun, x0, jac=search.jac,
                                        bounds=(search.lo, search.hi), method='trf',
@@ -106,15 +115,16 @@ def minimize(evaluator: Evaluator, fitted: Sequence[FitParameter],
                 finished, message = False, 'interrupted (SIGINT): the best point so far'
                 break
             costs.append(float(result.cost))
+            points.append(np.array(result.x))
             if best is None or result.cost < best.cost:
                 best = result
     if best is not None and finished:
         return FitOutcome(best.x, float(best.cost), best.fun, np.asarray(best.jac),
-                          search.iterations, True, str(best.message), costs)
+                          search.iterations, True, str(best.message), costs, points)
     if search.best_x is None or search.best_r is None:
         raise KeyboardInterrupt
     return FitOutcome(search.best_x, search.best_cost, search.best_r, None,
-                      search.iterations, finished, message, costs)
+                      search.iterations, finished, message, costs, points)
 
 
 __all__ = ['STEP', 'FitOutcome', 'minimize']

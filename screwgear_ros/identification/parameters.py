@@ -69,6 +69,9 @@ def parse_bounds(items: Sequence[str]) -> dict[str, tuple[float, float]]:
             raise FitParameterError(f'--bounds {item!r}: not NAME=LO:HI') from None
         if not (all(math.isfinite(v) for v in pair) and pair[0] < pair[1]):
             raise FitParameterError(f'--bounds {item!r}: LO < HI, both finite')
+        if name.strip() in bounds:
+            raise FitParameterError(f'--bounds names {name.strip()} twice: give each '
+                                    'parameter one NAME=LO:HI')
         bounds[name.strip()] = pair
     return bounds
 
@@ -127,8 +130,11 @@ def fit_parameters(names: Sequence[str], base: Mapping[str, Any],
             lo = max(value / SPAN, low * (1 + 1e-9) if strict else low)
             hi = min(value * SPAN, high)
         else:
-            raise FitParameterError(f'{name} is {value:g} in the base file: give its '
-                                    f'range with --bounds {name}=LO:HI')
+            # a tenth to ten times a base of 0 (or of a parameter that may be negative)
+            # is no range: the user names one
+            raise FitParameterError(f'{name} is {value:g} in the base file, so the default '
+                                    'bounds (a tenth to ten times the base value) are no '
+                                    f'range: give one with --bounds {name}=LO:HI')
         scale = Scale.LOG if lo > 0.0 else Scale.LINEAR
         fitted.append(FitParameter(name, value, lo, hi, scale, declaration.unit))
     return tuple(fitted)

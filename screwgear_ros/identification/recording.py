@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..interface import Input
+from ..interface import CONTRACT, Input
 from .adapter import carries_no_command, command_value, typestore
 from .errors import RecordingError
 from .samples import COMMANDS, JOINT_STATES, NODE_JOINTS, Recording
@@ -49,8 +49,34 @@ def parse_joints(text: str | None) -> dict[str, str]:
     return mapping
 
 
+def _namespace(topic: str) -> str:
+    return topic.rstrip('/').rsplit('/', 1)[0] or '/'
+
+
+def _chosen(path: Any, connections: Sequence[Any], namespace: str | None) -> list[Any]:
+    """The connections of one table: those under ``namespace``, or, without one, all of
+    them when the bag holds one table's topics (refused when it holds several)."""
+    wanted = {JOINT_STATES, *COMMANDS}
+    found = [c for c in connections if _relative(c.topic) in wanted]
+    spaces = sorted({_namespace(c.topic) for c in found})
+    if namespace is not None:
+        space = '/' + namespace.strip('/') if namespace.strip('/') else '/'
+        found = [c for c in found if _namespace(c.topic) == space]
+        if not found:
+            raise RecordingError(f'{path}: --namespace {namespace}: no joint_states or '
+                                 f'commands there (the bag has {", ".join(spaces) or "none"})')
+    elif len(spaces) > 1:
+        raise RecordingError(f'{path}: holds the topics of {len(spaces)} tables '
+                             f'({", ".join(spaces)}): choose one with --namespace')
+    for c in found:
+        expected = CONTRACT[_relative(c.topic)]
+        if c.msgtype != expected:
+            raise RecordingError(f'{path}: {c.topic} carries {c.msgtype}, not {expected}')
+    return found
+
+
 def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | None = None,
-                   input_delay: int = 0) -> Recording:
+                   input_delay: int = 0, namespace: str | None = None) -> Recording:
     """Read one bag (see the module docstring).
 
     Parameters
@@ -61,6 +87,8 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
         Node joint name → the bag's joint name, where they differ.
     input_delay : int
         Ticks a command takes effect after the node would apply it.
+    namespace : str, optional
+        The table's namespace, for a bag holding several tables' topics.
 
     Returns
     -------
@@ -69,7 +97,9 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
     Raises
     ------
     RecordingError
-        Not a bag, no joint_states, no commands, a joint missing, non-finite values.
+        Not a bag, no joint_states, no commands, a joint missing, non-finite values,
+        topics of several tables (without ``namespace``), a message of another type,
+        commands logged before the first joint_states sample.
     """
     from rosbags.highlevel import AnyReader
     names = {j: (joints or {}).get(j, j) for j in NODE_JOINTS}
@@ -78,8 +108,7 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
     logged: list[tuple[int, Input, Any]] = []
     try:
         with AnyReader([Path(path)], default_typestore=typestore()) as reader:
-            wanted = {JOINT_STATES, *COMMANDS}
-            connections = [c for c in reader.connections if _relative(c.topic) in wanted]
+            connections = _chosen(path, reader.connections, namespace)
             for connection, stamp, raw in reader.messages(connections=connections):
                 rel = _relative(connection.topic)
                 message = reader.deserialize(raw, connection.msgtype)
@@ -119,6 +148,16 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
                              'the samples are the ticks, and a lost or repeated one cannot '
                              'be placed')
     tol = max(1, period // 1000)
+    early = [stamp for stamp, _, _ in logged if stamp < stamps[0] - tol]
+    if early:
+        # the model starts at rest at the first sample: a command before it acted on a
+        # table the recording does not show, and no tick can apply it
+        raise RecordingError(f'{path}: {len(early)} command(s) logged before the first '
+                             f'joint_states sample (the earliest '
+                             f'{(stamps[0] - min(early)) * 1e-6:.4g} ms before it): the fit '
+                             'starts the model at rest at the first sample; record '
+                             'joint_states from before the first command, or cut the bag '
+                             'there')
     inputs = []
     for stamp, topic, value in logged:
         first = int(np.searchsorted(stamps, stamp - tol, side='left'))
@@ -136,8 +175,12 @@ def _joint_row(path: Any, message: Any, names: Mapping[str, str], index: int
     missing = [names[j] for j in NODE_JOINTS if names[j] not in where]
     if missing:
         raise RecordingError(f'{path}: joint_states sample {index} names joints '
-                             f'{sorted(where)}, not {", ".join(missing)} '
+                             f'{list(where)}, not {", ".join(missing)} '
                              '(map them with --joints NODE=BAG)')
+    if len(message.position) != len(message.name):
+        raise RecordingError(f'{path}: joint_states sample {index} names '
+                             f'{len(message.name)} joints but holds {len(message.position)} '
+                             'positions (one per name is needed)')
     position = [float(message.position[where[names[j]]]) for j in NODE_JOINTS]
     velocity = [float(message.velocity[where[names[j]]]) if len(message.velocity) > where[
         names[j]] else math.nan for j in NODE_JOINTS]
