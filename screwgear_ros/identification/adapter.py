@@ -135,7 +135,14 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
             turns[0] += 1
         return session.plant.fault is not None
 
-    session.advance(n - 1, events=events, rows=rows[1:], monitor=monitor)
+    try:
+        session.advance(n - 1, events=events, rows=rows[1:], monitor=monitor)
+    except ArithmeticError:
+        # a command's tick after a fault inside a compiled run of quiet ticks measures a
+        # plant whose time stood still (a speed over zero time): the model diverged
+        if session.plant.fault is None:
+            raise
+        raise Diverged(session.plant.fault) from None
     if reversals is not None:
         reversals.append(turns[0])
     if refused:

@@ -134,7 +134,7 @@ def _diverged_everywhere(problem: Problem, values: Mapping[str, Any], simulation
         try:
             simulate(values, recording, problem.speeds)
         except Diverged as exc:
-            where = str(exc)
+            where = f'in {recording.path}, {exc}'
             break
     else:
         where = 'no finite residual'
@@ -293,7 +293,7 @@ def judged(problem: Problem, outcome: FitOutcome, reversals: int) -> Statistics:
         sizes = [r.samples * len(problem.columns) for r in problem.recordings]
         warnings += disagreements(problem.fitted, outcome.x, outcome.residual,
                                   outcome.jacobian, sizes,
-                                  [r.path for r in problem.recordings], rho)
+                                  [r.path for r in problem.recordings], len(problem.columns))
     warnings += start_disagreements(problem.fitted, stats.estimates, outcome.start_points,
                                     outcome.start_costs)
     return dataclasses.replace(stats, warnings=tuple(warnings))

@@ -245,12 +245,22 @@ def statistics(fitted: Sequence[FitParameter], x: np.ndarray, residual: np.ndarr
     return Statistics(tuple(found), correlation, parts.singular, sigma, directions)
 
 
+def lag_correlation(residual: np.ndarray, columns: int = 1) -> float:
+    """The lag-one autocorrelation of ``residual`` (``columns`` interleaved series,
+    pooled), clipped to [0, 0.99]."""
+    part = residual.reshape(-1, columns)
+    den = float(np.sum(part * part))
+    return max(0.0, min(0.99, float(np.sum(part[1:] * part[:-1])) / den)) if den > 0 else 0.0
+
+
 def disagreements(fitted: Sequence[FitParameter], x: np.ndarray, residual: np.ndarray,
                   jacobian: np.ndarray, sizes: Sequence[int], paths: Sequence[str],
-                  lag_correlation: float = 0.0) -> list[str]:
+                  columns: int = 1) -> list[str]:
     """The recordings whose own data put a parameter more than :data:`DISAGREE_SIGMA` of
     their own σ from the joint fit: each recording's Gauss-Newton step from the joint
-    optimum, on its rows of the residual and Jacobian, against its own covariance."""
+    optimum, on its rows of the residual and Jacobian (``columns`` joints interleaved),
+    against the covariance of its own fit (its residual after the step: a misfit the
+    joint fit forces on it is not counted as its noise)."""
     if len(sizes) < 2:
         return []
     out = []
@@ -260,8 +270,9 @@ def disagreements(fitted: Sequence[FitParameter], x: np.ndarray, residual: np.nd
         at += size
         parts = _Decomposition.of(jac)
         step = parts.step(r, jac)
-        sd = _sigma(r, len(fitted), lag_correlation) * np.sqrt(np.clip(np.diag(parts.pinv()),
-                                                                        0.0, None))
+        own = r + jac @ step
+        sd = _sigma(own, len(fitted), lag_correlation(own, columns)) * np.sqrt(
+            np.clip(np.diag(parts.pinv()), 0.0, None))
         loose = parts.undetermined()
         for j, q in enumerate(fitted):
             if j in loose or not sd[j] > 0 or abs(step[j]) <= DISAGREE_SIGMA * sd[j]:
@@ -291,4 +302,4 @@ def start_disagreements(fitted: Sequence[FitParameter], estimates: Sequence[Esti
 
 
 __all__ = ['DETERMINED', 'EXCITATION', 'SINGULAR', 'Estimate', 'Statistics', 'disagreements',
-           'start_disagreements', 'statistics']
+           'lag_correlation', 'start_disagreements', 'statistics']
