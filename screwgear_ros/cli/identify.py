@@ -21,27 +21,23 @@ UNEXPECTED = ('internal error ({kind}), not a refusal of your input: please repo
               'the command line')
 
 
-@interruptible('identify', 'stopped before a point was evaluated; nothing written')
+@interruptible('identify', 'stopped before the fitted file was written; nothing written')
 def main(argv: list[str] | None = None) -> int:
     from ..identification.api import identify
     from ..identification.command import arguments, options, summary
-    from ..identification.errors import IdentifyError, WrittenInterrupt
+    from ..identification.errors import IdentifyError
 
     args = arguments(argv)
     failures = Failures('identify', {IdentifyError: '{exc}', OSError: '{exc}'},
                         unexpected=UNEXPECTED)
-    try:
-        with failures:
-            result = identify(**options(args))
-    except WrittenInterrupt as stop:
-        done = ', '.join(str(p) for p in stop.written)
-        print('identify: interrupted (SIGINT) while writing: ' + (
-            f'{done} written complete, the report not' if done else 'nothing written'),
-            file=sys.stderr)
-        return EXIT_INTERRUPTED
+    with failures:
+        result = identify(**options(args))
     if failures.code is not None:
         return failures.code
     print('\n'.join(summary(result)))
+    if result.stopped:
+        print(f'identify: {result.stopped}', file=sys.stderr)
+        return EXIT_INTERRUPTED
     if not result.finished:
         print(f'identify: {result.message}; written to {result.output} marked unfinished',
               file=sys.stderr)

@@ -32,7 +32,7 @@ from .checks import (
     report_stem,
     written_paths,
 )
-from .errors import FitFailed, IdentifyError, RecordingError, TooShortError, WrittenInterrupt
+from .errors import FitFailed, IdentifyError, RecordingError, TooShortError
 from .fit import FitOutcome, minimize
 from .output import rehearse, write_fitted
 from .parameters import fit_parameters, starts, values_of
@@ -74,6 +74,7 @@ class IdentifyResult:
     figure: Path | None = None
     start_costs: list[float] = field(default_factory=list)
     start_values: list[dict[str, float]] = field(default_factory=list)
+    stopped: str = ''
 
     @property
     def estimates(self) -> tuple[Estimate, ...]:
@@ -193,15 +194,14 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
     Returns
     -------
     IdentifyResult
-        ``finished`` False when Ctrl-C stopped it (the best point so far, written).
+        ``finished`` False when Ctrl-C stopped the fit (the best point so far, written);
+        ``stopped`` says what was written when Ctrl-C came while writing.
 
     Raises
     ------
     IdentifyError
         Bad input (:mod:`~screwgear_ros.identification.errors`), before any fit starts,
         or a model that diverged at every point tried.
-    WrittenInterrupt
-        Ctrl-C while the files were being written; it names those already complete.
 
     Examples
     --------
@@ -278,7 +278,10 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
                 sim_seconds=sim_seconds, workers=describe, speeds=speeds,
                 starts=list(zip(result.start_values, outcome.start_costs, strict=True)))
     except KeyboardInterrupt:
-        raise WrittenInterrupt(written) from None
+        # each file is written whole or not at all: say which are there
+        done = ', '.join(str(p) for p in written)
+        result.stopped = 'interrupted (SIGINT) while writing: ' + (
+            f'{done} written complete' if written else 'no file written')
     return result
 
 

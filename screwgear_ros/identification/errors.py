@@ -7,8 +7,6 @@ the package's refusals.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 from ..errors import ScrewgearError
 
 
@@ -44,14 +42,5 @@ class FitFailed(IdentifyError):
     """A fit that found no point where the model runs: nothing is written."""
 
 
-class WrittenInterrupt(KeyboardInterrupt):
-    """Ctrl-C while the fit's files were being written: :attr:`written` names those
-    complete (each file is written whole or not at all)."""
-
-    def __init__(self, written: Sequence[object]) -> None:
-        super().__init__('interrupted while writing')
-        self.written = list(written)
-
-
-__all__ = ['FitFailed', 'FitParameterError', 'IdentifyError', 'RecordingError', 'TooShortError',
-           'WrittenInterrupt']
+__all__ = ['FitFailed', 'FitParameterError', 'IdentifyError', 'RecordingError',
+           'TooShortError']

@@ -209,3 +209,4 @@ def test_ctrl_c_while_writing_names_what_is_written(tiny, capsys, monkeypatch):
     assert 'nothing written' not in err
     assert Simulation.from_yaml(written).params.inertia_table > 0
     assert random.Random(SEED).random() < 1      # the seed's module constant is used
+

@@ -198,11 +198,11 @@ def _base_file(rng: random.Random, path: Path) -> tuple[str, str]:
                 'block-style')
     if kind == 1:
         # the node merges the blocks in order: the second block's value is the one in force
-        return (f'/**:\n  ros__parameters:\n    inertia_table: {value}\n'
-                f'table_sim:\n  ros__parameters:\n    inertia_table: {value + 1}\n',
+        return ((f'/**:\n  ros__parameters:\n    inertia_table: {value}\n'
+                f'table_sim:\n  ros__parameters:\n    inertia_table: {value + 1}\n'),
                 'block-style')
-    return (f'/**:\n  ros__parameters:\n    inertia_table: {value}\n    radius_pinion_3: '
-            f'{rng.uniform(0.01, 0.07):.4f}\n', 'radius_pinion_3')
+    return ((f'/**:\n  ros__parameters:\n    inertia_table: {value}\n    radius_pinion_3: '
+            f'{rng.uniform(0.01, 0.07):.4f}\n'), 'radius_pinion_3')
 
 
 def test_base_files_the_fit_could_not_write_into_are_refused_before_the_fit(tiny, capsys,
