@@ -37,6 +37,26 @@ def _claim_domain_id() -> int:
     raise RuntimeError('no free ROS_DOMAIN_ID in 1..100 on this machine')
 
 
+
+def _refresh_source_kernels() -> None:
+    """Run against the source tree (``python -m pytest`` from the repository, as in an edit
+    loop), drop the cached kernels that an edit of another module made stale
+    (kernel_cache's docstring says why numba does not); the installed wheel's are
+    set-up's."""
+    import importlib.util
+
+    from kernel_cache import refresh
+
+    spec = importlib.util.find_spec('screwgear_ros')
+    source = Path(__file__).resolve().parents[1] / 'screwgear_ros'
+    if spec is not None and spec.origin and Path(spec.origin).resolve().parent == source:
+        dropped = refresh(source)
+        if dropped:
+            print(f'conftest: source tree under test; recompiling the kernels of '
+                  f'{len(dropped)} changed module(s): {", ".join(dropped)}', file=sys.stderr)
+
+
+_refresh_source_kernels()
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ['ROS_DOMAIN_ID'] = str(_claim_domain_id())
 os.environ.setdefault('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp')

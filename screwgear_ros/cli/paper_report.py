@@ -6,7 +6,8 @@ import argparse
 import sys
 import time
 
-from . import interruptible
+from ..errors import ScrewgearError
+from . import EXIT_OK, Failures, interruptible
 
 
 @interruptible('paper_report', 'the report is incomplete; OUTDIR keeps the sections '
@@ -23,11 +24,18 @@ def main(argv: list[str] | None = None) -> int:
     from ..paper.builder import build  # after argument parsing: --help stays fast
 
     start = time.perf_counter()
-    report = build(args.outdir, quick=args.quick)
+    failures = Failures('paper_report', {
+        ScrewgearError: '{exc} (OUTDIR keeps the sections written so far)',
+        OSError: 'cannot write {outdir}: {why}',
+    }, outdir=args.outdir)
+    with failures:
+        report = build(args.outdir, quick=args.quick)
+    if failures.code is not None:
+        return failures.code
     print(f'wrote {report.path} ({len(report.sections)} sections, '
           f'{sum(len(s.figures) for s in report.sections)} figures) in '
           f'{time.perf_counter() - start:.0f} s')
-    return 0
+    return EXIT_OK
 
 
 if __name__ == '__main__':

@@ -34,10 +34,12 @@ The operating point is :mod:`.operating_point`'s, the model's container and its 
 from __future__ import annotations
 
 import importlib
+import math
 import warnings
 from dataclasses import replace
 
 import numpy as np
+from scipy import optimize
 
 from ..params.table import MeshPhase, TableParams, effective_stiffness
 from ..physics.drive import drive_targets
@@ -92,28 +94,120 @@ def _differences(point: OperatingPoint, model, x0: np.ndarray, dx: np.ndarray,
 #: Central-difference steps of the frozen model: angles, speeds (rad, rad/s), inputs (N·m).
 FROZEN_STEPS = (1e-9, 1e-6, 1e-3)
 
+#: A rest state is accepted once its largest scaled residual (:func:`_scaled_residual`) is
+#: at most this. Newton's method goes on below it, down to the floor that roundoff puts
+#: under the residual (a few hundred float spacings of the terms' magnitudes), and stops
+#: there; this bound is six orders of magnitude above that floor, so whether a rest state
+#: is found never depends on one CPU's or one BLAS kernel's roundoff, and far below any
+#: torque the model resolves.
+REST_RESIDUAL = 1e-9
+
+#: A Newton step within this many float spacings of the angles is at their rounding floor.
+STEP_SPACINGS = 4.0
+
+#: The rest angle is searched within this many table teeth of the preload equilibrium's,
+#: in steps of 1/64 tooth.
+SEARCH_TEETH = 4
+
+_PINIONS = [0, 2]
+
+
+def _scaled_residual(a: np.ndarray, b: np.ndarray, x: np.ndarray, u: np.ndarray,
+                     accelerations: np.ndarray, rows: list[int]) -> float:
+    """The largest acceleration left among ``rows`` (0, 1, 2: pinion 1, table, pinion 3),
+    each body's against the magnitudes of the terms that act on it: Σ|A_ij·x_j| over the
+    angles (each elastic term's share: a mesh force is K·r·(r·θ − r2·θ2 − …)) plus
+    Σ|B_ik·u_k| (the inputs'). At a rest state every constant term is balanced by these,
+    so this is the residual relative to the largest torque involved, in the units in which
+    roundoff is bounded."""
+    scale = np.abs(a[3:, :3]) @ np.abs(x[:3]) + np.abs(b[3:]) @ np.abs(u)
+    scale = np.where(scale > 0.0, scale, 1.0)
+    return float(np.max(np.abs(accelerations[rows]) / scale[rows]))
+
+
+def _pinions_at(theta2: float, start: np.ndarray, u: np.ndarray, point: OperatingPoint,
+                model, steps: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, float, float]:
+    """The pinions' rest angles with the table held at ``theta2`` (Newton's method on the
+    two pinions' balances from ``start``; the meshes make it well conditioned), and the
+    table's acceleration there with its scaled residual.
+
+    Newton runs until its step is within :data:`STEP_SPACINGS` float spacings of the
+    angles, or the scaled residual stops falling (twice in a row less than halved: the
+    rounding floor), keeping the best state it met; :class:`~.errors.NoSteadyState` unless
+    that state's scaled residual is at most :data:`REST_RESIDUAL`.
+    """
+    x = start.copy()
+    x[1] = theta2
+    best, best_x, stalled = math.inf, x.copy(), 0
+    for _ in range(NEWTON_ITERATIONS):
+        a, b = _differences(point, model, x, *steps)
+        residual = _derivative(x, u, point, model)[3:]
+        scaled = _scaled_residual(a, b, x, u, residual, _PINIONS)
+        stalled = stalled + 1 if scaled > 0.5 * best else 0
+        if scaled < best:
+            best, best_x = scaled, x.copy()
+        if scaled == 0.0 or stalled >= 2:
+            break
+        # least squares: a pinion that touches nothing (conventional mode's idle one) has
+        # no stiffness, and no residual, so it takes no step
+        step = np.linalg.lstsq(a[3:, :3][np.ix_(_PINIONS, _PINIONS)], -residual[_PINIONS],
+                               rcond=None)[0]
+        x[_PINIONS] += step
+        if np.all(np.abs(step) <= STEP_SPACINGS * np.spacing(np.abs(x[_PINIONS]))):
+            break
+    if not best <= REST_RESIDUAL:
+        raise NoSteadyState('no rest state of the full model found under these inputs: the '
+                            f'pinions stay {best:.3g} of their torques away from a balance '
+                            f'(a rest needs at most {REST_RESIDUAL:g})')
+    a, b = _differences(point, model, best_x, *steps)
+    residual = _derivative(best_x, u, point, model)[3:]
+    return best_x, float(residual[1]), _scaled_residual(a, b, best_x, u, residual, [1])
+
 
 def _frozen(params: TableParams, point: OperatingPoint) -> tuple[np.ndarray, np.ndarray,
                                                                   np.ndarray]:
-    """The rest state of the full model under the point's inputs (from the preload
-    equilibrium, Newton's method on the angles with least-norm steps: the rigid body leaves
-    one angle free) and A, B there by central differences, on the point's branches."""
+    """The rest state of the full model under the point's inputs, and A, B there by central
+    differences, on the point's branches.
+
+    Along the gear's rigid rotation only the cogging (K(φ) and the STE's lever over a
+    tooth) holds the table, some 1e-14 of the mesh stiffness, so a Newton step on all
+    three angles at once moves the rest angle by whatever roundoff leaves in the residual.
+    Instead, the pinions are solved with the table held (:func:`_pinions_at`), and the
+    table angle is moved from the preload equilibrium's, in the sense of the table's
+    acceleration, in steps of 1/64 tooth until that acceleration changes sign; Brent's
+    method then finds the root, where the acceleration falls with the angle: the nearest
+    stable rest. Where the table's scaled residual is at most :data:`REST_RESIDUAL` at the
+    start (no cogging), that start is the rest.
+    """
     model = pack(params)
-    x = np.array(equilibrium_state(params), dtype=float)
+    start = np.array(equilibrium_state(params), dtype=float)
     u = np.array([point.torque, point.load])
     angle, speed, inputs = FROZEN_STEPS
-    dx = np.array([angle] * 3 + [speed] * 3)
-    for _ in range(NEWTON_ITERATIONS):
-        a, _ = _differences(point, model, x, dx, np.full(2, inputs))
-        residual = _derivative(x, u, point, model)[3:]
-        step = np.linalg.lstsq(a[3:, :3], -residual, rcond=None)[0]
-        x[:3] += step
-        if np.max(np.abs(step)) <= 1e-15 * max(1.0, float(np.max(np.abs(x[:3])))):
-            break
-    else:
-        raise NoSteadyState('no rest state of the full model found under these inputs '
-                                  '(Newton did not converge)')
-    a, b = _differences(point, model, x, dx, np.full(2, inputs))
+    steps = (np.array([angle] * 3 + [speed] * 3), np.full(2, inputs))
+
+    def table(theta2: float) -> tuple[np.ndarray, float, float]:
+        return _pinions_at(theta2, start, u, point, model, steps)
+
+    lo = float(start[1])
+    x, accel, scaled = table(lo)
+    if scaled > REST_RESIDUAL:
+        tooth = 2.0 * math.pi / (params.teeth_pinion_1 * params.radius_table
+                                 / params.radius_pinion_1)
+        sense = 1.0 if accel > 0.0 else -1.0
+        for _ in range(SEARCH_TEETH * 64):
+            hi = lo + sense * tooth / 64.0
+            if table(hi)[1] * sense <= 0.0:
+                break
+            lo = hi
+        else:
+            raise NoSteadyState('no rest state of the full model found under these inputs: '
+                                'the table torque keeps its sign over '
+                                f'{SEARCH_TEETH} teeth of the preload equilibrium')
+        root = optimize.brentq(lambda theta2: table(theta2)[1], min(lo, hi), max(lo, hi),
+                               xtol=STEP_SPACINGS * np.spacing(tooth),
+                               rtol=4.0 * np.finfo(float).eps)
+        x = table(root)[0]
+    a, b = _differences(point, model, x, *steps)
     return a, b, x
 
 

@@ -109,7 +109,9 @@ def _energy_pinion_angle(sign: float, radius: float, teeth: float, theta2: float
               + 0.5 * teeth * teeth * d2k * f * f)
         step = g / dg
         theta -= step
-        if abs(step) <= 1e-15:     # quadratic convergence: θ is now at the rounding floor
+        # quadratic convergence: θ is now at the rounding floor (a few float spacings of
+        # θ where θ is large, which 1e-15 alone would not reach on every CPU)
+        if abs(step) <= max(1e-15, 4.0 * np.spacing(abs(theta))):
             phi = teeth * theta
             f = radius * theta - p[R2] * theta2 - static_transmission_error(
                 phi, amp, phase)[0] - sign * p[B]

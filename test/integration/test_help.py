@@ -3,25 +3,14 @@ without starting a node or waiting for anything."""
 
 from __future__ import annotations
 
-import ast
 import shutil
 import subprocess
 from importlib import metadata
 
 import pytest
-from paths import ROOT
+from paths import setup_executables
 
 HELP_TIMEOUT = 60.0     # s of wall time: an import of rclpy and NumPy, under load
-
-
-def setup_executables() -> list[str]:
-    """setup.py's EXECUTABLES, read from its text."""
-    tree = ast.parse((ROOT / 'setup.py').read_text(encoding='utf-8'))
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Assign) and any(
-                isinstance(t, ast.Name) and t.id == 'EXECUTABLES' for t in node.targets):
-            return list(ast.literal_eval(node.value))
-    raise AssertionError('setup.py has no EXECUTABLES')
 
 
 def test_every_installed_entry_point_is_in_setup_py():

@@ -25,12 +25,12 @@ from pathlib import Path
 
 import pytest
 import yaml
-from paths import ROOT
+from paths import ROOT, setup_executables
 
 PACKAGE = 'screwgear_ros'
 SOURCE = ROOT
 PREFIX = Path(sys.prefix)
-EXECUTABLES = ('table_sim', 'demo_controller', 'check_run', 'replay_run', 'paper_report')
+EXECUTABLES = setup_executables()
 REQUIRED_EXEC_DEPENDS = {'rclpy', 'std_msgs', 'sensor_msgs', 'rosgraph_msgs', 'diagnostic_msgs',
                          'python3-numpy'}
 

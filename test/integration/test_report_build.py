@@ -111,3 +111,18 @@ def test_no_number_is_formatted_into_nonsense(quick_report: Path) -> None:
     text = (quick_report / 'report.md').read_text(encoding='utf-8')
     assert not re.search(r'at most 0(?![.\d])', text)
     assert not re.search(r'\bnan\b|\binf\b', text)
+
+
+@pytest.mark.ros
+def test_a_report_it_cannot_write_exits_2_with_one_line(tmp_path: Path) -> None:
+    """Like every tool, a failure is its documented exit code and one line naming the input,
+    never a traceback."""
+    blocked = tmp_path / 'a_file'
+    blocked.write_text('not a directory\n')
+    exe = shutil.which('paper_report')
+    command = [exe] if exe else [sys.executable, '-m', 'screwgear_ros.cli.paper_report']
+    done = subprocess.run(command + [str(blocked / 'report'), '--quick'], capture_output=True,
+                          text=True, timeout=120, check=False)
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert 'Traceback' not in done.stderr
+    assert done.stderr.startswith(f'paper_report: cannot write {blocked / "report"}'), done.stderr

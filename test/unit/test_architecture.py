@@ -268,3 +268,26 @@ def test_the_package_imports_no_old_path():
                 continue
             found += [f'{name}:{node.lineno}: {t}' for t in targets if t in old]
     assert not found, 'import from where the module lives now:\n' + '\n'.join(found)
+
+
+def _documented_order() -> list[str]:
+    """The folders of docs/architecture.md's table "The folders, bottom to top", in its
+    order: each may import only the folders on rows above its own."""
+    doc = (ROOT.parent / 'docs' / 'architecture.md').read_text(encoding='utf-8')
+    section = doc.split('## The folders, bottom to top', 1)[1].split('\n## ', 1)[0]
+    return [f'{PACKAGE}.{m.group(1)}' for m in re.finditer(r'^\| `(\w+)/` \|', section, re.M)]
+
+
+def test_every_folder_imports_only_the_folders_the_doc_puts_above_it():
+    """The documented order itself, not only the absence of cycles: an import from a folder
+    the table puts below (or beside, on a later row) is a layering the doc does not show."""
+    order = _documented_order()
+    assert len(order) >= 10, f'the table of docs/architecture.md was not read: {order}'
+    rank = {folder: i for i, folder in enumerate(order)}
+    actual = {_folder(name) for name in MODULES} - {PACKAGE}
+    assert actual == set(order), ('folders missing from the doc\'s table, or named there and '
+                                  f'gone: {sorted(actual ^ set(order))}')
+    wrong = sorted(f'{a} imports {b}' for a, targets in GRAPH.items() for b in targets
+                   if PACKAGE not in (_folder(a), _folder(b)) and _folder(a) != _folder(b)
+                   and rank[_folder(b)] > rank[_folder(a)])
+    assert not wrong, 'imports against docs/architecture.md\'s folder order:\n' + '\n'.join(wrong)
