@@ -76,6 +76,18 @@ def parse_bounds(items: Sequence[str]) -> dict[str, tuple[float, float]]:
     return bounds
 
 
+def _pair(name: object, pair: object) -> tuple[float, float]:
+    """A (low, high) bound of the API's ``bounds``, checked as ``--bounds`` is."""
+    try:
+        lo, hi = (float(v) for v in pair)  # type: ignore[attr-defined]
+    except (TypeError, ValueError):
+        raise FitParameterError(f'bounds[{name!r}] = {pair!r}: not a (LO, HI) pair of '
+                                'numbers') from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise FitParameterError(f'bounds[{name!r}] = {pair!r}: LO < HI, both finite')
+    return lo, hi
+
+
 def _declared_range(name: str, declaration: Any) -> tuple[float, float, bool]:
     low = -math.inf if declaration.low is None else float(declaration.low)
     high = math.inf if declaration.high is None else float(declaration.high)
@@ -95,13 +107,15 @@ def fit_parameters(names: Sequence[str], base: Mapping[str, Any],
         the declared range.
     """
     known = declarations()
-    bounds = dict(bounds or {})
+    bounds = {str(name): _pair(name, pair) for name, pair in dict(bounds or {}).items()}
     stray = sorted(set(bounds) - set(names))
     if stray:
         raise FitParameterError(f'--bounds {stray[0]}: not among the parameters to fit '
                                 f'({", ".join(names)})')
     if not names:
         raise FitParameterError('--fit names no parameter')
+    if not all(isinstance(n, str) for n in names):
+        raise FitParameterError(f'--fit: parameter names are text, not {names!r}')
     if len(set(names)) != len(names):
         raise FitParameterError(f'--fit names a parameter twice: {", ".join(names)}')
     fitted = []

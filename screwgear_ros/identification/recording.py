@@ -148,10 +148,11 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
                              'the samples are the ticks, and a lost or repeated one cannot '
                              'be placed')
     tol = max(1, period // 1000)
-    early = [stamp for stamp, _, _ in logged if stamp < stamps[0] - tol]
+    early = [stamp for stamp, _, _ in logged if stamp < stamps[0] - period]
     if early:
-        # the model starts at rest at the first sample: a command before it acted on a
-        # table the recording does not show, and no tick can apply it
+        # the model starts at rest at the first sample: a command more than a tick before
+        # it acted on motion the recording does not show (one within a tick is the answer
+        # to a sample the recorder missed as it started: tick 1 applies it)
         raise RecordingError(f'{path}: {len(early)} command(s) logged before the first '
                              f'joint_states sample (the earliest '
                              f'{(stamps[0] - min(early)) * 1e-6:.4g} ms before it): the fit '

@@ -264,3 +264,29 @@ def test_an_exponent_without_a_point_is_a_double_as_rcl_reads_it(tmp_path):
                        encoding='utf-8')
     assert Simulation.from_yaml(plain).params == Simulation.from_yaml(pointed).params
     assert base_values(plain) == base_values(pointed) == {'effort_deadband': 2e-06}
+
+
+def test_the_api_s_keyword_arguments_out_of_their_rules_are_refused(tiny):
+    """The in-process ``identify``: each hostile keyword is an IdentifyError that names
+    it, before any bag is read."""
+    from screwgear_ros import IdentifyError, identify
+    rng = random.Random(SEED + 3)
+    kinds: list[tuple[str, Callable[[], Any], str]] = [
+        ('workers', lambda: rng.choice([0, True, 1e12, '2', 10 ** 12, None]), '--workers'),
+        ('seed', lambda: rng.choice([-5, 2.5, 'x', None]), '--seed'),
+        ('starts_count', lambda: rng.choice([0, 10 ** 12, 1e3, [3]]), '--starts'),
+        ('max_evaluations', lambda: rng.choice([0, -3, 10 ** 9, 'many']), '--max-evaluations'),
+        ('input_delay', lambda: rng.choice([-1, 0.5, 'one']), '--input-delay'),
+        ('scheduler', lambda: rng.choice(['garbage', 42, 'tcp://:', 'tcp://a:0']), '--scheduler'),
+        ('bounds', lambda: {'inertia_table': rng.choice(['x', (1,), (5, 1), (0, float('nan')),
+                                                         None])}, 'bounds'),
+        ('fit', lambda: rng.choice(['inertia_table', [3.5], []]), 'fit'),
+    ]
+    for case in range(40):
+        name, value, rule = rng.choice(kinds)
+        kwargs = {'fit': ['inertia_table'], name: value()}
+        fit = kwargs.pop('fit')
+        with pytest.raises(IdentifyError) as caught:
+            identify([tiny['bag']], tiny['base'], fit, **kwargs)
+        assert rule in str(caught.value), f'seed {SEED + 3} case {case}: {name}={kwargs}: ' \
+            f'{caught.value}'
