@@ -11,7 +11,7 @@ EXECUTABLES = ['table_sim', 'demo_controller', 'check_run', 'replay_run', 'paper
 
 setup(
     name=PACKAGE,
-    version='0.1.0',
+    version='0.2.0',
     packages=find_packages(exclude=['test']),
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),

@@ -118,7 +118,7 @@ KNOWN_KEYS = r"""
 import json
 try:
     from screwgear_ros.sim.parameter_set import default_values
-    from screwgear_ros.params.run_file import EXTRA_KEYS
+    from screwgear_ros.sim.run_file import EXTRA_KEYS
 except ImportError:                     # an older package: one params module
     from screwgear_ros.params import default_values
     from screwgear_ros.run_parameters import EXTRA_KEYS

@@ -10,9 +10,7 @@ simulation loop in-process, without ROS; its names are imported on first use, so
 from importlib import import_module
 from typing import Any
 
-from . import _moved
-
-__version__ = '0.1.0'
+__version__ = '0.2.0'
 
 #: Public names and the module that defines each.
 _API = {
@@ -27,8 +25,6 @@ _API = {
     'identify': 'identification', 'IdentifyResult': 'identification',
     'IdentifyError': 'identification',
 }
-
-_moved.install(__name__)
 
 
 def __getattr__(name: str) -> Any:

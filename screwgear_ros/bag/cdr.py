@@ -251,17 +251,6 @@ class MessageBundle(_Packed):
         return [data[start:end] for start, end in self._bounds]
 
 
-def __getattr__(name: str) -> Any:
-    """:class:`MessageBundle` under its old name, for one release (the name is also the
-    sweeps' :class:`screwgear_ros.sweep.model.Bundle`)."""
-    if name == 'Bundle':
-        import warnings
-        warnings.warn('screwgear_ros.bag.cdr.Bundle is now screwgear_ros.bag.cdr.MessageBundle; '
-                      'the old name goes in the next release', DeprecationWarning, stacklevel=2)
-        return MessageBundle
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
-
-
 def type_name(msg: Any) -> str:
     """'sensor_msgs/msg/JointState' for a sensor_msgs.msg.JointState (class or message)
     or a :class:`Shape` of one."""

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import warnings
 
 import rclpy
 from rclpy.signals import SignalHandlerOptions
@@ -63,16 +62,6 @@ def main(args: list[str] | None = None) -> int:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
-
-
-def __getattr__(name: str) -> object:
-    """The node class under its old path, for one release."""
-    if name == 'DemoController':
-        warnings.warn('screwgear_ros.cli.demo_controller.DemoController moved to '
-                      'screwgear_ros.ros.demo_controller.DemoControllerNode', DeprecationWarning,
-                      stacklevel=2)
-        return _node.DemoControllerNode
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 __all__ = ['main']

@@ -163,17 +163,5 @@ def _sweep(args: argparse.Namespace, early: EarlyCluster) -> int:
     return EXIT_OK
 
 
-def __getattr__(name: str) -> object:
-    """``rerun_file`` under its old path, for one release."""
-    if name == 'rerun_file':
-        import warnings
-
-        from ..sweep import report
-        warnings.warn('screwgear_ros.cli.sweep.rerun_file moved to '
-                      'screwgear_ros.sweep.report.rerun_file', DeprecationWarning, stacklevel=2)
-        return report.rerun_file
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
-
-
 if __name__ == '__main__':
     sys.exit(main())

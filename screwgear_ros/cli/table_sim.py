@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import warnings
 
 import rclpy
 import rclpy.logging
@@ -70,15 +69,6 @@ def main(args: list[str] | None = None) -> int:
             node.close()
             node.destroy_node()
         rclpy.try_shutdown()
-
-
-def __getattr__(name: str) -> object:
-    """The node class under its old path, for one release."""
-    if name == 'TableSim':
-        warnings.warn('screwgear_ros.cli.table_sim.TableSim moved to '
-                      'screwgear_ros.ros.node.TableSim', DeprecationWarning, stacklevel=2)
-        return _node.TableSim
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 __all__ = ['EXIT_RECORDING_FAILED', 'NODE_EXECUTOR', 'SWITCH_INTERVAL', 'main']

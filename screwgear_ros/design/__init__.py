@@ -5,8 +5,6 @@ frequency response measured by simulation (:mod:`.frequency`); what they refuse,
 
 from __future__ import annotations
 
-import warnings
-
 from .errors import (
     DesignError,
     MeasurementFailed,
@@ -20,16 +18,6 @@ from .errors import (
 from .linear_model import INPUTS, OUTPUTS, STATES, LinearModel, ModeInfo
 from .linearize import linearize
 from .operating_point import OperatingPoint, operating_point
-
-
-def __getattr__(name: str) -> object:
-    if name == 'OperatingPointError':
-        warnings.warn(f'{__name__}.OperatingPointError is replaced by the classes of '
-                      f'{__name__}.errors (their base: DesignError); the old name goes in the '
-                      'next release', DeprecationWarning, stacklevel=2)
-        return DesignError
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
-
 
 __all__ = ['INPUTS', 'OUTPUTS', 'STATES', 'DesignError', 'LinearModel', 'MeasurementFailed',
            'MeasurementRefused', 'MeshModelUnsupported', 'ModeInfo', 'NoSteadyState',

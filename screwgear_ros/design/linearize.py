@@ -33,9 +33,7 @@ The operating point is :mod:`.operating_point`'s, the model's container and its 
 
 from __future__ import annotations
 
-import importlib
 import math
-import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -299,26 +297,6 @@ def _ripple_warnings(linear: LinearModel) -> list[str]:
                 'does not hold')
     return warnings
 
-#: Names that lived here, and the module of ``screwgear_ros.design`` each moved to.
-_MOVED = {name: 'linear_model' for name in (
-    'INPUTS', 'INPUT_UNITS', 'OUTPUTS', 'OUTPUT_UNITS', 'STATES', 'STATE_UNITS',
-    'ZERO_EIGENVALUE', 'LinearModel', 'MeshModel', 'ModeInfo')}
-_MOVED.update({name: 'operating_point' for name in (
-    'OperatingPoint', 'mean_params', 'operating_point')})
-
-
-def __getattr__(name: str) -> object:
-    if name == 'OperatingPointError':
-        warnings.warn(f'{__name__}.OperatingPointError is replaced by the classes of '
-                      f'{__package__}.errors (their base: DesignError); the old name goes in '
-                      'the next release', DeprecationWarning, stacklevel=2)
-        return importlib.import_module(f'{__package__}.errors').DesignError
-    module = _MOVED.get(name)
-    if module is None:
-        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
-    warnings.warn(f'{__name__}.{name} moved to {__package__}.{module}.{name}; the old path '
-                  'goes in the next release', DeprecationWarning, stacklevel=2)
-    return getattr(importlib.import_module(f'{__package__}.{module}'), name)
 
 
 __all__ = [

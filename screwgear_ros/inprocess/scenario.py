@@ -12,7 +12,6 @@ is what ``replay_run --script`` plays into a live node over DDS (actions only).
 from __future__ import annotations
 
 import os
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -365,16 +364,6 @@ def _command(reader: YamlReader, topic: str, node: yaml.Node) -> Any:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise reader.error(node, f'{topic} takes a number, not {value!r}')
     return float(value)
-
-
-def __getattr__(name: str) -> Any:
-    """``Setpoint``, the old name of :class:`SetpointProfile`, for one release
-    (:class:`screwgear_ros.sim.events.Setpoint` is the event that records one)."""
-    if name == 'Setpoint':
-        warnings.warn('screwgear_ros.inprocess.scenario.Setpoint is now SetpointProfile',
-                      DeprecationWarning, stacklevel=2)
-        return SetpointProfile
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 def schedule_from_scenario(path: str | Path) -> Schedule:

@@ -13,17 +13,14 @@ is reachable.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from tqdm import tqdm
 
 from ..params.table import PAPER_DRIVE_TORQUE, Mode, TableParams, effective_stiffness
 from ..physics.quantities import stiffness_fluctuation
-from . import reversals
 from .common import COLORS, HOLDS, VAGUE, Section, Verdict, plt, save_figure, table
 from .reversals import (
     ARCSEC,
@@ -369,18 +366,6 @@ column) the preload stays close to the slow chart's value at these speeds.
     ]
     return Section(9, 'Anti-backlash vs conventional drive through a reversal', body,
                    [hist_name, chart_name], verdicts)
-
-
-def __getattr__(name: str) -> Any:
-    """The reversal runs' names, moved to :mod:`screwgear_ros.paper.reversals`, for one
-    release (``Reversal`` is now ``ReversalTrace`` there)."""
-    moved = 'ReversalTrace' if name == 'Reversal' else name
-    if moved in reversals.__all__:
-        warnings.warn(f'screwgear_ros.paper.antibacklash.{name} is now '
-                      f'screwgear_ros.paper.reversals.{moved}', DeprecationWarning,
-                      stacklevel=2)
-        return getattr(reversals, moved)
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 __all__ = ['AntiBacklashStudy', 'compute', 'near_mode', 'render', 'static_levels']

@@ -1,12 +1,16 @@
-"""One declaration per parameter: name, type, default, symbol, unit, range, read-only flag
-and description, written once as a dataclass field.
+"""One declaration per parameter: name, type, default, symbol, unit, range, read-only flag,
+description and history, written once as a dataclass field.
 
 ``x: float = parameter(1.0, 'I1', 'kg·m²', 'inertia of pinion 1', low=0.0, strict=True)``
-declares everything about ``x``; the rest is derived from it here: the per-field
-validation (:func:`validate`), the ROS parameter descriptors (``ros/parameters.py``,
-with ``FloatingPointRange``/``IntegerRange``), the packed layout of the compiled kernel
-(``kernel=True`` fields, :func:`kernel_fields`), the parameter file and the README
-table (:func:`yaml_lines`, :func:`markdown_rows`, tested against config/ and README).
+declares everything about ``x``. A parameter added after recordings exist says since when
+and what those recordings ran with: ``introduced='0.2.0', before=0.0`` (``before`` is the
+default when not given); a recording by an older version reads with ``before``
+(:func:`recorded_without`), so no second table says it. The rest is derived here: the
+per-field validation (:func:`validate`), the ROS parameter descriptors
+(``ros/parameters.py``, with ``FloatingPointRange``/``IntegerRange``), the packed layout
+of the compiled kernel (``kernel=True`` fields, :func:`kernel_fields`), the parameter file
+and the README table (:func:`yaml_lines`, :func:`markdown_rows`, written by
+``python -m screwgear_ros.params.docs --write`` and tested against config/ and README).
 Rules that relate several parameters stay in the classes' ``__post_init__``.
 """
 
@@ -15,6 +19,7 @@ from __future__ import annotations
 import functools
 import math
 import numbers
+import re
 from collections.abc import Iterator
 from dataclasses import MISSING, Field, dataclass, field, fields
 from enum import Enum
@@ -98,6 +103,8 @@ class Declaration:
     read_only: bool = False          # fixed for a run
     kernel: bool = False             # a scalar of the compiled model's packed array
     note: str = ''                   # why the default is what it is (parameter file)
+    introduced: str = ''             # package version that added it ('' = every recording has it)
+    before: Any = None               # what recordings made before `introduced` ran with
 
     def range_text(self) -> str:
         """'> 0', '>= 0', '1 … 3', '0 or 0.01 … 1000', '≤ 32 items', or '' when unbounded."""
@@ -116,7 +123,17 @@ class Declaration:
 
 
 def parameter(default: Any, symbol: str, unit: str, description: str, **options: Any) -> Any:
-    """A dataclass field carrying its :class:`Declaration` (see the module docstring)."""
+    """A dataclass field carrying its :class:`Declaration` (see the module docstring).
+
+    ``introduced`` must be a version of this package (X.Y.Z); ``before`` needs it and
+    defaults to ``default`` (the parameter then changed nothing the older runs did).
+    """
+    if options.get('introduced'):
+        version_key(options['introduced'])          # a malformed version fails at import
+        options.setdefault('before', default)
+    elif 'before' in options:
+        raise TypeError(f'{description!r}: before= says what recordings made before the '
+                        'parameter ran with, so it needs introduced=')
     return field(default=default, metadata={'declaration': Declaration(symbol, unit,
                                                                        description, **options)})
 
@@ -179,6 +196,34 @@ def _default(f: Field) -> Any:
     if f.default is MISSING:
         raise TypeError(f'{f.name} has no default')
     return f.default
+
+
+def version_key(version: str) -> tuple[int, int, int]:
+    """(0, 2, 0) for '0.2.0': this package's versions are plain X.Y.Z (setup.py and
+    package.xml's ``<version>`` require it), so they compare as tuples of whole numbers.
+
+    Raises ValueError for any other text.
+    """
+    found = re.fullmatch(r'(\d+)\.(\d+)\.(\d+)', version, re.ASCII)
+    if found is None:
+        raise ValueError(f'{version!r} is not a version of screwgear_ros (X.Y.Z)')
+    major, minor, patch = (int(n) for n in found.groups())
+    return major, minor, patch
+
+
+def recorded_without(p: Parameter, version: str) -> bool:
+    """Whether a recording made by package ``version`` predates parameter ``p``: it then
+    carries no value of ``p`` and ran with ``p.declaration.before``.
+
+    False when ``p`` has been there from the first version, and for a version that is not
+    X.Y.Z (nothing then says the recording is older).
+    """
+    if not p.declaration.introduced:
+        return False
+    try:
+        return version_key(version) < version_key(p.declaration.introduced)
+    except ValueError:
+        return False
 
 
 def kernel_fields(cls: type) -> tuple[str, ...]:
@@ -332,7 +377,9 @@ __all__ = [
     'markdown_rows',
     'parameter',
     'plain',
+    'recorded_without',
     'validate',
+    'version_key',
     'yaml_lines',
     'yaml_value',
 ]

@@ -65,38 +65,46 @@ class SensorConfig:
 MAX_COUNTS = 2 ** 30
 
 
+#: The version that added the sensor parameters (recordings before it measured ideally).
+SENSORS_INTRODUCED = '0.2.0'
+
+
 # One declaration per sensor quantity; each joint's fields below are made by these.
 def _encoder_counts(joint: str, k: str) -> Any:
     return parameter(
         0, f'N{k}', 'counts/rev', f'encoder counts per revolution of {joint}: joint_states '
         'reports its angle in whole counts and its speed as their backward difference over '
         'the tick; 0 = ideal (the exact angle and speed)', low=1, high=MAX_COUNTS, zero=True,
-        read_only=True, why='a 30-bit encoder, finer than any table encoder sold')
+        read_only=True, why='a 30-bit encoder, finer than any table encoder sold',
+        introduced=SENSORS_INTRODUCED)
 
 
 def _position_noise(joint: str, k: str) -> Any:
     return parameter(
         0.0, f'σ_θ{k}', 'rad', f'white noise (standard deviation) on the angle of {joint} '
-        'before it is counted', low=0.0, high=1.0, read_only=True)
+        'before it is counted', low=0.0, high=1.0, read_only=True,
+        introduced=SENSORS_INTRODUCED)
 
 
 def _velocity_noise(joint: str, k: str) -> Any:
     return parameter(
         0.0, f'σ_ω{k}', 'rad/s', f'white noise (standard deviation) on the speed of {joint}',
-        low=0.0, high=1e3, read_only=True)
+        low=0.0, high=1e3, read_only=True, introduced=SENSORS_INTRODUCED)
 
 
 def _measurement_delay(joint: str, k: str) -> Any:
     return parameter(
         0, f'k{k}', 'ticks', f'joint_states reports the angle and speed of {joint} this many '
         'publish ticks late', low=0, high=MAX_DELAY, read_only=True,
-        why='the delay line is kept per joint')
+        why='the delay line is kept per joint', introduced=SENSORS_INTRODUCED)
 
 
 def _velocity_filter_cutoff(joint: str, k: str) -> Any:
     return parameter(
         0.0, f'f_c{k}', 'Hz', 'cutoff of the first-order low-pass on the measured speed of '
         f'{joint} (α = 1 − exp(−2π·f_c·Δt) per sample); 0 = off', low=1e-3, high=1e6,
-        zero=True, read_only=True)
+        zero=True, read_only=True, introduced=SENSORS_INTRODUCED)
 
-__all__ = ['JOINTS', 'MAX_COUNTS', 'MAX_DELAY', 'MAX_SEED', 'JointSensor', 'SensorConfig']
+
+__all__ = ['JOINTS', 'MAX_COUNTS', 'MAX_DELAY', 'MAX_SEED', 'SENSORS_INTRODUCED', 'JointSensor',
+           'SensorConfig']

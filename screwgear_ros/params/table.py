@@ -24,6 +24,7 @@ from .declarations import ParameterError, declared, parameter, plain, validate
 from .modes import MeshFormulation, MeshPhase, Mode
 from .sensors import (
     MAX_SEED,
+    SENSORS_INTRODUCED,
     SensorConfig,
     _encoder_counts,
     _measurement_delay,
@@ -67,8 +68,10 @@ class TableParams:
 
     Radii are the tip radii m(z+2)/2 that reproduce the paper's m_e (model.md §6);
     k_m = ω0²·m_e = 1e7 N/m; c gives ζ = 0.05; ε_1 = fa·l = 1.5384 mm. Each field is
-    the one declaration of its ROS parameter (:mod:`screwgear_ros.params.declarations`);
-    ``kernel=True`` fields are packed, in this order, for the compiled model.
+    the one declaration of its ROS parameter (:mod:`screwgear_ros.params.declarations`),
+    history included: one added after the first recordings says ``introduced=`` (and
+    ``before=`` when those recordings ran with another value). ``kernel=True`` fields are
+    packed, in this order, for the compiled model.
 
     Frozen and hashable; an invalid value raises :class:`ParameterError` naming the
     parameter, its value and the rule (a range, or a rule across parameters).
@@ -145,27 +148,29 @@ class TableParams:
                                      low=0.0, high=DAMPING, kernel=True)
     table_coulomb_torque: float = parameter(
         0.0, 'τ_C2', 'N·m', 'Coulomb (sliding) friction torque of the table bearing '
-        '(docs/model_notes.md §14)', low=0.0, high=TORQUE, kernel=True)
+        '(docs/model_notes.md §14)', low=0.0, high=TORQUE, kernel=True, introduced='0.2.0')
     table_static_torque: float = parameter(
         0.0, 'τ_S2', 'N·m', 'static (breakaway) friction torque of the table bearing, '
         '>= table_coulomb_torque; the table sticks while the torque holding it stays '
-        'within it; 0 = no bearing friction', low=0.0, high=TORQUE, kernel=True)
+        'within it; 0 = no bearing friction', low=0.0, high=TORQUE, kernel=True,
+        introduced='0.2.0')
     table_stribeck_speed: float = parameter(
         0.0, 'ω_S2', 'rad/s', 'Stribeck speed of the table bearing: the sliding friction '
         'falls from τ_S2 to τ_C2 as exp(-|ω|/ω_S2); 0 = at once', low=0.0, high=FREQUENCY,
-        kernel=True)
+        kernel=True, introduced='0.2.0')
     pinion_coulomb_torque: float = parameter(
         0.0, 'τ_Cp', 'N·m', 'Coulomb (sliding) friction torque of each pinion bearing',
-        low=0.0, high=TORQUE, kernel=True)
+        low=0.0, high=TORQUE, kernel=True, introduced='0.2.0')
     pinion_static_torque: float = parameter(
         0.0, 'τ_Sp', 'N·m', 'static (breakaway) friction torque of each pinion bearing, '
         '>= pinion_coulomb_torque; 0 = no bearing friction', low=0.0, high=TORQUE,
-        kernel=True)
+        kernel=True, introduced='0.2.0')
     pinion_stribeck_speed: float = parameter(
         0.0, 'ω_Sp', 'rad/s', 'Stribeck speed of each pinion bearing; 0 = at once',
-        low=0.0, high=FREQUENCY, kernel=True)
+        low=0.0, high=FREQUENCY, kernel=True, introduced='0.2.0')
     pinion_damping: float = parameter(0.0, 'c_p', 'N·m·s/rad', 'viscous loss of each pinion '
-                                      'bearing', low=0.0, high=DAMPING, kernel=True)
+                                      'bearing', low=0.0, high=DAMPING, kernel=True,
+                                      introduced='0.2.0')
     mesh_frequency: float = parameter(24 * PAPER_PINION_SPEED, 'ω_e', 'rad/s',
                                       'mesh frequency used when mesh_phase is time',
                                       low=0.0, high=FREQUENCY, kernel=True,
@@ -177,35 +182,39 @@ class TableParams:
         1e-6, 'T_db', 'N·m', 'a cmd_effort or joint_commands effort of magnitude up to this is '
         'zero torque and keeps the drive direction (rounding noise of a controller at rest '
         'is no reversal)', low=0.0, high=10.0,
-        note='2.5e-9 of max_torque, above the rounding noise of a PD law on rad-scale states')
+        note='2.5e-9 of max_torque, above the rounding noise of a PD law on rad-scale states',
+        introduced='0.2.0', before=0.0)    # older runs: every nonzero effort drove
     direction_hysteresis: float = parameter(
         0.0, 'T_h', 'N·m', 'an effort against the drive direction in force reverses the drive '
         'only when its magnitude exceeds this; up to it, it is zero torque and keeps the '
         'direction (a dual-path drive switches paths with hysteresis, so sensor noise on a '
         'near-zero effort makes no path chatter)', low=0.0, high=TORQUE,
-        note='0: every sign change outside the deadband is a reversal, as in the paper')
+        note='0: every sign change outside the deadband is a reversal, as in the paper',
+        introduced='0.2.0')
     drive_no_load_speed: float = parameter(
         8.0 * math.pi, 'ω_nl', 'rad/s', 'speed of the active pinion at which the drive '
         'torque line falls to zero (servo/DC characteristic); 0 = ideal torque source',
         low=1e-3, high=FREQUENCY, zero=True, kernel=True,
-        note="240 r/min: terminal table speed 3.37 rad/s, mesh frequency 0.42·ω0")
+        note="240 r/min: terminal table speed 3.37 rad/s, mesh frequency 0.42·ω0",
+        introduced='0.2.0', before=0.0)    # older runs: the ideal torque source
     drive_stall_torque: float = parameter(
         1600.0, 'T_s', 'N·m', 'torque of the drive line at standstill; a nonzero command '
         'delivers the smaller of the command and T_s·(1 − ω/ω_nl)', low=1e-3,
-        high=TORQUE, kernel=True, note="400 N·m up to 180 r/min, 7.5× the paper's 24 r/min")
+        high=TORQUE, kernel=True, note="400 N·m up to 180 r/min, 7.5× the paper's 24 r/min",
+        introduced='0.2.0')
     drive_time_constant: float = parameter(
         0.0, 'τ_d', 's', "time constant of each drive's current loop: the torque at a pinion "
         'follows its drive\'s command as a first-order lag (the preload of the nuts does '
         'not); 0 = the command acts at once', low=1e-6, high=10.0, zero=True, kernel=True,
         why='a current loop of 160 kHz to 0.016 Hz bandwidth; RK4 needs dt below 2.78·τ_d',
-        note='0: an ideal drive, the instant torque of the paper')
+        note='0: an ideal drive, the instant torque of the paper', introduced='0.2.0')
     cogging_amplitude: float = parameter(
         0.0, 'T_cog', 'N·m', "amplitude of each drive's output torque ripple "
         'T_cog·sin(n_cog·θ) at its pinion angle θ (cogging)', low=0.0, high=TORQUE,
-        kernel=True)
+        kernel=True, introduced='0.2.0')
     cogging_order: int = parameter(
         1, 'n_cog', '', 'harmonic of the pinion angle the cogging ripple has (periods per '
-        'pinion revolution)', low=1, high=TEETH, kernel=True)
+        'pinion revolution)', low=1, high=TEETH, kernel=True, introduced='0.2.0')
     # parameter() is a dataclasses.field() carrying its declaration (ruff sees a call)
     mode: Mode = parameter(Mode.ANTI_BACKLASH, '', '', 'both pinions under preload, or '  # noqa: RUF009
                            'pinion 1 alone with backlash', read_only=True)
@@ -215,7 +224,7 @@ class TableParams:
     mesh_formulation: MeshFormulation = parameter(  # noqa: RUF009
         MeshFormulation.PAPER, '', '', "how the mesh acts on the bodies: the paper's "
         'equations (lever r) or forces from the mesh potential ½·K(φ)·f(δ)² (lever '
-        'r − z·dε/dφ, plus ½·z·dK/dφ·f²)', read_only=True)
+        'r − z·dε/dφ, plus ½·z·dK/dφ·f²)', read_only=True, introduced='0.2.0')
 
     def __post_init__(self) -> None:
         validate(self)
@@ -309,7 +318,7 @@ class SimSettings:
         True, '', '', 'locate each change of mesh contact or of the drive line piece inside '
         'a step and split the step there (fourth order through backlash impacts); false = '
         'plain fixed-step RK4',
-        read_only=True)
+        read_only=True, introduced='0.2.0', before=False)   # older runs: plain RK4
     publish_rate: float = parameter(1000.0, '', 'Hz', 'output rate; 1/publish_rate must be a '
                                     'whole number of steps dt', low=1.0, high=1e6,
                                     why='at least one output a second of simulation time')
@@ -319,14 +328,15 @@ class SimSettings:
                                         'outputs of a 1 Hz node would come minutes apart')
     command_timeout: float = parameter(
         1.0, '', 's', 'simulation time without an accepted command after which the drive '
-        'torque and the load go to zero; 0 = off', low=1e-3, high=1e6, zero=True)
+        'torque and the load go to zero; 0 = off', low=1e-3, high=1e6, zero=True,
+        introduced='0.2.0', before=0.0)    # older runs: no timeout
     record: str = parameter('', '', '', 'rosbag2 (MCAP) directory to record this run to; '
                             'empty = off', read_only=True)
     publish_clock: bool = parameter(True, '', '', 'publish simulation time on /clock',
                                     read_only=True)
     lockstep: bool = parameter(False, '', '', 'integrate the next tick only after the '
                                f"controller's answer ({ANSWERS}) to the last joint_states",
-                               read_only=True)
+                               read_only=True, introduced='0.2.0')
     joint_names: tuple[str, ...] = parameter(('pinion_1', 'table', 'pinion_3'), '', '',
                                              'joint_states names of pinion 1, table, pinion 3; '
                                              'fixed for a run: a recording and the tools that '
@@ -351,7 +361,7 @@ class SimSettings:
         0, '', '', 'seed of the sensor noise: the noise of a sample is a function of the '
         'seed, the joint and the sample\'s integration step only (screwgear_ros/physics/sensors.py), '
         'so a replay and check_run reproduce it', low=0, high=MAX_SEED,
-        read_only=True)
+        read_only=True, introduced=SENSORS_INTRODUCED)
 
     def __post_init__(self) -> None:
         validate(self)

@@ -36,7 +36,6 @@ stamp, since the node integrates no tick without an answer.
 from __future__ import annotations
 
 import threading
-import warnings
 
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -139,17 +138,6 @@ class DemoControllerNode(Node):
 def _ros_default(value: object) -> object:
     """A DemoGains default as a ROS parameter default (a list for the targets)."""
     return list(value) if isinstance(value, tuple) else value
-
-
-def __getattr__(name: str) -> object:
-    """The node class under its old name, for one release (the name is the control
-    law's: :class:`screwgear_ros.sim.control.DemoController`)."""
-    if name == 'DemoController':
-        warnings.warn('screwgear_ros.ros.demo_controller.DemoController is now '
-                      'screwgear_ros.ros.demo_controller.DemoControllerNode; the old name goes '
-                      'in the next release', DeprecationWarning, stacklevel=2)
-        return DemoControllerNode
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 __all__ = ['LOG_PERIOD', 'DemoControllerNode']

@@ -5,17 +5,3 @@ original, plot it, and replay it in-process through a session.
 
 Nothing here imports rclpy; writing and reading bags is :mod:`screwgear_ros.bag`.
 """
-
-from __future__ import annotations
-
-import warnings
-from typing import Any
-
-
-def __getattr__(name: str) -> Any:
-    if name in ('RunRecorder', 'TopicSpec'):
-        warnings.warn(f'screwgear_ros.runs.{name} moved to screwgear_ros.bag.{name}; the old '
-                      'path goes in the next release', DeprecationWarning, stacklevel=2)
-        from .. import bag
-        return getattr(bag, name)
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')

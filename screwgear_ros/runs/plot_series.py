@@ -3,8 +3,8 @@ parameters in force, the contact state, the setpoint and the tracking error.
 
 No ROS and no matplotlib here. The input in force at each step is the node's own fold of
 the recorded commands, taken from the ticks of an in-process replay
-(:func:`screwgear_ros.runs.replay.replay_in_process`), so the drawn torque is the one the
-node integrated (validated, cut by a lowered limit, kept through a reset).
+(:func:`screwgear_ros.runs.replay_in_process.replay_in_process`), so the drawn torque is
+the one the node integrated (validated, cut by a lowered limit, kept through a reset).
 """
 
 

@@ -127,15 +127,5 @@ def resolve(values: Mapping[str, Any] | None = None, **overrides: Any) -> tuple[
     return split_parameters({**default_values(), **dict(values or {}), **overrides})
 
 
-def __getattr__(name: str) -> Any:
-    # The merging reader ``screwgear_ros.parameter_sets`` had: the one reader serves all.
-    if name == 'ros_parameters':
-        import warnings
-        warnings.warn(f'{__name__}.ros_parameters is document_values; the old name goes in '
-                      'the next release', DeprecationWarning, stacklevel=2)
-        return document_values
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
-
-
 __all__ = ['NODE_KEYS', 'ParameterFileError', 'default_values', 'document_values', 'file_values',
            'load_yaml', 'resolve', 'split_parameters']

@@ -5,35 +5,27 @@ run and again, complete, at the step each accepted parameter change takes effect
 Keys: every TableParams and SimSettings field under its ROS parameter name, plus
 ``package_version``, ``initial_state`` (θ1, θ2, θ3 in rad, ω1, ω2, ω3 in rad/s at
 the start of the run) and ``start_step`` (the integration step the run started at).
+
+A recording made before a parameter existed lacks its key; it reads with the value its
+declaration says such recordings ran with (``introduced=``, ``before=`` in
+:mod:`screwgear_ros.params.table`), decided by the recording's ``package_version``. Any
+other missing key refuses the document: it is never filled with a default.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
-from importlib import metadata
+from dataclasses import dataclass
 from typing import Any
 
 import yaml
 
+from .. import __version__
 from ..errors import ScrewgearError
+from ..params.declarations import declared, excerpt, plain, recorded_without
 from ..params.table import ParameterError, SimSettings, TableParams
 from .parameter_set import split_parameters
 
 EXTRA_KEYS = ('package_version', 'initial_state', 'start_step')
-#: Parameters and settings added after the first release, with the value that recordings
-#: made before them ran with (so that such a recording replays as it ran): no command
-#: timeout, the ideal torque source (the stall torque then plays no part), the paper's
-#: mesh equations, plain fixed-step RK4 (no contact location), no effort deadband and
-#: no direction hysteresis, no bearing friction, an instant drive torque without cogging.
-INTRODUCED = {'command_timeout': 0.0, 'drive_no_load_speed': 0.0, 'effort_deadband': 0.0,
-              'direction_hysteresis': 0.0,
-              'drive_stall_torque': TableParams.drive_stall_torque, 'mesh_formulation': 'paper',
-              'contact_location': False, **{
-                  f'{body}_{what}': 0.0 for body in ('table', 'pinion')
-                  for what in ('coulomb_torque', 'static_torque', 'stribeck_speed')},
-              'pinion_damping': 0.0, 'drive_time_constant': 0.0,
-              'cogging_amplitude': 0.0, 'cogging_order': 1}
-_REQUIRED = ({f.name for f in fields(TableParams)} | set(EXTRA_KEYS)) - set(INTRODUCED)
 
 
 class RunParametersError(ScrewgearError, ValueError):
@@ -41,11 +33,9 @@ class RunParametersError(ScrewgearError, ValueError):
 
 
 def package_version() -> str:
-    """Installed version of screwgear_ros ('unknown' when run from a source tree)."""
-    try:
-        return metadata.version('screwgear_ros')
-    except metadata.PackageNotFoundError:
-        return 'unknown'
+    """The version of screwgear_ros that runs (``screwgear_ros.__version__``), as a
+    recording carries it."""
+    return __version__
 
 
 @dataclass(frozen=True)
@@ -71,8 +61,9 @@ def dump(run: RunParameters) -> str:
 def load(text: str) -> RunParameters:
     """Parse :func:`dump`'s YAML back, strictly enough to trust a re-integration.
 
-    Every physical parameter must be present (a missing one is never filled with its
-    default) and valid as the node would judge it; any failure is a
+    Every parameter must be present and valid as the node would judge it. The one
+    exception is a parameter the document's ``package_version`` predates: it takes the
+    value its declaration says those runs had (:func:`missing_values`). Any failure is a
     :class:`RunParametersError` saying what is wrong.
     """
     try:
@@ -81,16 +72,22 @@ def load(text: str) -> RunParameters:
         raise RunParametersError(f'run_parameters is not valid YAML: {exc}') from None
     if not isinstance(document, dict):
         raise RunParametersError('run_parameters is not a mapping of parameter names')
-    missing = sorted(_REQUIRED - set(document))
+    if 'package_version' not in document:
+        raise RunParametersError("run_parameters lacks ['package_version']: the model cannot "
+                                 'be rebuilt from this bag')
+    version = str(document['package_version'])
+    older, missing = missing_values(document, version)
+    missing += [key for key in EXTRA_KEYS if key not in document]
     if missing:
-        raise RunParametersError(f'run_parameters lacks {missing}: the model cannot be '
-                                 'rebuilt from this bag')
+        raise RunParametersError(f'run_parameters lacks {excerpt(missing)}: the model cannot be '
+                                 f'rebuilt from this bag (its package_version '
+                                 f'{excerpt(version)} had them)')
     try:
         params, settings = split_parameters(
-            {**INTRODUCED, **{k: v for k, v in document.items() if k not in EXTRA_KEYS}})
+            {**older, **{k: v for k, v in document.items() if k not in EXTRA_KEYS}})
         run = RunParameters(params, settings,
                             tuple(float(v) for v in document['initial_state']),
-                            int(document['start_step']), str(document['package_version']))
+                            int(document['start_step']), version)
     except (ParameterError, TypeError, ValueError) as exc:
         raise RunParametersError(f'run_parameters refused: {exc}') from None
     if len(run.initial_state) != 6 or run.start_step < 0:
@@ -100,5 +97,23 @@ def load(text: str) -> RunParameters:
     return run
 
 
+def missing_values(document: dict[str, Any], version: str) -> tuple[dict[str, Any], list[str]]:
+    """The parameters ``document`` lacks: (name → the value runs of package ``version``
+    had, for those the version predates; the names of the others, which nothing fills).
+
+    A version that is not X.Y.Z predates nothing.
+    """
+    older: dict[str, Any] = {}
+    missing: list[str] = []
+    for p in (*declared(TableParams), *declared(SimSettings)):
+        if p.name in document:
+            continue
+        if recorded_without(p, version):
+            older[p.name] = plain(p.declaration.before)
+        else:
+            missing.append(p.name)
+    return older, missing
+
+
 __all__ = ['EXTRA_KEYS', 'RunParameters', 'RunParametersError', 'dump', 'load',
-           'package_version']
+           'missing_values', 'package_version']

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 import sys
-import warnings
 from collections.abc import Callable, Collection
 from pathlib import Path
 from typing import Any
@@ -313,16 +312,6 @@ def _drawable(reader: YamlReader, node: yaml.Node, what: str, law: model.Law,
                                'of std (a larger std)')
 
 
-#: The names that moved to :mod:`screwgear_ros.sweep.model`, kept here for one release.
-_MOVED = ('Axis', 'Bundle', 'Draw', 'Law', 'RunSpec', 'drawn_column_is_number', 'run_seed')
-
-
-def __getattr__(name: str) -> object:
-    if name in _MOVED:
-        warnings.warn(f'screwgear_ros.sweep.spec.{name} moved to '
-                      f'screwgear_ros.sweep.model.{name}', DeprecationWarning, stacklevel=2)
-        return getattr(model, name)
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 __all__ = ['KEYS', 'METRICS', 'MONTE_CARLO_KEYS', 'NODE_ONLY', 'RUN_LIMIT', 'SWEEPABLE',

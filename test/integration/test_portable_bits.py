@@ -25,7 +25,7 @@ REPLAY = '''
 import json, sys
 import numpy as np
 from numba import config
-from screwgear_ros import integrator
+from screwgear_ros.numerics import integrator
 from screwgear_ros.bag.reader import read_run
 from screwgear_ros.runs.replay_in_process import replay_in_process
 

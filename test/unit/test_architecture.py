@@ -212,7 +212,7 @@ def test_every_exception_derives_from_the_package_error_base():
     from screwgear_ros.errors import ScrewgearError
     outside = []
     for name in MODULES:
-        if _in_shell(name) or name.endswith('._moved'):
+        if _in_shell(name):
             continue  # the shell imports rclpy at module level; checked below by source
         module = importlib.import_module(name)
         outside += [f'{name}.{obj.__name__}' for obj in vars(module).values()
@@ -247,27 +247,55 @@ def test_the_tools_hold_only_their_main_functions(name):
     assert classes <= CLI_CLASSES.get(name, set()), f'{name} defines {sorted(classes)}'
 
 
-def test_the_package_imports_no_old_path():
-    """The old module paths (``_moved.MOVED``) are for users, for one release: the package
-    itself imports every module where it lives, so no edge hides behind an alias."""
-    from screwgear_ros._moved import MOVED
-    old = {f'{PACKAGE}.{name}' for name in MOVED}
-    found = []
+#: Module paths the package had before its sub-packages (the package has had no release, so
+#: nothing answers for them): each must stay unimportable, not come back as an alias.
+OLD_PATHS = (
+    'batch', 'cdr', 'commands', 'control', 'declare', 'dop853', 'energy', 'events', 'floquet',
+    'friction', 'gym', 'integrator', 'jit', 'layout', 'metrics', 'model', 'normalized',
+    'pacing', 'parameter_docs', 'parameter_sets', 'plant', 'quantities', 'ratelimit',
+    'reference', 'report', 'report.antibacklash', 'report.builder', 'report.common',
+    'report.damping', 'report.derived', 'report.design', 'report.energy', 'report.fluctuation',
+    'report.index', 'report.measures', 'report.response', 'report.stability', 'report.steady',
+    'report.stiffness', 'report.summary', 'report.thermal', 'report.validation', 'rk',
+    'run_parameters', 'runs.bagformat', 'runs.bagread', 'runs.mcap_writer', 'runs.recorder',
+    'runs.replay', 'runs.replay_plan', 'ros.markers', 'ros.replaying', 'ros.run_io',
+    'ros.session_record', 'ros.urdf', 'scenario', 'schedule', 'sensors', 'session', 'simtime',
+    'simulation', 'stability', 'status', 'warmup', 'yaml_reader',
+)
+
+#: Modules whose deprecated names other changes of the same issue remove; each must still
+#: hold one (a stale entry fails), so the set empties as they land.
+DEPRECATIONS_BEING_REMOVED = {f'{PACKAGE}.physics.model', f'{PACKAGE}.sim.session'}
+
+
+def test_the_old_module_paths_are_gone():
+    """No finder, module or alias answers an old path: an import of one fails."""
+    import importlib.util
+
+    answered = []
+    for old in OLD_PATHS:
+        try:
+            spec = importlib.util.find_spec(f'{PACKAGE}.{old}')
+        except ModuleNotFoundError:          # its parent package is gone too
+            spec = None
+        if spec is not None:
+            answered.append(f'{PACKAGE}.{old} ({spec.origin or spec.loader})')
+    assert not answered, 'old module paths still answer:\n' + '\n'.join(answered)
+
+
+def test_no_module_keeps_a_deprecated_name():
+    """The package has had no release: a name that moved is updated at every caller, not
+    kept behind a DeprecationWarning or an import hook."""
+    found = set()
     for name, path in MODULES.items():
-        package = name if path.name == '__init__.py' else name.rpartition('.')[0]
         for node in ast.walk(ast.parse(path.read_text(encoding='utf-8'))):
-            if isinstance(node, ast.ImportFrom):
-                base = node.module or ''
-                if node.level:
-                    anchor = package.split('.')
-                    base = '.'.join(anchor[:len(anchor) - node.level + 1] + ([base] if base else []))
-                targets = [base, *(f'{base}.{a.name}' for a in node.names)]
-            elif isinstance(node, ast.Import):
-                targets = [a.name for a in node.names]
-            else:
-                continue
-            found += [f'{name}:{node.lineno}: {t}' for t in targets if t in old]
-    assert not found, 'import from where the module lives now:\n' + '\n'.join(found)
+            if ((isinstance(node, ast.Name) and node.id == 'DeprecationWarning')
+                    or (isinstance(node, ast.Attribute) and node.attr == 'meta_path')):
+                found.add(name)
+    assert found == DEPRECATIONS_BEING_REMOVED, (
+        f'deprecated names kept in {sorted(found - DEPRECATIONS_BEING_REMOVED)}; '
+        f'removed, so drop from DEPRECATIONS_BEING_REMOVED: '
+        f'{sorted(DEPRECATIONS_BEING_REMOVED - found)}')
 
 
 def _documented_order() -> list[str]:

@@ -15,7 +15,6 @@ import pytest
 from bag_runs import installed
 
 from screwgear_ros.design.errors import (
-    DesignError,
     MeshModelUnsupported,
     NoSteadyState,
     OperatingPointRefused,
@@ -245,20 +244,6 @@ def test_valid_inputs_without_a_steady_motion_are_no_steady_state():
         operating_point(PAPER.replace(table_damping=0.0), load=10.0)
     assert not isinstance(caught.value, OperatingPointRefused)
     assert isinstance(caught.value, ScrewgearError) and isinstance(caught.value, ValueError)
-
-
-def test_the_old_error_name_warns_and_still_catches_every_refusal():
-    import importlib
-
-    import screwgear_ros.design as package
-    module = importlib.import_module('screwgear_ros.design.linearize')
-    with pytest.warns(DeprecationWarning, match='OperatingPointError'):
-        old = module.OperatingPointError
-    with pytest.warns(DeprecationWarning, match='OperatingPointError'):
-        assert package.OperatingPointError is old
-    assert old is DesignError
-    with pytest.raises(old):
-        linearize(PAPER, torque=-1.0)
 
 
 def test_the_frozen_mesh_is_the_average_without_mesh_excitation():

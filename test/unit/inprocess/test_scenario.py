@@ -211,16 +211,3 @@ def test_an_in_process_run_refuses_a_publish_rate_change(tmp_path):
     proc = installed('run_scenario', path)
     assert proc.returncode == 2 and f'{path}: line 3: ' in proc.stderr and 'publish_rate' in proc.stderr
     assert load_scenario(path).schedule().events        # a replay still plays it
-
-
-def test_the_old_names_answer_for_one_release() -> None:
-    import warnings
-
-    from screwgear_ros.inprocess import scenario
-    with warnings.catch_warnings():
-        warnings.simplefilter('ignore', DeprecationWarning)
-        from screwgear_ros.runs import replay
-    with pytest.warns(DeprecationWarning, match='SetpointProfile'):
-        assert scenario.Setpoint is SetpointProfile
-    with pytest.warns(DeprecationWarning, match='schedule_from_scenario'):
-        assert replay.load_scenario is scenario.schedule_from_scenario

@@ -300,7 +300,8 @@ def test_fixed_step_path_is_the_textbook_rk4():
 
 
 def test_recordings_made_before_the_setting_replay_with_the_fixed_step():
-    run = run_parameters.RunParameters(TableParams(), SimSettings(), (0.0,) * 6)
+    run = run_parameters.RunParameters(TableParams(), SimSettings(), (0.0,) * 6,
+                                       package_version='0.1.0')    # before the setting
     text = run_parameters.dump(run)
     assert run_parameters.load(text).settings.contact_location is True
     old = '\n'.join(line for line in text.splitlines()

@@ -89,7 +89,7 @@ def test_floquet_kernel_in_the_warmup() -> None:
 CACHE_SCRIPT = r'''
 import json, sys
 import numpy as np
-from screwgear_ros import floquet
+from screwgear_ros.paper import floquet
 from screwgear_ros.paper.stability import PAPER_OMEGA
 n = int(sys.argv[1])
 m = floquet.monodromy(np.linspace(0.01, 0.2, n)[:, None], np.linspace(0.0, 0.5, n)[None, :],

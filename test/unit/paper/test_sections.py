@@ -256,12 +256,3 @@ def test_minimum_preload_at_1_rad_s_covers_every_reversal_instant_and_grows_with
     period = reversals.mesh_period(base, 1.0)
     for delay in (np.arange(15) + 0.5) * period / 15:
         assert reversals.flank_margin(base, 400.0, 1.0, needed[400.0] + 10.0, delay) > 0.0
-
-
-def test_the_reversal_names_answer_from_antibacklash_for_one_release() -> None:
-    with pytest.warns(DeprecationWarning, match='paper.reversals.ReversalTrace'):
-        assert antibacklash.Reversal is reversals.ReversalTrace
-    with pytest.warns(DeprecationWarning, match='paper.reversals.flank_margin'):
-        assert antibacklash.__getattr__('flank_margin') is reversals.flank_margin
-    with pytest.raises(AttributeError):
-        antibacklash.__getattr__('no_such_name')

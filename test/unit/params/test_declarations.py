@@ -14,7 +14,15 @@ from readme_blocks import generated_block
 
 from screwgear_ros.params import docs as parameter_docs
 from screwgear_ros.params import table as params
-from screwgear_ros.params.declarations import Kind, declared, yaml_value
+from screwgear_ros.params.declarations import (
+    Kind,
+    check,
+    declared,
+    parameter,
+    plain,
+    version_key,
+    yaml_value,
+)
 from screwgear_ros.params.table import ParameterError, SimSettings, TableParams
 from screwgear_ros.physics import packed as layout
 from screwgear_ros.ros.parameters import (
@@ -89,14 +97,14 @@ def test_the_kernel_layout_packs_every_kernel_field_by_name():
 def test_the_parameter_file_is_generated_from_the_declarations():
     text = (ROOT / 'config' / 'paper.yaml').read_text(encoding='utf-8')
     assert text == parameter_docs.paper_yaml(), \
-        'config/paper.yaml is stale: python -m screwgear_ros.params.docs yaml > config/paper.yaml'
+        f'config/paper.yaml is stale: {parameter_docs.WRITE_COMMAND}'
     loaded = document_values(yaml.safe_load(text))
     assert loaded == parameter_sets.default_values()          # YAML 1.1 reads every value back
 
 
 def test_the_readme_table_is_generated_from_the_declarations():
     assert generated_block('parameters') == parameter_docs.parameter_table(), \
-        'README parameter table is stale: python -m screwgear_ros.params.docs'
+        f'README parameter table is stale: {parameter_docs.WRITE_COMMAND}'
 
 
 @pytest.mark.parametrize('value, text', [(1e-06, '1.0e-06'), (7.5e-05, '7.5e-05'),
@@ -147,3 +155,23 @@ def test_the_normalized_coefficients_are_declared_once_too():
     assert (packed[normalized.ZETA], packed[normalized.KAPPA], packed[normalized.F0]) == (
         0.2, 1.5, 3.0)
     assert len(packed) == len(normalized.KERNEL) == 8
+
+
+def test_a_declared_history_is_a_version_and_a_valid_value():
+    """``before`` must be a value the parameter accepts (old recordings load with it) and
+    needs ``introduced``; ``introduced`` is an X.Y.Z version, compared as numbers."""
+    introduced = [p for cls in (TableParams, SimSettings) for p in declared(cls)
+                  if p.declaration.introduced]
+    assert introduced
+    for p in introduced:
+        assert check(p, plain(p.declaration.before)) == p.declaration.before, p.name
+    with pytest.raises(TypeError, match='needs introduced='):
+        parameter(1.0, 'x', 'm', 'a length', before=0.0)
+    with pytest.raises(ValueError, match='X.Y.Z'):
+        parameter(1.0, 'x', 'm', 'a length', introduced='0.2')
+    assert parameter(1.0, 'x', 'm', 'a length', introduced='0.3.0').metadata[
+        'declaration'].before == 1.0                  # the default: the parameter changed nothing
+    assert version_key('0.10.0') > version_key('0.9.1')       # not compared as text
+    for text in ('0.2', '0.2.0rc1', '٠.٢.٠', 'unknown', ''):
+        with pytest.raises(ValueError):
+            version_key(text)

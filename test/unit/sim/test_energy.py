@@ -225,7 +225,8 @@ def test_recordings_from_before_the_drive_line_replay_with_the_ideal_source():
     and the paper's equations; the checked-in bags are such recordings."""
     from screwgear_ros.bag.reader import read_run
     p = TableParams()
-    text = dump(RunParameters(p, SimSettings(), tuple(equilibrium_state(p))))
+    text = dump(RunParameters(p, SimSettings(), tuple(equilibrium_state(p)),
+                              package_version='0.1.0'))       # a version before the drive line
     new = ('drive_no_load_speed', 'drive_stall_torque', 'mesh_formulation')
     old = '\n'.join(line for line in text.splitlines() if not line.startswith(new))
     assert load(text).params == p

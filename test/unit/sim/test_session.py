@@ -198,7 +198,7 @@ def test_command_timeout_zeroes_torque_and_load_once_until_the_next_command():
 
 def test_a_recording_from_before_command_timeout_replays_without_one():
     from screwgear_ros.sim.run_file import RunParameters, dump, load
-    text = dump(RunParameters(P, S, tuple(equilibrium_state(P))))
+    text = dump(RunParameters(P, S, tuple(equilibrium_state(P)), package_version='0.1.0'))
     old = '\n'.join(line for line in text.splitlines() if not line.startswith('command_timeout'))
     assert load(text).settings.command_timeout == S.command_timeout == 1.0
     assert load(old).settings.command_timeout == 0.0
