@@ -303,7 +303,7 @@ def _documented_order() -> list[str]:
     order: each may import only the folders on rows above its own."""
     doc = (ROOT.parent / 'docs' / 'architecture.md').read_text(encoding='utf-8')
     section = doc.split('## The folders, bottom to top', 1)[1].split('\n## ', 1)[0]
-    return [f'{PACKAGE}.{m.group(1)}' for m in re.finditer(r'^\| `(\w+)/` \|', section, re.M)]
+    return [f'{PACKAGE}.{m.group(1)}' for m in re.finditer(r'^\| `(\w+)/` \|', section, re.MULTILINE)]
 
 
 def test_every_folder_imports_only_the_folders_the_doc_puts_above_it():
