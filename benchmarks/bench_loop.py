@@ -5,7 +5,7 @@
 Prints, measured in this run, interleaved ``--repeat`` times (median, and the range):
 
 * **physics alone**: the ticks of the in-process loop below integrated with no
-  controller, in one compiled call per chunk (``Session.advance`` with ``rows``): the anchor;
+  controller, in one compiled call per chunk (``Session.advance`` in ``AdvanceMode.ROWS``): the anchor;
 * **in-process**: ``Simulation.run`` closed with a Python PD law on the table angle
   (each tick's answer applied at the next tick's first step), ticks/s and its ratio to
   the physics alone;
@@ -79,13 +79,13 @@ def physics_alone(ticks: int) -> tuple[float, float]:
     """Ticks/s of the same ticks with no controller: one compiled call per chunk; by the
     wall clock and by this thread's CPU time."""
     from screwgear_ros import Simulation
-    from screwgear_ros.sim.session import ROW
+    from screwgear_ros.sim.session import ROW, AdvanceMode
     sim = Simulation.from_values(VALUES)
     sim.reset()
     sim.step(150.0)                      # a moving table, as in the closed loop
     rows = np.empty((ticks, ROW))
     started, cpu = time.perf_counter(), time.thread_time()
-    done = sim.session.advance(ticks, rows=rows)
+    done = sim.session.advance(ticks, mode=AdvanceMode.ROWS, rows=rows)
     return done / (time.perf_counter() - started), done / (time.thread_time() - cpu)
 
 

@@ -21,7 +21,7 @@ from ..interface import Input
 from ..numerics.kernels import compiled_now, kernels, progress, without_blas_probe
 from ..params.table import MeshPhase, Mode, SimSettings, TableParams
 from ..sim.events import Command
-from ..sim.session import ROW, Session
+from ..sim.session import ROW, AdvanceMode, Session
 from ..sim.status import contact_states, mesh_frequency_ratio
 
 
@@ -34,7 +34,7 @@ def warm() -> int:
                                           else 350.0), SimSettings())
             session.submit(Command(Input.CMD_EFFORT, [10.0]))
             session.tick()
-            session.advance(2, rows=np.empty((2, ROW)))     # replays, check_run
+            session.advance(2, mode=AdvanceMode.ROWS, rows=np.empty((2, ROW)))     # replays, check_run
             contact_states(session.plant.params, session.last_outputs)     # diagnostics, markers
             mesh_frequency_ratio(session.plant.params, session.last_outputs)
     from ..numerics import dop853

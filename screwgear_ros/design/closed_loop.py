@@ -44,8 +44,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import interface
+from ..inprocess.samples import observation_of
 from ..inprocess.simulation import Observation, Simulation
 from ..params.table import SimSettings, TableParams
+from ..sim.events import Command, Timeline
+from ..sim.session import AdvanceMode, Session, Tick
 from .bode import loop_figure
 from .budget import LOOP_TICK, Cost, check_cost, check_points
 from .errors import MeasurementRefused, UnknownOutput, UsageError
@@ -183,20 +187,40 @@ def measure_loop(params: TableParams, settings: SimSettings | None,
     effort = np.zeros(total + 1)       # c answered to observation k, held over tick k + 1
     y = np.zeros((total + 1, len(OUTPUTS)))
     started = time.perf_counter()
-    observation = simulation.reset()
-    simulation.step(load=bias[1])                    # the bias load from the first tick on
-    observation = simulation.step()
+    session = Session(simulation.params, simulation.settings)
+    # the bias load from the first tick on; the second tick takes nothing; from the
+    # third on, tick k + 3 takes the answer to observation k + 2 plus d[k + 1]
+    bias_load = Timeline([Command(interface.Input.LOAD_TORQUE, bias[1], step=0)])
+    observation = observation_of(session.last_outputs, session.plant.fault, session.measured)
     last = direction * bias[0]
-    for k in range(total):
+    done = 0
+
+    def answer() -> float | None:
+        nonlocal last
+        k = done - 2
+        if k < 0:
+            return None
         c = controller(observation)
         if c is not None:
             last = float(c)
         effort[k] = last
-        observation = simulation.step(effort=last + d[k + 1])
+        return last + d[k + 1]
+
+    def monitor(tick: Tick | None) -> None:
+        nonlocal observation, done
+        done += 1
+        if tick is not None and tick.rejected:
+            raise tick.rejected[0]
+        observation = observation_of(session.last_outputs, session.plant.fault,
+                                     session.measured)
         if observation.fault is not None:
             raise FloatingPointError(f'the model diverged: {observation.fault}')
-        p, v = observation.position, observation.velocity
-        y[k + 1] = (p[1], v[1], p[0], v[0], p[2], v[2], observation.transmission_error)
+        if done > 2:
+            p, v = observation.position, observation.velocity
+            y[done - 2] = (p[1], v[1], p[0], v[0], p[2], v[2], observation.transmission_error)
+
+    session.advance(total + 2, events=bias_load, controller=answer, monitor=monitor,
+                    mode=AdvanceMode.ANSWERS)
     wall = time.perf_counter() - started
     names = (LOOP, SENSITIVITY, *outputs)
     measured = np.empty((len(names), len(plan)), dtype=complex)

@@ -42,13 +42,16 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
+from typing import overload
 
 import numpy as np
 
+from .. import interface
 from ..inprocess.simulation import Simulation
 from ..params.table import SimSettings, TableParams
 from ..physics.drive import DrivePiece
-from ..sim.events import Command
+from ..sim.events import Command, Timeline
+from ..sim.session import Tick
 from .bode import TRUST, measurement_figure
 from .budget import SINE_TICK, Cost, check_cost, check_points
 from .errors import MeasurementFailed, MeasurementRefused, UnknownOutput
@@ -160,6 +163,36 @@ def _simulation(params: TableParams, settings: SimSettings) -> Simulation:
                                   record='')
 
 
+class _Inputs(Sequence[Command]):
+    """A run's commands as its :class:`Timeline` reads them: ``bias`` at step 0, then
+    ``values[k]`` on ``topic`` at the first step of tick k (signed by ``direction`` as
+    cmd_effort's one value; 0: as it is), each made when read, so that a long run holds
+    no command per tick."""
+
+    def __init__(self, bias: Command, topic: str, direction: int, values: np.ndarray,
+                 per_tick: int) -> None:
+        self.bias, self.topic, self.direction = bias, topic, direction
+        self.values, self.per_tick = values, per_tick
+
+    def __len__(self) -> int:
+        return len(self.values) + 1
+
+    @overload
+    def __getitem__(self, i: int) -> Command: ...
+    @overload
+    def __getitem__(self, i: slice) -> list[Command]: ...
+
+    def __getitem__(self, i: int | slice) -> Command | list[Command]:
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        k = (i + len(self) if i < 0 else i) - 1
+        if k < 0:
+            return self.bias
+        value = self.values[k]                   # IndexError past the end
+        return Command(self.topic, [self.direction * value] if self.direction else value,
+                       step=k * self.per_tick)
+
+
 class _Runner:
     """Runs the node's session tick by tick with an input sequence; collects outputs."""
 
@@ -177,21 +210,26 @@ class _Runner:
         session = simulation.session
         torque, load = self.bias
         d = self.direction
-        submit, tick = session.submit, session.tick
+        per_tick = session.settings.steps_per_publish
+        effort, load_torque = interface.Input.CMD_EFFORT, interface.Input.LOAD_TORQUE
         if self.input is Input.TORQUE:
-            submit(Command('load_torque', load))
-            topic, signed = 'cmd_effort', True
+            events = _Inputs(Command(load_torque, load, step=0), effort, d, values, per_tick)
         else:
-            submit(Command('cmd_effort', [d * torque]))
-            topic, signed = 'load_torque', False
+            events = _Inputs(Command(effort, [d * torque], step=0), load_torque, 0, values,
+                             per_tick)
         out = np.empty((len(values), len(OUTPUTS)))
-        for k, value in enumerate(values):
-            submit(Command(topic, [d * value] if signed else value))
-            o = tick().outputs
+        done = 0
+
+        def sample(tick: Tick | None) -> None:
+            nonlocal done
             if session.plant.fault is not None:
                 raise FloatingPointError(f'the model diverged: {session.plant.fault}')
+            o = session.last_outputs
             p, v = o.position, o.velocity
-            out[k] = (p[1], v[1], p[0], v[0], p[2], v[2], o.transmission_error)
+            out[done] = (p[1], v[1], p[0], v[0], p[2], v[2], o.transmission_error)
+            done += 1
+
+        session.advance(len(values), events=Timeline(events), monitor=sample)
         rejected = sum(session.rejected.values())
         if rejected:
             raise MeasurementFailed(f'the node refused {rejected} of the input commands '

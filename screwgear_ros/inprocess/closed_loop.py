@@ -13,8 +13,8 @@ import numpy as np
 from ..interface import Input
 from ..sim.commands import InputRejected
 from ..sim.control import SetpointNotes
-from ..sim.events import Event, ParameterChange, Setpoint
-from ..sim.session import Session, Tick
+from ..sim.events import AdvanceError, Event, ParameterChange, Setpoint, shown
+from ..sim.session import AdvanceMode, Session, Tick
 from ..sim.simtime import sim_time_ns
 from .samples import Observation
 
@@ -54,7 +54,7 @@ def closed_loop(session: Session, controller: Controller | None, first: Observat
         if setpoint is not None:
             # t as the controllers take it: from the integer ns stamp of the sample
             stamp = sim_time_ns(observation.step, dt)
-            target = float(setpoint(stamp * 1e-9))
+            target = _target(setpoint(stamp * 1e-9), stamp)
             if notes.due(stamp, target):
                 session.submit(Setpoint(target))
         effort = None if controller is None else controller(observation)
@@ -98,8 +98,23 @@ def closed_loop(session: Session, controller: Controller | None, first: Observat
         recording.submit_change(replace(event, step=None))
 
     session.advance(ticks, events=events, controller=answer, monitor=observe,
-                    every_tick=recording is not None,
+                    mode=AdvanceMode.ANSWERS if recording is None else AdvanceMode.TICKS,
                     changes=change if recording is not None else None)
+
+
+def _target(value: Any, stamp: int) -> float:
+    """What ``setpoint(t)`` returned at ``stamp`` (ns) as a float; an answer that is no
+    real number is refused by name (a NaN is the session's to refuse and count)."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    try:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise TypeError
+        return float(value)
+    except (TypeError, OverflowError):     # no number, an int beyond float64
+        raise AdvanceError(f'setpoint(t) must return an angle, rad, a real number that '
+                           f'float64 holds; at t = {stamp * 1e-9:g} s it returned '
+                           f'{shown(value)}') from None
 
 
 def _plain(effort: Any) -> Any:

@@ -34,7 +34,7 @@ from ..interface import Input
 from ..numerics.integrator import OBSERVED
 from ..params.table import ParameterError, SimSettings, TableParams
 from ..sim.commands import InputRejected, apply_command
-from ..sim.events import Command, Event
+from ..sim.events import AdvanceError, Command, Event, shown, step_of
 from ..sim.parameter_file import NODE_KEYS, ParameterFileError, file_values, resolve
 from ..sim.session import Session
 from ..sim.simtime import sim_time_ns
@@ -58,23 +58,14 @@ BYTES_PER_TICK = 15 * 8 + 6 * 8 + 4 * 40
 
 
 class RunInProgress(ScrewgearError, RuntimeError):
-    """:meth:`Simulation.reset` called while :meth:`Simulation.run` drives the session
-    (from its controller, say): a run restarts only between runs."""
+    """:meth:`Simulation.reset` or :meth:`Simulation.step` called while
+    :meth:`Simulation.run` drives the session (from its controller, say): a run restarts,
+    and takes ticks its samples do not hold, only between runs."""
 
 
 def memory_bytes() -> int:
     """The machine's physical memory, bytes (what a run must fit in)."""
     return os.sysconf('SC_PHYS_PAGES') * os.sysconf('SC_PAGE_SIZE')
-
-
-def _shown(value: Any, width: int = 60) -> str:
-    """``repr(value)`` cut to ``width`` characters (an int of 400 digits, say)."""
-    try:
-        text = repr(value)
-    except ValueError:                 # an int past the interpreter's digit limit
-        return (f'an int of {value.bit_length()} bits' if isinstance(value, int)
-                else f'a {type(value).__name__} holding an int of over 4300 digits')
-    return text if len(text) <= width else f'{text[:width - 3]}...'
 
 
 class Simulation:
@@ -263,7 +254,16 @@ class Simulation:
         ------
         InputRejected
             A command the node refuses (nothing is applied).
+        RunInProgress
+            Called while :meth:`run` drives the session (from its controller): a tick
+            that the run does not sample would leave its samples and its recording
+            short of what happened (``check_run`` would fail the bag), so the run ends
+            with this error.
         """
+        if self._running:
+            raise RunInProgress('step() during run(): the run ticks the session itself, '
+                                'once per answer of its controller; return the effort '
+                                'from the controller instead')
         session = self.session
         commands: list[tuple[Input, Any]] = []
         if effort is not None:
@@ -284,7 +284,7 @@ class Simulation:
                     raise
                 except (TypeError, ValueError, OverflowError):
                     # no message of the topic can carry it (an int beyond float64, an array)
-                    raise InputRejected(topic, _shown(value), 'a message of this topic '
+                    raise InputRejected(topic, shown(value), 'a message of this topic '
                                         'cannot carry it') from None
             for topic, value in commands:
                 session.submit(Command(topic, value))
@@ -307,9 +307,9 @@ class Simulation:
         ``overwrite`` also an earlier recording there, which is deleted first (a
         non-empty directory that is no recording, i.e. has no ``metadata.yaml``, is
         refused with FileExistsError either way). ``events``: session
-        events with their ``step`` set (a scenario's actions), each submitted once the
-        outputs of its step are out, before the controller's answer, as ``replay_run``
-        plays them into a node. An effort the node refuses raises
+        events with their ``step`` set (a scenario's actions), in any order: each is
+        submitted once the outputs of its step are out (those of one step in the order
+        given), before the controller's answer, as ``replay_run`` plays them into a node. An effort the node refuses raises
         :class:`~screwgear_ros.sim.commands.InputRejected` with the node's message and ends
         the run: the session validated it when it was to take effect, as the node does,
         and ran that tick with the last valid command, as the node does; the recording
@@ -345,8 +345,13 @@ class Simulation:
         InputRejected
             An answer the node refuses (the run ends there; a recording is kept).
         ValueError
-            A duration that is not a finite number of seconds >= 0, or an event
-            without its step.
+            A duration that is not a finite number of seconds >= 0, or a ``setpoint``
+            that is not callable.
+        AdvanceError
+            An element of ``events`` that is no session event, or has no step that is an
+            integer >= 0 (a ValueError too).
+        RunInProgress
+            Called from a run's controller.
         """
         try:
             valid = (not isinstance(duration, bool) and isinstance(duration, (int, float))
@@ -355,9 +360,14 @@ class Simulation:
             valid = False
         if not valid:
             raise ValueError(f'duration must be a finite number of seconds >= 0, '
-                             f'got {_shown(duration)}')
-        if any(event.step is None for event in events):
-            raise ValueError('every event of a run needs the step it takes effect at')
+                             f'got {shown(duration)}')
+        if not isinstance(events, Sequence) or isinstance(events, (str, bytes)):
+            raise AdvanceError(f'events must be a sequence of session events, got a '
+                               f'{type(events).__name__}')
+        steps = [step_of(event, f'events[{i}]') for i, event in enumerate(events)]
+        if setpoint is not None and not callable(setpoint):
+            raise ValueError(f'setpoint must be a callable t -> rad, got a '
+                             f'{type(setpoint).__name__}')
         ticks = round(duration / self.tick_period)
         if ticks * BYTES_PER_TICK > memory_bytes():
             raise ValueError(f'duration {duration:g} s is {ticks:.3g} ticks, about '
@@ -383,7 +393,8 @@ class Simulation:
                 from ..runs.session_record import SessionRecording  # the bag writer: to record
                 recording = SessionRecording(record, session)
             closed_loop(session, controller, first, ticks, observed, command, columns,
-                        sorted(events, key=lambda e: e.step or 0), recording, rejected,
+                        [events[i] for i in sorted(range(len(events)), key=steps.__getitem__)],
+                        recording, rejected,
                         measured, setpoint if recording is not None else None)
         finally:
             self._running = False

@@ -18,7 +18,7 @@ import numpy as np
 from ..interface import Input
 from ..params.table import PAPER_PINION_SPEED, Mode, SimSettings, TableParams, effective_stiffness
 from ..sim.events import Command, ParameterChange
-from ..sim.session import ROW, Session, Tick
+from ..sim.session import ROW, AdvanceMode, Session, Tick
 
 DT = 50e-6                 # s, the node's default step
 REALISTIC_STE = 20e-6      # m, an STE amplitude typical of a module-6 gear, for comparison
@@ -61,7 +61,7 @@ def _settled(p: TableParams, torque: float, steps: int) -> Session:
     one step, so that it stops at exactly that step, run many to a compiled call."""
     session = Session(p, SimSettings(dt=DT, publish_rate=1.0 / DT))
     session.advance(until=steps, events=[Command(Input.CMD_TORQUE, torque, step=0)],
-                    rows=np.empty((steps, ROW)))
+                    mode=AdvanceMode.ROWS, rows=np.empty((steps, ROW)))
     return session
 
 

@@ -25,7 +25,7 @@ from ..bag.errors import InvalidBag
 from ..bag.reader import RecordedRun
 from ..sim.events import Event, ParameterChange, describe
 from ..sim.schedule import Schedule, ros_values
-from ..sim.session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Session, Tick, row_of
+from ..sim.session import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, AdvanceMode, Session, Tick, row_of
 
 _E = TypeVar('_E', bound=Event)
 
@@ -44,7 +44,7 @@ class ReplayedOutputs:
     and the ticks that went through :meth:`Session.tick` (every tick that applied an
     event, or in which command_timeout came due; ``ticks[j]`` made sample
     ``tick_samples[j]``). The ticks in between took no event: each ran under the input
-    and parameters of the tick before it (:meth:`Session.advance` with ``rows``)."""
+    and parameters of the tick before it (:meth:`Session.advance` in ``AdvanceMode.ROWS``)."""
 
     joint_states: np.ndarray        # (n, 9) like RecordedRun.true_joint_states.values
     transmission_error: np.ndarray  # (m,) m
@@ -59,7 +59,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
 
     Every event recorded (in file order) before the ``joint_states`` sample i is
     submitted before the tick that makes it; the ticks between events go through
-    :meth:`Session.advance` with ``rows``. Raises :class:`BagError` where the recording disagrees
+    :meth:`Session.advance` in ``AdvanceMode.ROWS``. Raises :class:`BagError` where the recording disagrees
     with the session (an event or a sample off the node's tick grid, a recorded command
     the node must have refused).
     """
@@ -105,7 +105,7 @@ def replay_in_process(run: RecordedRun, refine: int = 1) -> ReplayedOutputs:
         # command_timeout came due), which check_run reads.
         full.clear()
         done = session.advance((int(takes[k]) if k < len(events) else n) - i,
-                               rows=rows[i:], monitor=stop)
+                               mode=AdvanceMode.ROWS, rows=rows[i:], monitor=stop)
         tick = full[0] if full else None
         if tick is not None:
             if tick.rejected:

@@ -60,7 +60,7 @@ class SessionRecording:
         """
         if tick is None:
             raise ValueError('a recording needs every tick in full: advance with '
-                             'every_tick=True when a controller answers')
+                             'mode=AdvanceMode.TICKS')
         self.io.tick(self.session, tick)
 
     def close(self) -> RunRecorder:

@@ -28,6 +28,7 @@ from typing import Any
 from ..errors import ScrewgearError
 from ..interface import COMMAND_TOPICS, Input
 from ..params.table import SimSettings, TableParams
+from .events import shown
 from .plant import DriveInput
 
 #: Input topics (relative names) and the ROS message type of each.
@@ -91,8 +92,17 @@ class InputRejected(ScrewgearError, ValueError):
     def __init__(self, topic: str, value: Any, rule: str) -> None:
         self.topic = topic
         self.value = value
-        super().__init__(f'{topic}: rejected {value!r}: {rule}; the last valid command '
+        super().__init__(f'{topic}: rejected {shown(value, 200)}: {rule}; the last valid command '
                          'stays in force')
+
+
+def finite_number(value: Any) -> bool:
+    """``value`` is a real number (no bool) that float64 holds finite."""
+    try:
+        return (not isinstance(value, bool) and isinstance(value, (int, float))
+                and math.isfinite(value))
+    except OverflowError:                 # an int beyond float64
+        return False
 
 
 def _finite(topic: str, value: Any) -> float:
@@ -300,6 +310,19 @@ def command_value(topic: str, msg: Any) -> Any:
     return msg.data
 
 
+def timed_out_input(drive: DriveInput, command_timeout: float
+                    ) -> tuple[DriveInput, str] | None:
+    """What ``command_timeout`` (s) makes of the input in force ``drive`` when it comes due
+    (:mod:`screwgear_ros.sim.session`): torque and load zero, the direction kept, and the
+    notice that says so; None when both are zero already."""
+    if not (drive.torque or drive.load):
+        return None
+    return (replace(drive, torque=0.0, load=0.0),
+            (f'no command for {command_timeout:g} s of simulation time (command_timeout): '
+             f'drive torque ({drive.torque:g} N·m) and load ({drive.load:g} N·m) set to zero '
+             'until the next command'))
+
+
 def carries_no_command(topic: str, value: Any, joint_names: Sequence[str] | None = None) -> bool:
     """True for a joint_commands message that commands nothing yet: ros2_control's
     command interfaces hold NaN until a controller writes them, and the plugin sends
@@ -344,6 +367,8 @@ __all__ = [
     'carries_no_command',
     'command_value',
     'effort_drive',
+    'finite_number',
     'limit_input',
     'load_limit',
+    'timed_out_input',
 ]

@@ -9,11 +9,21 @@ serves the node, the recorder, the bag reader, replay and check.
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from ..errors import ScrewgearError
+from ..interface import COMMAND_TOPICS
 from ..params.table import SimSettings, TableParams
+
+
+class AdvanceError(ScrewgearError, TypeError, ValueError):
+    """An argument of :meth:`Session.advance <screwgear_ros.sim.session.Session.advance>`,
+    or an event of its timeline, that breaks its rule; the message names both. A
+    ``TypeError`` and a ``ValueError``: a wrong type and a wrong value are both refused
+    with it."""
 
 
 @dataclass(frozen=True)
@@ -98,7 +108,17 @@ class Timeline:
     Parameters
     ----------
     events : sequence of Event
-        Each with its ``step`` set, in increasing step order (ties keep their order).
+        Each with its ``step`` set (an integer >= 0), in increasing step order (ties
+        keep their order).
+    name : str
+        What the caller calls ``events``, for the messages.
+
+    Raises
+    ------
+    AdvanceError
+        An element that is no event, an event without its step or with a step that is
+        no integer >= 0, or an event before the one ahead of it: a timeline is in step
+        order, and an event is never applied later than its step.
 
     Examples
     --------
@@ -109,9 +129,18 @@ class Timeline:
 
     __slots__ = ('_events', '_next')
 
-    def __init__(self, events: Sequence[Event]) -> None:
-        if any(event.step is None for event in events):
-            raise ValueError('every event of a timeline needs the step it takes effect at')
+    def __init__(self, events: Sequence[Event], name: str = 'events') -> None:
+        if not isinstance(events, Sequence) or isinstance(events, (str, bytes)):
+            raise AdvanceError(f'{name} must be a sequence of session events, got '
+                               f'a {type(events).__name__}')
+        previous = None
+        for i, event in enumerate(events):
+            step = step_of(event, f'{name}[{i}]')
+            if previous is not None and step < previous:
+                raise AdvanceError(
+                    f'{name}[{i}] ({describe(event):.60}) is at step {step}, before step '
+                    f'{previous} of the event ahead of it: {name} must be in step order')
+            previous = step
         self._events = events
         self._next = 0
 
@@ -132,15 +161,63 @@ class Timeline:
         return events[first:k]
 
 
+def step_of(event: Any, name: str) -> int:
+    """The step of ``event``, an integer >= 0; AdvanceError naming ``name`` otherwise
+    (an element that is no event, an event without its step).
+
+    Examples
+    --------
+    >>> step_of(Reset(step=3), 'events[0]')
+    3
+    """
+    if not isinstance(event, (Command, ParameterChange, Reset, Setpoint)):
+        raise AdvanceError(f'{name} must be a session event (Command, ParameterChange, '
+                           f'Reset, Setpoint), got a {type(event).__name__}')
+    if isinstance(event, Command) and not any(event.topic == topic for topic in COMMAND_TOPICS):
+        raise AdvanceError(f'{name}: a command\'s topic must be one of '
+                           f'{", ".join(COMMAND_TOPICS)}, got {shown(event.topic)}')
+    step = event.step
+    if step is None:
+        raise AdvanceError(f'{name} ({describe(event):.60}) needs the step it takes effect at')
+    try:
+        index = -1 if isinstance(step, bool) else operator.index(step)
+    except TypeError:
+        index = -1
+    if index < 0:
+        raise AdvanceError(f'{name} ({describe(event):.60}): its step must be an integer '
+                           f'>= 0, got {shown(step)}')
+    return index
+
+
+def shown(value: Any, width: int = 60) -> str:
+    """``repr(value)`` for a message, cut to ``width`` characters; an int past the
+    interpreter's digit limit (which ``repr`` refuses) by its size.
+
+    Examples
+    --------
+    >>> shown(10**5000)
+    'an int of 16610 bits'
+    """
+    try:
+        text = repr(value)
+    except ValueError:                 # an int past the interpreter's digit limit
+        return (f'an int of {value.bit_length()} bits' if isinstance(value, int)
+                else f'a {type(value).__name__} holding an int of over 4300 digits')
+    return text if len(text) <= width else f'{text[:width - 3]}...'
+
+
 def describe(event: Event) -> str:
     """A short human description: 'cmd_torque 150.0', 'parameter change', 'reset'."""
     if isinstance(event, Command):
-        return f'{event.topic} {event.value}'
+        value = event.value
+        return f'{event.topic} {value if isinstance(value, float) else shown(value)}'
     if isinstance(event, ParameterChange):
         return 'parameter change'
     if isinstance(event, Setpoint):
-        return f'setpoint {event.value}'
+        value = event.value
+        return f'setpoint {value if isinstance(value, float) else shown(value)}'
     return 'reset'
 
 
-__all__ = ['Command', 'Event', 'ParameterChange', 'Reset', 'Setpoint', 'Timeline', 'describe']
+__all__ = ['AdvanceError', 'Command', 'Event', 'ParameterChange', 'Reset', 'Setpoint', 'Timeline', 'describe',
+           'shown', 'step_of']

@@ -2,12 +2,13 @@
 
 :class:`Session` is the only simulation loop in the project, and
 :meth:`Session.advance` its one door: N ticks or up to a step (:meth:`Session.advance_to`:
-a time), submitting the events of a schedule as their step comes, asking an optional
+a time), submitting the events of a timeline as their step comes, asking an optional
 controller before each tick and telling an optional monitor after it (Drake's
 ``Simulator.AdvanceTo`` with a monitor is the model). In-process runs, replays, the
-energy audit and the paper's studies go through it; the node's pacing thread, which
-makes one tick at a time against the wall clock or a lockstep answer, calls
-:meth:`Session.tick`, the single tick that ``advance`` is made of.
+energy audit and the paper's studies go through it. The node's pacing thread calls
+:meth:`Session.tick`, the single tick that ``advance`` is made of: it waits for the wall
+clock or a lockstep answer between two ticks, and its answer arrives through
+:meth:`Session.submit` from another thread, so no loop of ``advance`` can hold it.
 
 A tick is what the node does between two publications:
 
@@ -22,11 +23,10 @@ A tick is what the node does between two publications:
    sensor is ideal). A reset restarts the sensors' chain; a parameter change hands them
    its settings.
 
-A closed loop's tick, whose one event is its controller's answer, runs a fast path
-when nobody needs its :class:`Tick` (:meth:`Session.advance` with a controller and not
-``every_tick``): the same tick, without the objects a tick makes for callers that log
-or record it. Ticks that take no event, when only their outputs are wanted (``rows``),
-run many to a compiled call. Both leave every bit as :meth:`Session.tick` would.
+What a tick makes for its caller is :meth:`Session.advance`'s ``mode``
+(:class:`~screwgear_ros.sim.tick.AdvanceMode`: a full :class:`Tick`, none for a tick that
+takes only the controller's answer, or only a row of outputs for ticks that take no
+event, many to a compiled call); every mode leaves every bit as :meth:`Session.tick` does.
 
 Commands are validated when they take effect, against the parameters in force at
 that step (:func:`screwgear_ros.sim.commands.apply_command`); a refused command changes
@@ -47,11 +47,8 @@ that guards the queue, and nothing else). Everything else (``tick``, ``plant``,
 
 from __future__ import annotations
 
-import math
 import threading
-import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -59,11 +56,29 @@ import numpy as np
 from ..interface import INFO_TOPICS, Input
 from ..params.table import SimSettings, TableParams
 from ..physics.sensors import SensorChain
-from . import fast_ticks
-from .commands import INPUT_TOPICS, InputRejected, apply_command, limit_input
-from .events import Command, Event, ParameterChange, Reset, Setpoint, Timeline
+from .commands import (
+    INPUT_TOPICS,
+    InputRejected,
+    apply_command,
+    effort_drive,
+    finite_number,
+    limit_input,
+    timed_out_input,
+)
+from .events import AdvanceError, Command, Event, ParameterChange, Reset, Setpoint, Timeline
 from .plant import Outputs, Plant
-from .tick import ROW, ROW_JOINTS, ROW_STEP, ROW_TE, Tick, row_of
+from .row_ticks import RowTicks
+from .tick import (
+    ROW,
+    ROW_JOINTS,
+    ROW_STEP,
+    ROW_TE,
+    AdvanceMode,
+    Tick,
+    advance_limits,
+    row_of,
+    step_of_time,
+)
 
 
 class Session:
@@ -81,14 +96,14 @@ class Session:
         self._last_command = self.start_step   # step of the last accepted command
         self._lock = threading.Lock()          # guards _pending only
         self._pending: list[Event] = []
-        self._observed: np.ndarray | None = None   # the compiled ticks' rows, made on first use
+        self._row_ticks = RowTicks()           # AdvanceMode.ROWS's compiled ticks
         self._outputs: Outputs | None = self.plant.compute_outputs()
         self.sensors = SensorChain(settings.sensors, settings.dt)
         self._measure()
 
     def _use(self, settings: SimSettings) -> None:
-        """Settings in force from now on, and what ``tick`` derives from them (once per
-        change, not per tick): steps per tick, command_timeout in steps (None = off)."""
+        """Settings in force from now on, and what ``tick`` derives from them once per
+        change: steps per tick, command_timeout in steps (None = off)."""
         self.settings = settings
         self._steps = settings.steps_per_publish
         self._timeout_steps = (round(settings.command_timeout / settings.dt)
@@ -110,8 +125,7 @@ class Session:
     @property
     def measured(self) -> Outputs:
         """What joint_states publishes of :attr:`last_outputs` (the same object when every
-        sensor is ideal). :meth:`advance` with ``rows`` leaves the sensors' chain alone (sensors
-        that are not ideal: this stays what they measured last)."""
+        sensor is ideal); :attr:`AdvanceMode.ROWS`'s compiled ticks leave it as it was."""
         measured = self._measured
         return self.last_outputs if measured is None else measured
 
@@ -135,11 +149,12 @@ class Session:
                 events: Sequence[Event] | Timeline = (),
                 controller: Callable[[], Any] | None = None,
                 monitor: Callable[[Tick | None], bool | None] | None = None,
-                every_tick: bool = False,
-                changes: Callable[[ParameterChange], None] | None = None,
-                rows: np.ndarray | None = None) -> int:
+                mode: AdvanceMode = AdvanceMode.TICKS,
+                rows: np.ndarray | None = None,
+                changes: Callable[[ParameterChange], None] | None = None) -> int:
         """Advance ``ticks`` ticks, or until the step ``until``, submitting the events due
-        on the way: the session's one loop.
+        on the way: the session's one loop (Drake's ``Simulator.AdvanceTo`` with a
+        monitor; its boundary is a step here, :meth:`advance_to` takes a time).
 
         Before each tick: the events of ``events`` whose step the session has reached are
         submitted (:class:`~screwgear_ros.sim.events.Timeline`: they take effect at the
@@ -149,33 +164,30 @@ class Session:
         Parameters
         ----------
         ticks : int, optional
-            How many ticks to do.
+            How many ticks to do, an integer >= 0.
         until : int, optional
-            Tick while the session's step is below this one; stops early once the plant
-            has faulted (its time then stands still). At least one of ``ticks`` and
-            ``until`` is given; with both, whichever comes first.
+            Tick while the session's step is below this one (an integer, not below the
+            session's step), or until the plant faults (its time then stands still).
+            ``ticks``, ``until`` or both (whichever comes first).
         events : sequence of Event or Timeline
             Events with their step set, in step order (a Timeline continues where an
-            earlier advance left it).
+            earlier advance left it). An event out of step order, or, in a new sequence,
+            one before the session's step, is refused: none is applied after its step.
         controller : callable, optional
             ``controller() -> effort``: cmd_effort's signed drive torque (N·m) for the
             coming tick, or None for no command.
         monitor : callable, optional
-            ``monitor(tick)`` after every tick; it gets None when the tick took nothing
-            but the controller's answer and ran the fast path (no :class:`Tick` made:
-            :attr:`last_outputs`, :attr:`measured` and the plant say what it did). A true
-            return stops the advance after that tick.
-        every_tick : bool
-            Make every tick a full :meth:`tick`, so the monitor always gets its Tick (a
-            recording writes it).
+            ``monitor(tick)`` after a tick (``mode`` says which it sees, and when it gets
+            None); a true return stops the advance after that tick.
+        mode : AdvanceMode
+            What a tick makes (:class:`AdvanceMode`: ``ROWS`` needs ``rows``); every mode
+            leaves the same bits.
+        rows : ndarray, optional
+            Row i (``ROW`` columns, :func:`row_of`) gets tick i's exact outputs; at
+            least as many rows as ticks are done.
         changes : callable, optional
             Who submits a parameter change of ``events`` (a recording renders its texts
             first); default: :meth:`submit`.
-        rows : ndarray, optional
-            Row i (``ROW`` columns, :func:`row_of`) gets tick i's exact outputs. With no
-            controller and not ``every_tick``, the ticks that take no event then run as
-            :meth:`advance` with ``rows`` does, many in one compiled call, and the monitor sees
-            only the full ticks (those that applied an event or timed a command out).
 
         Returns
         -------
@@ -184,26 +196,27 @@ class Session:
 
         Raises
         ------
-        ValueError
-            Neither ``ticks`` nor ``until`` given, or an event without its step.
+        AdvanceError
+            An argument that breaks its rule (the message names it and the rule).
 
         Examples
         --------
         >>> from screwgear_ros.params.table import SimSettings, TableParams
         >>> session = Session(TableParams(), SimSettings())
         >>> per_tick = session.settings.steps_per_publish
-        >>> session.advance(until=10 * per_tick)
-        10
-        >>> session.step == 10 * per_tick
-        True
+        >>> session.advance(until=10 * per_tick), session.step == 10 * per_tick
+        (10, True)
+        >>> session.advance(2.5)
+        Traceback (most recent call last):
+        ...
+        screwgear_ros.sim.events.AdvanceError: ticks must be an integer >= 0, got 2.5
         """
-        if ticks is None and until is None:
-            raise ValueError('advance needs ticks, until or both')
-        timeline = events if isinstance(events, Timeline) else Timeline(events)
-        limit = math.inf if ticks is None else ticks
+        limit, timeline = advance_limits(self.plant.step, self._steps, ticks, until,
+                                          events, mode, rows)
         submit = self.submit
         plant = self.plant
-        quiet = rows is not None and controller is None and not every_tick
+        quiet = mode is AdvanceMode.ROWS and controller is None
+        fast = mode is AdvanceMode.ANSWERS
         done = 0
         while done < limit and (until is None or (plant.step < until
                                                    and (done == 0 or plant.fault is None))):
@@ -220,17 +233,17 @@ class Session:
                     n = min(n, -(-(until - plant.step) // self._steps))
                 if due is not None:           # ticks that start before the next event
                     n = min(n, -(-(due - plant.step) // self._steps))
-                k = fast_ticks.tick_quietly(self, int(n), rows[done:])   # type: ignore[index]
+                k = self._tick_rows(int(n), rows[done:])   # type: ignore[index]
                 if k:
                     done += k
                     continue
             effort = None if controller is None else controller()
             if effort is None:
                 tick: Tick | None = self.tick()
-            elif every_tick:
-                tick = self.tick(Command.of(Input.CMD_EFFORT, [effort]))
+            elif fast:
+                tick = self._tick_answer(effort)
             else:
-                tick = fast_ticks.tick_effort(self, effort)
+                tick = self.tick(Command.of(Input.CMD_EFFORT, [effort]))
             if rows is not None:
                 rows[done] = row_of(self.last_outputs)
             done += 1
@@ -245,7 +258,7 @@ class Session:
         Parameters
         ----------
         time : float
-            Simulation time to reach, s.
+            Simulation time to reach, s: a finite number, not before the session's time.
         **kwargs
             As :meth:`advance` takes them (``events``, ``controller``, ``monitor`` ...).
 
@@ -254,6 +267,11 @@ class Session:
         int
             The ticks done.
 
+        Raises
+        ------
+        AdvanceError
+            ``time`` or another argument that breaks its rule.
+
         Examples
         --------
         >>> from screwgear_ros.params.table import SimSettings, TableParams
@@ -261,7 +279,8 @@ class Session:
         >>> session.advance_to(0.05)
         5
         """
-        return self.advance(until=math.ceil(round(time / self.settings.dt, 6)), **kwargs)
+        return self.advance(until=step_of_time(time, self.plant.step, self.settings.dt),
+                            **kwargs)
 
     def tick(self, command: Command | None = None) -> Tick:
         """Apply the queued events, integrate one tick, compute its outputs.
@@ -303,6 +322,52 @@ class Session:
                     previous, previous_direction, plant.fault,
                     fault is None and plant.fault is not None, self._measured)
 
+    def _tick_answer(self, effort: Any) -> Tick | None:
+        """``tick(Command.of(Input.CMD_EFFORT, [effort]))`` (:attr:`AdvanceMode.ANSWERS`): when
+        the tick only takes the answer (nothing else queued, the answer valid, the plant
+        running) it does to the session, plant and sensors exactly what :meth:`tick`
+        does, without the objects tick makes (its Tick, the stamped command;
+        :attr:`last_outputs` is made when read), and returns None. Otherwise it is
+        :meth:`tick` itself, and returns its Tick."""
+        plant = self.plant
+        if self._pending or plant.fault is not None:
+            return self.tick(Command.of(Input.CMD_EFFORT, [effort]))
+        params = plant.params
+        try:
+            torque, direction = effort_drive(effort, params.max_torque, params.effort_deadband,
+                                             plant.direction, params.direction_hysteresis)
+        except InputRejected:                # tick refuses it, counts it and says why
+            return self.tick(Command.of(Input.CMD_EFFORT, [effort]))
+        plant.set_drive(torque, direction)
+        self._last_command, self.timed_out = plant.step, False
+        plant.advance(self._steps)
+        self._outputs = None
+        if not self.sensors.ideal:
+            self._measure()
+        return None
+
+    def _tick_rows(self, n: int, rows: np.ndarray) -> int:
+        """Up to ``n`` ticks that take no event (``ROWS``: :class:`RowTicks`), their outputs
+        in ``rows``, the plant left as ``n`` :meth:`tick` calls leave it. Stops before a
+        tick that does more than integrate (events queued, ``command_timeout`` due) and
+        after one in which the plant faulted. Returns the ticks done."""
+        with self._lock:
+            if self._pending:
+                return 0
+        plant = self.plant
+        if self._timeout_steps is not None and not self.timed_out:
+            left = self._last_command + self._timeout_steps - plant.step
+            n = min(n, max(0, -(-left // self._steps)))   # ticks starting before it is due
+        if n <= 0:
+            return 0
+        if plant.fault is not None:          # standing still: every tick the same row
+            self._outputs = plant.advance_outputs(self._steps)
+            rows[:n, :ROW] = row_of(self._outputs)
+            return n
+        done = self._row_ticks.run(plant, n, self._steps, rows, self.last_outputs.active_path)
+        self._outputs = plant.last_outputs()
+        return done
+
     def _apply(self, events: list[Event], start: int) -> tuple[
             tuple[Event, ...], tuple[InputRejected, ...], tuple[str, ...], bool]:
         """Apply ``events`` in order at step ``start``: those applied (``step`` set), the
@@ -338,10 +403,11 @@ class Session:
             elif isinstance(event, Reset):
                 plant.reset()
                 self.sensors.restart()
-            elif isinstance(event, Setpoint):
-                error = self._setpoint(event)
-                if error is not None:
-                    rejected.append(error)
+            elif isinstance(event, Setpoint):    # only recorded: a finite angle, nothing else
+                if not finite_number(event.value):
+                    self.rejected[Input.SETPOINT] += 1
+                    rejected.append(InputRejected(Input.SETPOINT, event.value,
+                                                  'a setpoint must be a finite angle, rad'))
                     continue
             else:
                 raise TypeError(f'not a session event: {event!r}')
@@ -358,16 +424,10 @@ class Session:
         except InputRejected as error:
             self.rejected[command.topic] += 1
             return error
-        return None
-
-    def _setpoint(self, setpoint: Setpoint) -> InputRejected | None:
-        """The refusal (counted) of a setpoint that is no finite angle; it is only
-        recorded, so nothing else is checked."""
-        value = setpoint.value
-        if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                or not math.isfinite(value):
-            self.rejected[Input.SETPOINT] += 1
-            return InputRejected(Input.SETPOINT, value, 'a setpoint must be a finite angle, rad')
+        except (TypeError, ValueError, OverflowError):   # an int beyond float64, an array
+            self.rejected[command.topic] += 1
+            return InputRejected(command.topic, command.value,
+                                 'a message of this topic cannot carry it')
         return None
 
     def _time_out(self, start: int) -> str | None:
@@ -377,34 +437,12 @@ class Session:
                 or start - self._last_command < self._timeout_steps):
             return None
         self.timed_out = True
-        drive = self.plant.input
-        if not (drive.torque or drive.load):
+        zeroed = timed_out_input(self.plant.input, self.settings.command_timeout)
+        if zeroed is None:
             return None
-        self.plant.set_input(replace(drive, torque=0.0, load=0.0))
-        return (f'no command for {self.settings.command_timeout:g} s of simulation time '
-                f'(command_timeout): drive torque ({drive.torque:g} N·m) and load '
-                f'({drive.load:g} N·m) set to zero until the next command')
-
-def _deprecated_tick(path: Any) -> Any:
-    """``Session.<name>``, the old public name of a path :meth:`Session.advance` takes,
-    for one release."""
-    def tick(self: Session, *args: Any) -> Any:
-        warnings.warn(f'Session.{path.__name__} is deprecated: Session.advance runs it',
-                      DeprecationWarning, stacklevel=2)
-        return path(self, *args)
-    tick.__name__ = path.__name__
-    return tick
+        self.plant.set_input(zeroed[0])
+        return zeroed[1]
 
 
-Session.tick_effort = _deprecated_tick(fast_ticks.tick_effort)    # type: ignore[attr-defined]
-Session.tick_quietly = _deprecated_tick(fast_ticks.tick_quietly)  # type: ignore[attr-defined]
-
-__all__ = [
-    'ROW',
-    'ROW_JOINTS',
-    'ROW_STEP',
-    'ROW_TE',
-    'Session',
-    'Tick',
-    'row_of',
-]
+__all__ = ['ROW', 'ROW_JOINTS', 'ROW_STEP', 'ROW_TE', 'AdvanceError', 'AdvanceMode', 'Session',
+           'Tick', 'row_of']

@@ -22,7 +22,7 @@ from ...physics.drive import active_path
 from ...physics.sensors import SensorChain
 from ...sim.events import ParameterChange, Reset
 from ...sim.plant import DriveInput
-from ...sim.session import ROW, Session
+from ...sim.session import ROW, AdvanceMode, Session
 from ..replay_in_process import ReplayedOutputs, replay_in_process
 from .forked import Forked
 from .reference import mesh_of, reference_outputs, signal_names
@@ -249,7 +249,7 @@ def _load_kernels(run: RecordedRun) -> None:
     start = run.parameters
     try:
         Session(start.params, start.settings, np.asarray(start.initial_state),
-                start.start_step).advance(1, rows=np.empty((1, ROW)))
+                start.start_step).advance(1, mode=AdvanceMode.ROWS, rows=np.empty((1, ROW)))
         dop853.warm()
     except Exception:  # noqa: BLE001, S110 - the check raises it, at its place in the order
         pass

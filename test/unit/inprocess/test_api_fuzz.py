@@ -16,6 +16,7 @@ import pytest
 
 from screwgear_ros.inprocess.simulation import Observation, RunInProgress, Simulation
 from screwgear_ros.sim.commands import InputRejected
+from screwgear_ros.sim.events import Command, Reset, Setpoint
 from screwgear_ros.sim.parameter_file import ParameterFileError
 
 SEED = 3701
@@ -108,16 +109,69 @@ def test_run_refuses_a_duration_or_answer_it_cannot_hold() -> None:
             except Exception as exc:  # noqa: BLE001
                 pytest.fail(f'seed {SEED + 1} case {case}: controller -> {shown(answer)}: '
                             f'{type(exc).__name__}: {exc}')
-        elif kind == 2:           # reset() inside the controller
-            def resetting(_o: Any) -> float:
-                sim.reset()
+        elif kind == 2:           # reset() or step() inside the controller
+            inside = rng.choice((sim.reset, sim.step))
+
+            def resetting(_o: Any, inside: Any = inside) -> float:
+                inside()
                 return 0.0
-            with pytest.raises(RunInProgress):
+            with pytest.raises(RunInProgress, match=r'(reset|step)\(\) during run'):
                 sim.run(resetting, rng.randint(1, 3) * sim.tick_period)
         else:                     # an ordinary short run still runs
             run = sim.run(lambda _o: rng.uniform(-400, 400), rng.randint(0, 3) * sim.tick_period)
             assert len(run) >= 1
         assert time.monotonic() - started < BUDGET, f'seed {SEED + 1}: over budget at {case}'
+
+
+def hostile_event(rng: random.Random) -> Any:
+    """An element of run()'s ``events``: a session event with a hostile step or value,
+    or something that is no event."""
+    kind = rng.randrange(7)
+    step = rng.choice((None, -1, 2.5, float('nan'), 'x', True, 10**30, np.int64(40),
+                       rng.randrange(0, 200)))
+    if kind == 0:
+        return Setpoint(hostile_number(rng), step=rng.randrange(0, 200))
+    if kind == 1:
+        return Command('cmd_torque', hostile_number(rng), step=rng.randrange(0, 200))
+    if kind == 2:
+        return Reset(step=step)
+    if kind == 3:
+        return Command('cmd_effort', [rng.uniform(-50.0, 50.0)], step=step)
+    if kind == 4:
+        return rng.choice(('reset', None, 3, {'step': 0}, (Reset(step=0),)))
+    if kind == 5:
+        return Command('no_such_topic', 1.0, step=rng.randrange(0, 200))
+    return Setpoint(rng.uniform(-1, 1), step=rng.randrange(0, 200))
+
+
+def test_run_refuses_hostile_events_and_setpoints_by_name(tmp_path: Path) -> None:
+    """run()'s ``events`` (elements that are no event, steps that are no integer >= 0,
+    commands and setpoints holding anything) and ``setpoint`` callables that return
+    anything: a refusal names ``events[i]`` or ``setpoint(t)`` and is a ValueError, a
+    command the node refuses is kept in the run's ``rejected``, and no other exception
+    reaches the caller; the run of what is accepted completes (recorded setpoints only
+    matter to a recording, so half the cases record)."""
+    seed = SEED + 7
+    rng = random.Random(seed)
+    sim = Simulation.from_values(publish_rate=500.0)
+    started = time.monotonic()
+    for case in range(150):
+        events = [hostile_event(rng) for _ in range(rng.randint(0, 4))]
+        answer = hostile_number(rng) if rng.random() < 0.5 else 0.1
+        target = None if rng.random() < 0.3 else (lambda _t, a=answer: a)
+        record = tmp_path / f'run{case}' if rng.random() < 0.15 else None
+        try:
+            run = sim.run(None, 20 * sim.tick_period, record, events=events, setpoint=target)
+        except ValueError as exc:
+            assert 'events[' in str(exc) or 'setpoint(t)' in str(exc), \
+                f'seed {seed} case {case}: {type(exc).__name__}: {exc}'
+            assert 'Error' not in str(exc), f'seed {seed} case {case}: {exc}'
+        except Exception as exc:  # noqa: BLE001 - the finding this family looks for
+            pytest.fail(f'seed {seed} case {case}: events {shown(events)}, setpoint -> '
+                        f'{shown(answer)}: {type(exc).__name__}: {exc}')
+        else:
+            assert len(run) == 21, f'seed {seed} case {case}'
+        assert time.monotonic() - started < BUDGET, f'seed {seed}: over budget at {case}'
 
 
 def _hostile_file(rng: random.Random, path: Path) -> bytes:

@@ -1,8 +1,8 @@
-"""Session.tick_quietly does what repeated Session.tick does, bit for bit, and
-replay_in_process (which uses it between events) equals a replay by tick() alone.
+"""Session.advance in AdvanceMode.ROWS does what repeated Session.tick does, bit for bit,
+and replay_in_process (which advances so between events) equals a replay by tick() alone.
 
 The anchor is tick() itself: two sessions get the same events at the same steps, one
-ticks every tick, the other runs the ticks between events through tick_quietly; every
+ticks every tick, the other advances through the ticks between events in ROWS mode; every
 tick's outputs and the sessions' whole state after it must be identical. Scenarios:
 the four test bags' scripts (commands, reversals, load steps, parameter changes, a
 reset), command_timeout coming due between commands (also while it is counting at
@@ -26,11 +26,11 @@ from screwgear_ros.interface import topic_names
 from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.runs.replay_in_process import replay_in_process
 from screwgear_ros.runs.run_io import RunIO
-from screwgear_ros.sim import fast_ticks
+from screwgear_ros.sim import row_ticks
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
-from screwgear_ros.sim.fast_ticks import QUIET_TICKS_PER_CALL
+from screwgear_ros.sim.row_ticks import QUIET_TICKS_PER_CALL
 from screwgear_ros.sim.schedule import Schedule
-from screwgear_ros.sim.session import ROW, Session, row_of
+from screwgear_ros.sim.session import ROW, AdvanceMode, Session, row_of
 
 
 def _state(session: Session) -> tuple:
@@ -40,7 +40,7 @@ def _state(session: Session) -> tuple:
 
 
 def _both(schedule: Schedule, ticks: int) -> tuple[np.ndarray, np.ndarray, int, int]:
-    """Rows of every tick by tick() alone and with tick_quietly between events (each
+    """Rows of every tick by tick() alone and advanced in ROWS mode between events (each
     event submitted before the first tick starting at or after its step); how many
     ticks went quietly, and how many times command_timeout came due. The two sessions
     end in the same state."""
@@ -68,10 +68,9 @@ def _both(schedule: Schedule, ticks: int) -> tuple[np.ndarray, np.ndarray, int, 
         if k < len(events):        # the ticks that start before the next event's step
             span = min(span, -(-(events[k].step - quiet.step)
                                // quiet.settings.steps_per_publish))
-        done = fast_ticks.tick_quietly(quiet, span, rows[1][i:])
-        if done == 0:
-            rows[1][i] = row_of(quiet.tick().outputs)
-            done = 1
+        # compiled runs of ticks up to the first full one (command_timeout due), if any
+        done = quiet.advance(span, mode=AdvanceMode.ROWS, rows=rows[1][i:],
+                             monitor=lambda _: True)
         quietly += done
         i += done
     assert _state(anchor) == _state(quiet)
@@ -80,9 +79,10 @@ def _both(schedule: Schedule, ticks: int) -> tuple[np.ndarray, np.ndarray, int, 
 
 @pytest.mark.parametrize('block', [QUIET_TICKS_PER_CALL, 7])
 @pytest.mark.parametrize('name', BAGS)
-def test_the_test_scenarios_tick_quietly_as_by_tick(name: str, block: int, monkeypatch) -> None:
+def test_the_test_scenarios_advance_in_rows_as_by_tick(name: str, block: int, monkeypatch
+                                                      ) -> None:
     """Also with 7 ticks per compiled call: every quiet stretch spans many calls."""
-    monkeypatch.setattr(fast_ticks, 'QUIET_TICKS_PER_CALL', block)
+    monkeypatch.setattr(row_ticks, 'QUIET_TICKS_PER_CALL', block)
     schedule = schedule_from_scenario(DATA / 'scenarios' / f'{name}.yaml')
     ticks = schedule.end_step // schedule.settings.steps_per_publish
     a, b, quietly, _ = _both(schedule, ticks)
@@ -93,7 +93,7 @@ def test_the_test_scenarios_tick_quietly_as_by_tick(name: str, block: int, monke
 @pytest.mark.parametrize('divisor', [1, 2])
 def test_command_timeout_comes_due_between_commands(divisor: int) -> None:
     """Timeouts of 0.3 s at dt and dt/2: it comes due inside quiet stretches, on and off
-    the tick grid; tick_quietly stops before it and tick() applies it."""
+    the tick grid; the compiled ticks stop before it and tick() applies it."""
     dt = 50e-6 / divisor
     settings = SimSettings(dt=dt, publish_rate=200.0, command_timeout=0.3013)
     steps = round(1.0 / dt)
@@ -108,14 +108,15 @@ def test_command_timeout_comes_due_between_commands(divisor: int) -> None:
 @pytest.mark.parametrize('block', [QUIET_TICKS_PER_CALL, 7])
 def test_a_fault_and_a_reset(block: int, monkeypatch) -> None:
     """A model that diverges (a parametric pump of the mesh stiffness, no mesh damping:
-    test_node_fault's); tick_quietly stops after the tick that faulted, the plant stands
+    test_node_fault's); the compiled ticks stop after the tick that faulted, the plant stands
     still, then a detuning change and a reset revive it, all as tick() does; also with 7
     ticks per compiled call (the fault then comes in a later call than the first)."""
-    monkeypatch.setattr(fast_ticks, 'QUIET_TICKS_PER_CALL', block)
+    monkeypatch.setattr(row_ticks, 'QUIET_TICKS_PER_CALL', block)
     params, settings = diverging()
     probe = Session(params, settings)
     rows = np.empty((4000, ROW))
-    done = fast_ticks.tick_quietly(probe, 4000, rows)
+    done = probe.advance(until=4000 * settings.steps_per_publish, mode=AdvanceMode.ROWS,
+                         rows=rows)
     assert probe.plant.fault is not None and done < 4000     # stopped after the fault
     assert np.all(np.isfinite(rows[:done]))
     revive = probe.step + 50 * settings.steps_per_publish

@@ -23,11 +23,10 @@ from screwgear_ros.params.table import SimSettings, TableParams
 from screwgear_ros.physics.equilibrium import equilibrium_state
 from screwgear_ros.physics.quantities import natural_frequency
 from screwgear_ros.runs.replay_in_process import replay_in_process
-from screwgear_ros.sim import fast_ticks
 from screwgear_ros.sim.events import Command, ParameterChange, Reset
 from screwgear_ros.sim.plant import DriveInput, Plant
 from screwgear_ros.sim.schedule import Schedule
-from screwgear_ros.sim.session import Session
+from screwgear_ros.sim.session import AdvanceMode, Session, Tick
 
 P = TableParams(table_damping=8867.0)
 S = SimSettings(publish_rate=1000.0)            # 20 steps of 50 µs per tick
@@ -247,6 +246,15 @@ def test_a_tick_given_its_command_is_a_submit_then_a_tick():
     assert queued.rejected == direct.rejected and queued.rejected['cmd_effort'] > 0
 
 
+def answered(session: Session, effort: object) -> Tick | None:
+    """What the monitor gets of one tick that ``effort`` answers in AdvanceMode.ANSWERS
+    (None: the fast tick ran)."""
+    seen: list[Tick | None] = []
+    assert session.advance(1, controller=lambda: effort, monitor=seen.append,
+                           mode=AdvanceMode.ANSWERS) == 1
+    return seen[0]
+
+
 @pytest.mark.parametrize('params, settings', [
     (P.replace(effort_deadband=5.0), replace(S, command_timeout=0.03)),
     (P.replace(direction_hysteresis=150.0), S),
@@ -255,7 +263,8 @@ def test_a_tick_given_its_command_is_a_submit_then_a_tick():
                 measurement_delay_pinion_1=2, sensor_seed=7)),
 ], ids=['deadband-timeout', 'hysteresis', 'sensors'])
 def test_a_closed_loop_tick_is_the_tick_given_its_command(params, settings):
-    """tick_effort(e), the closed loop's fast tick, leaves the session exactly as
+    """A tick answered by a controller in AdvanceMode.ANSWERS, the closed loop's fast
+    tick, leaves the session exactly as
     tick(Command('cmd_effort', [e])) does (state bits, step, input, path, outputs, what
     the sensors measure, refusals counted, the timeout), for a seeded loop of
     valid answers, ones in the deadband, refused ones (too large, NaN, not a number),
@@ -286,7 +295,7 @@ def test_a_closed_loop_tick_is_the_tick_given_its_command(params, settings):
         if effort is None:
             a, b = fast.tick(), full.tick()
         else:
-            a, b = fast_ticks.tick_effort(fast, effort), full.tick(Command('cmd_effort', [effort]))
+            a, b = answered(fast, effort), full.tick(Command('cmd_effort', [effort]))
         if a is None:
             plain += 1
             assert not others and b.applied == (Command('cmd_effort', [effort], start),)
@@ -313,14 +322,14 @@ def test_a_closed_loop_tick_is_the_tick_given_its_command(params, settings):
 
 def test_a_closed_loop_tick_in_which_the_model_diverges_is_the_full_ticks():
     """The principal parametric resonance (as above), answered with a zero effort every
-    tick: tick_effort's plant faults at the tick tick's does, with the same state put
-    back, and from then on tick_effort is tick (the plant stands still)."""
+    tick: the fast tick's plant faults at the tick tick's does, with the same state put
+    back, and from then on the fast tick is tick (the plant stands still)."""
     unstable = TableParams(mode='conventional', backlash=0.0, mesh_phase='time',
                            mesh_stiffness_amplitude=8.0e6, mesh_damping=0.0)
     unstable = unstable.replace(mesh_frequency=2.0 * natural_frequency(unstable))
     fast, full = Session(unstable, S), Session(unstable, S)
     for _ in range(20_000):
-        assert fast_ticks.tick_effort(fast, 0.0) is None
+        assert answered(fast, 0.0) is None
         tick = full.tick(Command('cmd_effort', [0.0]))
         assert fast.plant.full_state.tobytes() == full.plant.full_state.tobytes()
         if tick.new_fault:
@@ -328,7 +337,7 @@ def test_a_closed_loop_tick_in_which_the_model_diverges_is_the_full_ticks():
     assert fast.plant.fault == full.plant.fault and 'non-finite' in fast.plant.fault
     assert fast.step == full.step and fast.last_outputs == full.last_outputs
     assert fast.plant.observed.tobytes() == full.plant.observed.tobytes()
-    a, b = fast_ticks.tick_effort(fast, 100.0), full.tick(Command('cmd_effort', [100.0]))
+    a, b = answered(fast, 100.0), full.tick(Command('cmd_effort', [100.0]))
     assert a is not None and (a.start, a.applied, a.drive, a.outputs, a.fault) == \
         (b.start, b.applied, b.drive, b.outputs, b.fault)
     assert fast.step == full.step == tick.start
