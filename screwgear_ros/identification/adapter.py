@@ -30,17 +30,8 @@ from ..physics.sensors import JOINTS as SENSOR_JOINTS
 from ..physics.sensors import SensorChain, SensorConfig
 from ..sim.commands import InputRejected, carries_no_command, command_value
 from ..sim.events import Command
-    try:
-        session.advance(n - 1, events=events, mode=AdvanceMode.ROWS, rows=rows[1:],
-                        monitor=monitor)
-    except ArithmeticError:
-        # a command's tick after a fault inside a compiled run of quiet ticks measures a
-        # plant whose time stood still (a speed over zero time): the model diverged
-        if session.plant.fault is None:
-            raise
-        raise Diverged(session.plant.fault) from None
-    if reversals is not None:
-        reversals.append(turns[0])
+from ..sim.session import ROW, AdvanceMode, Session, Tick
+from .errors import FitParameterError
 from .samples import Recording
 
 
@@ -144,9 +135,9 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
             turns[0] += 1
         return session.plant.fault is not None
 
-<<<<<<< HEAD
     try:
-        session.advance(n - 1, events=events, rows=rows[1:], monitor=monitor)
+        session.advance(n - 1, events=events, mode=AdvanceMode.ROWS, rows=rows[1:],
+                        monitor=monitor)
     except ArithmeticError:
         # a command's tick after a fault inside a compiled run of quiet ticks measures a
         # plant whose time stood still (a speed over zero time): the model diverged
@@ -155,10 +146,6 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
         raise Diverged(session.plant.fault) from None
     if reversals is not None:
         reversals.append(turns[0])
-=======
-    session.advance(n - 1, events=events, mode=AdvanceMode.ROWS, rows=rows[1:],
-                    monitor=monitor)
->>>>>>> main
     if refused:
         i, error = refused[0]
         raise CommandRefused(f'{recording.path}: tick {i}: the node refuses a recorded '
