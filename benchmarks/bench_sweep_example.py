@@ -1,4 +1,4 @@
-"""The README's worked sweep, as a user runs it: 1 worker, 2 workers, ``auto``, and a rerun.
+"""The worked sweep of docs/sweeps.md, as a user runs it: 1 worker, 2 workers, ``auto``, and a rerun.
 
     . scripts/env.sh && python benchmarks/bench_sweep_example.py [--scale 4] [--workers 2]
 

@@ -3,7 +3,7 @@ its name, message type, direction, delivery and meaning.
 
 The node's publishers and subscriptions (:mod:`screwgear_ros.ros.messages`), the input
 commands (:data:`screwgear_ros.sim.commands.INPUT_TOPICS`), the bag contract the readers
-enforce (:mod:`screwgear_ros.bag.reader`), lockstep's answers and the README's topic
+enforce (:mod:`screwgear_ros.bag.reader`), lockstep's answers and docs/topics.md's topic
 table (``python -m screwgear_ros.interface``) are all derived from :data:`TOPICS`.
 """
 
@@ -17,14 +17,15 @@ class Direction(StrEnum):
     IN = 'in'                   # the node subscribes
     INFO = 'in, recorded only'  # the node subscribes and records it; nothing else uses it
     OUT = 'out'                 # the node publishes (and records)
-    RECORDED = 'recorded'       # only in a recording, under the node's private namespace
     SERVICE = 'service'         # the node serves
 
 
 class Delivery(StrEnum):
     PER_TICK = 'per tick'       # once per publish period of simulation time
     LATCHED = 'latched (transient local)'   # a late subscriber gets the last one
-    ON_CHANGE = 'on change'     # when what it states changes (recorded at that step)
+    #: when what it states changes (recorded at that step), transient local: a recorder
+    #: started late still gets the last one
+    ON_CHANGE = 'on change (transient local)'
     AS_SENT = 'as sent'         # an input: whenever the sender sends one
     WALL_TIME = 'wall time'     # paced by the wall clock, not by simulation time
 
@@ -38,7 +39,7 @@ class Topic:
     type: str                   # 'std_msgs/msg/Float64'
     direction: Direction
     delivery: Delivery
-    meaning: str                # one line for the README
+    meaning: str                # one line for docs/topics.md
     answer: bool = False        # in lockstep, a message on it answers the last tick
     contract: bool = False      # part of the bag contract (docs/recording.md): the
     #                             offline tools read it and refuse a bag where it has
@@ -68,7 +69,7 @@ class Input(StrEnum):
     JOINT_COMMANDS = 'joint_commands'
     SETPOINT = 'setpoint'
 
-IN, INFO, OUT, RECORDED, SERVICE = Direction
+IN, INFO, OUT, SERVICE = Direction
 TOPICS = (
     Topic(Input.CMD_TORQUE, 'cmd_torque', 'std_msgs/msg/Float64', IN, Delivery.AS_SENT,
           'drive torque magnitude on the active pinion, N·m, 0 ≤ T ≤ `max_torque`',
@@ -109,7 +110,8 @@ TOPICS = (
           'simulation time (`publish_clock`)', contract=True),
     Topic('diagnostics', '/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', OUT,
           Delivery.WALL_TIME, 'achieved real-time factor, overruns, rejected inputs, contact '
-          'per mesh; once per second of wall time'),
+          'per mesh, free-running the controller\'s answers in time and missed; once per '
+          'second of wall time'),
     Topic('robot_description', 'robot_description', 'std_msgs/msg/String', OUT,
           Delivery.LATCHED, "the table's URDF (geometry from the parameters, ros2_control "
           "block naming this node's topics)"),
@@ -119,10 +121,11 @@ TOPICS = (
     Topic('tick', '~/tick', 'std_msgs/msg/Empty', IN, Delivery.AS_SENT,
           '`lockstep` only: advance one tick without a command (for tools such as '
           '`replay_run`)', answer=True),
-    Topic('run_parameters', '~/run_parameters', 'std_msgs/msg/String', RECORDED,
+    Topic('run_parameters', '~/run_parameters', 'std_msgs/msg/String', OUT,
           Delivery.ON_CHANGE, 'YAML of the complete parameter set at the start and at the '
-          'step each parameter change took effect', contract=True),
-    Topic('reset', '~/reset', 'std_msgs/msg/Empty', RECORDED, Delivery.ON_CHANGE,
+          'step each parameter change took effect (what `check_run` rebuilds the model '
+          'from)', contract=True),
+    Topic('reset', '~/reset', 'std_msgs/msg/Empty', OUT, Delivery.ON_CHANGE,
           'the step a reset took effect', contract=True),
     Topic('reset_service', '~/reset', 'std_srvs/srv/Trigger', SERVICE, Delivery.AS_SENT,
           'back to the preload equilibrium at the first step of the next tick; answers at '
@@ -141,11 +144,11 @@ COMMAND_TOPICS = _select(IN)
 INFO_TOPICS = _select(INFO)
 #: What the node publishes (under its namespace, or its private one): key → type name.
 OUTPUT_TOPICS = {**_select(OUT), **_select(OUT, private=True)}
-#: What only a recording holds, under the node's private namespace: key → type name.
-RECORDED_TOPICS = _select(RECORDED, private=True)
 #: Outputs published (and recorded) transient local: a late subscriber gets the last one
-#: (a viewer opened while the table stands, in lockstep or halted, still sees it).
-LATCHED_OUTPUTS = frozenset(t.key for t in TOPICS if t.delivery is Delivery.LATCHED)
+#: (a viewer opened while the table stands, in lockstep or halted, still sees it; a
+#: ``ros2 bag record`` started after the node still gets the parameters in force).
+LATCHED_OUTPUTS = frozenset(t.key for t in TOPICS if t.direction is OUT and t.delivery in
+                            (Delivery.LATCHED, Delivery.ON_CHANGE))
 #: The bag contract: key (the topic's name relative to its namespace) → the only type it
 #: may have in a recording.
 CONTRACT = {t.key: t.type for t in TOPICS if t.contract}
@@ -168,7 +171,8 @@ def _resolved(t: Topic, ns: str, node_name: str) -> str:
 def topic_names(namespace: str = '', node_name: str = 'table_sim',
                 clock: bool = True, true_states: bool = False) -> dict[str, str]:
     """Key → resolved topic name of every topic a table in ``namespace`` publishes or
-    records (outputs, inputs, the setpoint, the private run_parameters and reset);
+    records (outputs, the private run_parameters and reset among them, inputs, the
+    setpoint);
     without /clock unless ``clock``, without ~/true_joint_states unless ``true_states``
     (a table publishes it only when its sensors are not ideal: not by default)."""
     ns = namespace.rstrip('/')
@@ -179,12 +183,11 @@ def topic_names(namespace: str = '', node_name: str = 'table_sim',
         del names['true_joint_states']
     names.update({topic: f'{ns}/{topic}' for topic in COMMAND_TOPICS})
     names.update({topic: f'{ns}/{topic}' for topic in INFO_TOPICS})
-    names.update({key: f'{ns}/{node_name}/{key}' for key in RECORDED_TOPICS})
     return names
 
 
 def topic_table() -> str:
-    """The README's topic table (Markdown)."""
+    """The topic table of docs/topics.md (Markdown)."""
     def row(t: Topic) -> str:
         kind = t.type.replace('/msg/', '/').replace('/srv/', '/')
         meaning = t.meaning + ('; a lockstep answer' if t.answer and not t.private else '')
@@ -202,7 +205,6 @@ __all__ = [
     'INFO_TOPICS',
     'LATCHED_OUTPUTS',
     'OUTPUT_TOPICS',
-    'RECORDED_TOPICS',
     'TICK_TOPIC',
     'TOPICS',
     'Delivery',

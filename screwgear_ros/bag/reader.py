@@ -1,6 +1,7 @@
 """Read a recorded run back: inputs as applied, parameter changes, resets, outputs.
 
-The MCAP file is read record by record in file order (:func:`scan`, with ``mcap``'s
+Any storage rosbag2 writes is read (:mod:`screwgear_ros.bag.storage`); the fast path,
+one MCAP file, is read record by record in file order (:func:`scan`, with ``mcap``'s
 record classes for schemas, channels and chunks), so messages with equal log times keep
 the order the node wrote them in (which is the order it applied them), and a bag whose
 writer was killed reads up to its last complete chunk. Only the data section is read:
@@ -11,7 +12,8 @@ ROS 2 Jazzy CDR codec of ``rosbags``, except the ~4 per tick of fixed layout
 (:mod:`screwgear_ros.bag.bulk_decode`). Topics the check does not read are skipped
 undecoded (:mod:`screwgear_ros.bag.mcap_scan`). Topics are matched on their relative
 name, so a namespaced table reads the same. Log times are simulation times:
-step = round(log_time / dt).
+step = round(log_time / dt); a bag whose log times are a recorder's arrival times
+(``ros2 bag record``) gets them from its stamps first (:mod:`screwgear_ros.bag.retime`).
 """
 
 from __future__ import annotations
@@ -21,14 +23,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from ..interface import CONTRACT
+from ..params.table import SimSettings, TableParams
 from ..sim.commands import INPUT_TOPICS, command_value
 from ..sim.events import Command, Event, ParameterChange, Reset
 from ..sim.run_file import RunParameters, RunParametersError, load
 from .bulk_decode import _bulk, _Decoder, _Message, _Pieces
-from .errors import BagError, InvalidBag, NoParameters, NotABag, TruncatedBag
+from .errors import BagError, InvalidBag, NoParameters, TruncatedBag
 from .mcap_scan import (
     BULK_TOPICS,
     OUTPUT_TOPICS,
@@ -39,6 +41,8 @@ from .mcap_scan import (
     _wanted,
     scan,
 )
+from .retime import arrival_times, retime
+from .storage import locate, scan_bag
 
 
 @dataclass
@@ -64,7 +68,7 @@ class RecordedRun:
     """
 
     path: Path
-    mcap_path: Path
+    mcap_path: Path                         # its (first) storage file
     parameters: RunParameters               # the first run_parameters: start of the run
     events: list[tuple[float, Event]]       # (file position, event), in file order
     #: The exact joint states: values θ(3) rad, ω(3) rad/s, effort(3) N·m. The bag's
@@ -91,6 +95,11 @@ class RecordedRun:
     #: sensors measured of :attr:`true_joint_states` (None: joint_states are the exact
     #: ones).
     measured: Signal | None = None
+    #: How the messages' steps were found when the log times are not simulation times
+    #: (:mod:`screwgear_ros.bag.retime`); None: from the log times, as recorded.
+    timing: str | None = None
+    #: where :attr:`parameters` come from (the bag's run_parameters, or a file)
+    parameters_from: str = "the bag's run_parameters"
 
     @property
     def joint_states(self) -> Signal:
@@ -132,46 +141,6 @@ class RecordedRun:
         return max(ends, default=self.parameters.start_step)
 
 
-def find_mcap(path: str | Path) -> tuple[Path, Path]:
-    """(bag directory, its .mcap file) for a rosbag2 directory or an .mcap file path."""
-    path = Path(path)
-    if not path.exists():
-        raise NotABag(f'{path}: no such file or directory')
-    if path.is_file():
-        if path.suffix != '.mcap':
-            raise NotABag(f'{path} is neither a rosbag2 directory nor an '
-                           '.mcap file')
-        return path.parent, path
-    meta = path / 'metadata.yaml'
-    candidates: list[Path] = []
-    if meta.is_file():
-        try:
-            document = yaml.safe_load(meta.read_bytes().decode('utf-8'))
-            info = document.get('rosbag2_bagfile_information') if isinstance(document,
-                                                                              dict) else None
-            if not isinstance(info, dict) or not isinstance(
-                    info.get('relative_file_paths', []), list):
-                raise TypeError('rosbag2_bagfile_information is not a mapping with a list of '
-                                'relative_file_paths')
-            if info.get('storage_identifier') != 'mcap':
-                raise NotABag(f'{path}: storage {info.get("storage_identifier")!r}'
-                               ' is not mcap')
-            candidates = [path / Path(p).name for p in info.get('relative_file_paths', [])]
-        except (yaml.YAMLError, KeyError, TypeError, AttributeError, UnicodeDecodeError,
-                OSError) as exc:
-            raise NotABag(f'{meta}: not a rosbag2 metadata file ({exc})') from None
-    else:
-        candidates = sorted(path.glob('*.mcap'))
-    candidates = [c for c in candidates if c.is_file()]
-    if not candidates:
-        raise NotABag(f'{path} is not a rosbag2 directory: no metadata.yaml '
-                       'naming an .mcap file, and no .mcap file in it')
-    if len(candidates) > 1:
-        raise InvalidBag(f'{path} holds {len(candidates)} .mcap files; a table_sim '
-                       'run is one file')
-    return path, candidates[0]
-
-
 class _Collector:
     """Accumulates the samples of one single-valued output topic (active_path)."""
 
@@ -191,15 +160,35 @@ class _Collector:
                       np.asarray(self.values, dtype=np.float64).reshape(-1, 1))
 
 
-def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
-    """Read a table_sim recording. Raises :class:`BagError` when it cannot be used."""
-    bag_dir, mcap_path = find_mcap(path)
+def read_run(path: str | Path, allow_truncated: bool = False,
+             parameters: tuple[TableParams, SimSettings, str] | None = None) -> RecordedRun:
+    """Read a table_sim recording. Raises :class:`BagError` when it cannot be used.
+
+    ``parameters`` (params, settings, where they come from): for a bag without
+    run_parameters (an older bag, a hardware bag, a recording started after the node
+    did), the parameters it ran with; the run is taken to start at its first
+    joint_states from the preload equilibrium. A bag with run_parameters refuses them.
+    """
+    layout = locate(path)
     status: dict[str, Any] = {'truncated': None, 'summary': None}
-    found = scan(mcap_path, status)
+    found = scan_bag(layout, status)
+    timing = None
+    if arrival_times(found):
+        retime(found, path)
+        timing = ('its log times are arrival times (not table_sim\'s recorder): the '
+                  'outputs are taken at their stamps, the n-th lockstep answer at the n-th '
+                  'tick, anything else at the last output before it')
     topics, names = _topics(path, found)
     one_by_one, bulk = _routes(found)
     reader = _Decoder(path, names)
-    first, first_order = _first_parameters(reader, one_by_one, status)
+    first, first_order = _first_parameters(reader, one_by_one, status, parameters is None)
+    source = "the bag's run_parameters"
+    if parameters is not None:
+        if first is not None:
+            raise InvalidBag(f'{path} holds its own run_parameters, which rebuild the model: '
+                             'parameters from a file are only for a bag without them')
+        first, source = _given(parameters, bulk), parameters[2]
+    assert first is not None
     reader.dt_ns, reader.joints = first.settings.dt * 1e9, list(first.settings.joint_names)
     events, active_path, setpoint = _events(reader, one_by_one, first_order, first)
     signals, stamp_mismatches = _signals(reader, bulk)
@@ -208,11 +197,11 @@ def read_run(path: str | Path, allow_truncated: bool = False) -> RecordedRun:
     exact, measured = signals['joint_states'], None
     if len(signals['true_joint_states']):
         exact, measured = signals['true_joint_states'], exact
-    return RecordedRun(bag_dir, mcap_path, first, events, exact,
+    return RecordedRun(layout.path, layout.files[0], first, events, exact,
                        signals['transmission_error'], signals['mesh_state'],
                        active_path.signal(), signals['clock'], topics, found.count,
                        status['truncated'], status['summary'], names, stamp_mismatches,
-                       setpoint.signal(), measured)
+                       setpoint.signal(), measured, timing, source)
 
 
 def _topics(path: str | Path, found: Any) -> tuple[dict[str, str], dict[str, str]]:
@@ -254,9 +243,10 @@ def _routes(found: Any) -> tuple[list[_Message], dict[str, _Pieces]]:
 
 
 def _first_parameters(reader: _Decoder, one_by_one: list[_Message],
-                      status: dict[str, Any]) -> tuple[RunParameters, int]:
+                      status: dict[str, Any], needed: bool = True
+                      ) -> tuple[RunParameters | None, int]:
     """The first run_parameters message and its file order; a bag without one cannot be
-    re-simulated."""
+    re-simulated (unless not ``needed``: then (None, -1))."""
     for order, topic, msgtype, _, data in one_by_one:
         if _relative(topic) == RUN_PARAMETERS and msgtype == 'std_msgs/msg/String':
             return _parse(reader.decode(data, msgtype, topic).data, topic), order
@@ -264,9 +254,27 @@ def _first_parameters(reader: _Decoder, one_by_one: list[_Message],
     if status['truncated']:
         raise TruncatedBag(f'{path}: {status["truncated"]}; no run_parameters '
                        'message is readable before that')
+    if not needed:
+        return None, -1
     raise NoParameters(f'{path} holds no run_parameters message: the model '
                    'cannot be rebuilt from it (recorded by something other than '
-                   "table_sim's record parameter?)")
+                   "table_sim's record parameter? check_run --params FILE.yaml checks it "
+                   'against the parameters it ran with)')
+
+
+def _given(parameters: tuple[TableParams, SimSettings, str], bulk: dict[str, _Pieces]
+           ) -> RunParameters:
+    """The run of given parameters: from the preload equilibrium at the step of the
+    bag's first joint_states."""
+    params, settings, source = parameters
+    times = [int(t.min()) for _, t, _ in bulk.get('joint_states', []) if len(t)]
+    if not times:
+        raise NoParameters(f'{source}: the bag holds no joint_states, so the run\'s start '
+                           'is unknown')
+    from ..sim.plant import Plant  # the compiled model: only for such a bag
+    plant = Plant(params, settings.dt, None, settings.contact_location)
+    return RunParameters(params, settings, tuple(float(v) for v in plant.state),
+                         round(min(times) / (settings.dt * 1e9)))
 
 
 def _events(reader: _Decoder, one_by_one: list[_Message], first_order: int,
@@ -354,7 +362,6 @@ __all__ = [
     'RecordedRun',
     'Reset',
     'Signal',
-    'find_mcap',
     'read_run',
     'scan',
 ]

@@ -14,6 +14,9 @@ simulated (refused by the model: an equilibrium not found, an unstable step), or
 --plot figure cannot be written. Never a traceback: anything else unexpected also
 exits 2, with its type and message.
 
+--params FILE.yaml: for a bag without run_parameters, the parameters it ran with; the
+report's ``parameters:`` line says where the model came from.
+
 --serial: the RK4 replay at dt/2 and the reference at the looser tolerance run in this
 process after the rest, instead of in forked processes meanwhile (the report is the
 same).
@@ -28,8 +31,10 @@ from collections.abc import Callable
 from ..bag.reader import RecordedRun, read_run
 from ..numerics.kernels import loads_without_registries, without_blas_probe
 from ..numerics.reference import ReferenceFailure
+from ..params.table import ParameterError
 from ..runs.check import CheckReport, check_run, format_report
-from . import EXIT_ERROR, EXIT_OK, interruptible
+from ..sim.parameter_file import ParameterFileError, load_yaml
+from . import EXIT_ERROR, EXIT_OK, Failures, interruptible
 from .bag_tool import bag_failures
 
 #: Some signal outside its tolerance.
@@ -46,6 +51,10 @@ def main(argv: list[str] | None = None) -> int:
                         'table_sim record:=PATH')
     parser.add_argument('--allow-truncated', action='store_true',
                         help='check the readable part of a bag whose recording was killed')
+    parser.add_argument('--params', metavar='FILE.yaml',
+                        help='for a bag without run_parameters: the parameter file (as '
+                        'table_sim takes it) the run ran with; the run is taken to start '
+                        'from the preload equilibrium at its first joint_states')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
     parser.add_argument('--serial', action='store_true',
                         help='replay at dt/2 and solve the looser reference in this process '
@@ -55,6 +64,15 @@ def main(argv: list[str] | None = None) -> int:
                         help='also draw |node − reference| of every signal against its '
                         'tolerance (log scale) into this figure file')
     args = parser.parse_args(argv)
+    given = None
+    if args.params:
+        refused = Failures('check_run', {(ParameterFileError, ParameterError, OSError):
+                                         'cannot check {bag} with --params {file}: {exc}'},
+                           bag=args.bag, file=args.params)
+        with refused:
+            given = (*load_yaml(args.params), f'{args.params} (--params)')
+        if refused.code is not None:
+            return refused.code
     failures = bag_failures('check_run', 'check', args.bag,
                             {ReferenceFailure: 'cannot check {bag}: {exc}'})
     with failures:
@@ -63,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
             from ..runs import plot as plotting
             failures.add(plotting.FigureFileError, '{exc}')
             plot = plotting.output_path(args.plot)
-        run = read_run(args.bag, allow_truncated=args.allow_truncated)
+        run = read_run(args.bag, allow_truncated=args.allow_truncated, parameters=given)
         if args.no_progress:
             report = _check(run, None, args.serial)
         else:

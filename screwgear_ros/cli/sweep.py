@@ -1,6 +1,6 @@
 """sweep SWEEP.yaml --out DIR [--workers N|auto] [--scheduler ADDRESS]: many runs of a scenario.
 
-Runs the scenario of a sweep file (README "Sweeps") over its grid and/or Monte Carlo draw,
+Runs the scenario of a sweep file (docs/sweeps.md) over its grid and/or Monte Carlo draw,
 each run in-process and deterministic, on this process (``--workers 1``, no Dask), an
 embedded Dask LocalCluster or an existing Dask cluster (``--scheduler tcp://HOST:8786``).
 The default, ``--workers auto``, takes the cores free now (affinity less the load
@@ -47,7 +47,7 @@ def _arguments(argv: list[str] | None) -> argparse.Namespace:
         prog='sweep', description='Run a scenario over a grid and/or a Monte Carlo draw of '
         'parameters (in this process, a Dask LocalCluster or a Dask cluster); results in '
         'DIR/results.parquet, DIR/results.csv, DIR/summary.png. Resumable.')
-    parser.add_argument('sweep', help='sweep YAML (README "Sweeps")')
+    parser.add_argument('sweep', help='sweep YAML (docs/sweeps.md)')
     parser.add_argument('--out', required=True, metavar='DIR', help='results directory '
                         '(new, or one of an earlier run of the same sweep to resume)')
     parser.add_argument('--workers', type=_workers, default=AUTO, metavar='N|auto',

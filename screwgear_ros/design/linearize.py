@@ -4,11 +4,13 @@
 The operating point is the preload equilibrium (no torque, no load) or the steady motion
 under a constant drive torque, direction and table load: the rigid motion at the speed
 where the torque the drive delivers (its torque–speed line, docs/model_notes.md §10)
-balances the load and the table damping
-(:func:`~screwgear_ros.physics.quantities.terminal_speed`), at rest when nothing turns the table.
+balances every other term on the rigid motion (the load, the viscous losses, sliding
+bearing friction, …: :func:`~screwgear_ros.physics.steady.steady_table_speed`, solved on
+the torque terms), at rest when nothing turns the table or friction holds it.
 In steady rotation the mesh phase advances, so the model takes the mesh as its time
-average: stiffness k_eff = k_m·(1 − α·ΔT) + k_p (the fluctuation k_a averages out), no static transmission error (a periodic
-excitation of the mesh, not a function of the deviations), lever r. Each mesh is on the
+average: stiffness k_eff = k_m·(1 − α·ΔT) + k_p (the fluctuation k_a averages out, as
+do the drive torque fluctuation and the cogging ripple), no static transmission error (a
+periodic excitation of the mesh, not a function of the deviations), lever r. Each mesh is on the
 branch of the contact law its mean force puts it on, and the drive on the piece of its line
 that delivers the torque at that speed.
 
@@ -17,9 +19,11 @@ Standing still (a static point in `angle` phase) the mesh phase does not sweep: 
 STE's slope in the pinion's lever there), which is what the table does for small motions
 while it stands.
 
-A, B are the model's own equations of motion (:func:`~screwgear_ros.physics.motion.motion`) on
-those branches, evaluated with the averaged mesh: there they are affine in the state and
-the inputs, so central differences give them exactly.
+A, B are the model's own equations of motion (:func:`~screwgear_ros.physics.motion.motion`,
+the sum of the torque terms of :mod:`screwgear_ros.physics.torques`) on those branches,
+evaluated with the averaged mesh, by central differences: there they are affine in the
+angles and the inputs, so unit steps give those columns exactly; the speeds' columns take
+small extrapolated steps (a slipping bearing's Stribeck slope is not affine).
 
 States: the angle of pinion 1, table, pinion 3, then their speeds (rad, rad/s; pinion
 angles counted in the sense that drives the table forward, as in the model). Inputs: the
@@ -87,6 +91,26 @@ def _differences(point: OperatingPoint, model, x0: np.ndarray, dx: np.ndarray,
         b[:, j] = (_derivative(x0, u0 + e, point, model)
                    - _derivative(x0, u0 - e, point, model)) / (2.0 * du[j])
     return a, b
+
+
+#: Central-difference steps of the averaged model: angles (rad), speeds (rad/s), inputs
+#: (N·m). It is affine in the angles and the inputs on fixed branches (unit steps are
+#: exact there), but not in the speeds when a bearing slips with a Stribeck slope, so
+#: the speeds' step is small and extrapolated (:func:`_average`).
+AVERAGE_STEPS = (1.0, 1e-4, 1.0)
+
+
+def _average(point: OperatingPoint, model) -> tuple[np.ndarray, np.ndarray]:
+    """A and B of the averaged model at the point: central differences at
+    :data:`AVERAGE_STEPS` and at half of them, Richardson-extrapolated (O(h⁴); exact
+    where the model is affine)."""
+    angle, speed, inputs = AVERAGE_STEPS
+    dx = np.array([angle] * 3 + [speed] * 3)
+    du = np.full(2, inputs)
+    x0 = np.array(point.state)
+    a_full, b_full = _differences(point, model, x0, dx, du)
+    a_half, b_half = _differences(point, model, x0, dx / 2.0, du / 2.0)
+    return (4.0 * a_half - a_full) / 3.0, (4.0 * b_half - b_full) / 3.0
 
 
 #: Central-difference steps of the frozen model: angles, speeds (rad, rad/s), inputs (N·m).
@@ -227,9 +251,7 @@ def linearize(params: TableParams, torque: float = 0.0, load: float = 0.0,
         a, b, state = _frozen(params, point)
         point = replace(point, state=tuple(float(v) for v in state))
     else:
-        # affine in x and u on fixed branches: unit central differences are exact
-        a, b = _differences(point, pack(mean_params(params)), np.array(point.state),
-                            np.ones(6), np.ones(2))
+        a, b = _average(point, pack(mean_params(params)))
     c = np.zeros((len(OUTPUTS), 6))
     for i, name in enumerate(OUTPUTS):
         if name == 'transmission_error':
@@ -300,6 +322,7 @@ def _ripple_warnings(linear: LinearModel) -> list[str]:
 
 
 __all__ = [
+    'AVERAGE_STEPS',
     'FROZEN_STEPS',
     'NEAR_CONTACT_CHANGE',
     'linearize',

@@ -12,17 +12,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..params.table import Mode, TableParams, effective_stiffness
-from ..physics.drive import (
-    DrivePiece,
-    active_path,
-    active_speed,
-    drive_on,
-    drive_piece,
-    drive_torques,
-)
+from ..physics.drive import DrivePiece, active_path, active_speed
 from ..physics.mesh import ContactBranch
 from ..physics.packed import pack
-from ..physics.quantities import terminal_speed
+from ..physics.steady import rigid_torques, steady_table_speed
 from ..sim.commands import load_limit
 from .errors import NoSteadyState, OperatingPointRefused
 
@@ -71,11 +64,12 @@ class OperatingPoint:
 
 
 def mean_params(params: TableParams) -> TableParams:
-    """The parameters with the mesh taken as its time average: no stiffness fluctuation,
-    no static transmission error, no drive torque fluctuation."""
+    """The parameters with the mesh and the drive taken as their time average: no
+    stiffness fluctuation, no static transmission error, no drive torque fluctuation, no
+    cogging ripple."""
     return params.replace(mesh_stiffness_amplitude=0.0,
                           ste_amplitudes=tuple(0.0 for _ in params.ste_amplitudes),
-                          torque_fluctuation_amplitude=0.0)
+                          torque_fluctuation_amplitude=0.0, cogging_amplitude=0.0)
 
 
 def _number(name: str, value: float) -> float:
@@ -100,49 +94,34 @@ def operating_point(params: TableParams, torque: float = 0.0, load: float = 0.0,
     limit = load_limit(params.max_torque, params.radius_pinion_1, params.radius_table)
     if abs(load) > limit:
         raise OperatingPointRefused(f'|load| must be <= {limit:g} N·m, got {load:g}')
-    mean = mean_params(params)
-    model = pack(mean)
+    model = pack(mean_params(params))
     p = model.p
     conventional = params.mode is Mode.CONVENTIONAL
     path = active_path(params.mode, direction)
     r1, r2, r3 = params.radius_pinion_1, params.radius_table, params.radius_pinion_3
-    r_active = r1 if path == 1 else r3
-    # table speed of the rigid steady motion
-    if torque == 0.0:             # the drive is off: only the load and the bearing act
-        if load == 0.0:
-            table_speed = 0.0
-        elif params.table_damping > 0.0:
-            table_speed = -load / params.table_damping
-        else:
-            raise NoSteadyState(
-                f'no steady state: the load {load:g} N·m accelerates the table forever '
-                '(no drive torque against it, table_damping 0)')
-    else:
-        driving = params.replace(radius_pinion_1=r_active) if r_active != r1 else params
-        held = abs(direction * load * r_active / r2 - torque) <= 1e-12 * torque
-        if held and min(torque, params.drive_stall_torque) == torque:
-            speed = 0.0           # the load holds the drive torque exactly: at rest
-        else:
-            speed = terminal_speed(driving, torque, direction * load)
-        if not math.isfinite(speed):
-            raise NoSteadyState(
-                f'no steady state: the drive torque {torque:g} N·m accelerates the table '
-                'forever (ideal torque source, drive_no_load_speed 0, table_damping 0, and '
-                f'a load other than {direction * torque * r2 / r_active:g} N·m to hold it)')
-        table_speed = direction * speed * r_active / r2
+    # the rigid steady motion, solved on the torque terms (physics.steady)
+    table_speed = steady_table_speed(model, torque, load, direction)
+    if not math.isfinite(table_speed):
+        raise NoSteadyState(
+            f'no steady state: the drive torque {torque:g} N·m against the load {load:g} N·m '
+            'accelerates the table forever (nothing in the model holds it back: no '
+            'drive_no_load_speed, no table_damping or other loss)')
     if table_speed == 0.0:
         table_speed = 0.0         # no negative zero in the point
+    sense = math.copysign(1.0, table_speed) if table_speed != 0.0 else 0.0
+    tau, terms, piece, _ = rigid_torques(model, table_speed, sense, torque, direction, load)
     w1 = table_speed * r2 / r1
     w3 = 0.0 if conventional else table_speed * r2 / r3
     speed_active = active_speed(w1, w3, float(direction), p)
-    piece = DrivePiece(drive_piece(torque, speed_active, p))
-    t1, t3 = drive_torques(0.0, drive_on(piece, torque, speed_active, p), float(direction), p)
-    f1 = t1 / r1
-    f3 = 0.0 if conventional else t3 / r3
-    imbalance = r2 * (f1 + f3) - load - params.table_damping * table_speed
-    if abs(imbalance) > 1e-9 * max(abs(load), abs(r2 * f1), 1.0):
+    t1, t3 = terms.drive[0] + terms.cogging[0], terms.drive[2] + terms.cogging[2]
+    # each pinion passes what acts on it to its mesh: Q = r·F (the mesh averaged)
+    f1 = tau[0] / r1
+    f3 = 0.0 if conventional else tau[2] / r3
+    imbalance = r2 * (f1 + f3) + tau[1]
+    scale = max(abs(load), abs(r2 * f1), abs(r2 * f3), 1.0)
+    if (sense != 0.0 or not _has_friction(params)) and abs(imbalance) > 1e-9 * scale:
         raise NoSteadyState(f'no steady state found: a table torque of {imbalance:g} N·m '
-                                  'is left over at the rigid steady speed')
+                            'is left over at the rigid steady speed')
     k = effective_stiffness(params)
     gap = params.backlash
     contact, deflection = [], []
@@ -167,6 +146,10 @@ def operating_point(params: TableParams, torque: float = 0.0, load: float = 0.0,
     return OperatingPoint(torque, direction, load, tuple(float(v) for v in state), path,
                           piece, (float(t1), float(t3)), (float(f1), float(f3)),
                           (contact[0], contact[1]), tuple(warnings))
+
+
+def _has_friction(params: TableParams) -> bool:
+    return params.table_static_torque > 0.0 or params.pinion_static_torque > 0.0
 
 
 def _static_warnings(params: TableParams, contact: list[ContactBranch], piece: DrivePiece,

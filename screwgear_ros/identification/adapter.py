@@ -5,9 +5,11 @@ here for :mod:`~screwgear_ros.identification.recording`).
 :func:`simulate` re-runs a recording's commands through the node's own
 :class:`~screwgear_ros.sim.session.Session` (the project's one simulation loop) with
 :meth:`~screwgear_ros.sim.session.Session.advance`: each recorded command is an event at
-the first step of its tick, and the ticks between commands run in compiled calls. What joint_states would publish is then
-made by the node's own :class:`~screwgear_ros.physics.sensors.SensorChain` with the
-base file's measurement delay and speed filter, but without noise or encoder counts:
+the first integration step at or after its time (the session ticks once per step), and
+the steps between commands run in compiled calls. What joint_states would publish at
+each sample's own time is then made from the exact states with the base file's
+measurement delay and speed filter (the speeds through the node's own
+:class:`~screwgear_ros.physics.sensors.SensorChain`), but without noise or encoder counts:
 the fit compares a smooth prediction with the noisy measurement (quantisation would
 make the cost a staircase that finite differences cannot see into).
 """
@@ -99,13 +101,33 @@ def _prediction_sensors(settings: SimSettings, speeds: bool) -> SensorConfig:
     return SensorConfig(joints, config.seed)  # type: ignore[arg-type]
 
 
+def mesh_hz(values: Mapping[str, Any]) -> float:
+    """The highest mesh mode of the linear model of ``values`` (its oscillating modes
+    other than the rigid body's), Hz (NaN where it cannot be linearized)."""
+    from ..design.linearize import linearize
+    try:
+        modes = linearize(model(values)[0]).modes()
+    except (ScrewgearError, ArithmeticError, ValueError):
+        return float('nan')
+    found = [m.hz for m in modes if m.oscillating and not m.shape.startswith('rigid')]
+    return max(found) if found else float('nan')
+
+
 def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = False,
              reversals: list[int] | None = None) -> np.ndarray:
-    """(n, 6) θ and ω of the three joints as joint_states would publish them, at the
-    recording's samples, for the model of ``values``, from the preload equilibrium
-    (``speeds``: ω as counting encoders measure it, else the exact ω, delayed and
-    filtered as the angles); ``reversals``, if given, gets the number of reversals of the
-    drive direction the node applied (an effort inside ``effort_deadband`` is none).
+    """(n, 6) θ and ω of the three joints as joint_states would publish them, at each of
+    the recording's samples' own times, for the model of ``values``, from the preload
+    equilibrium at the recording's start (``speeds``: ω as counting encoders measure it,
+    else the exact ω, delayed and filtered as the angles); ``reversals``, if given, gets
+    the number of reversals of the drive direction the node applied (an effort inside
+    ``effort_deadband`` is none).
+
+    The session ticks once per integration step, so each recorded command is applied
+    from the first step at or after its time (a zero-order hold on the step grid). The
+    angle a joint publishes is its exact angle one measurement delay earlier (the
+    prediction's sensors have no noise and no counts), interpolated linearly between
+    steps (50 µs apart: far finer than any encoder's rate); the speeds are made by the
+    node's own sensor chain at the base file's ticks, then interpolated likewise.
 
     Raises
     ------
@@ -115,31 +137,39 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
         A recorded command the node refuses (with these parameters).
     """
     params, settings = model(values)
-    n = recording.samples
-    rows = np.empty((n, ROW))
-    session = Session(params, settings)
+    dt = settings.dt
+    per_tick = settings.steps_per_publish
+    fine = replace(settings, publish_rate=1.0 / dt)
+    origin = recording.origin
+    at = (np.asarray(recording.times, dtype=np.int64) - origin) * 1e-9 / dt   # in steps
+    # a sample on a step (the node's own) is that step's state exactly, not a blend
+    # with the next step's by the roundoff of ns → steps
+    near = np.rint(at)
+    at = np.where(np.abs(at - near) < 1e-6, near, at)
+    steps = int(np.ceil(at[-1])) + 1
+    rows = np.empty((steps + 1, ROW))
+    session = Session(params, fine)
     first = session.last_outputs
     rows[0, :6] = (*first.position, *first.velocity)
-    per_tick = settings.steps_per_publish
-    # the command recorded for sample i takes effect at the first step of tick i
-    events = [Command(str(topic), value, step=(i - 1) * per_tick)
-              for i, topic, value in recording.inputs]
+    events = [Command(str(topic), value, step=max(0, int(np.ceil((t - origin) * 1e-9 / dt
+                                                                  - 1e-6))))
+              for t, topic, value in recording.inputs]
     refused: list[tuple[int, InputRejected]] = []
     turns = [0]
 
     def monitor(tick: Tick | None) -> bool:
         if tick is not None and tick.rejected:
-            refused.append((tick.start // per_tick + 1, tick.rejected[0]))
+            refused.append((tick.start, tick.rejected[0]))
             return True
         if tick is not None and tick.reversal:
             turns[0] += 1
         return session.plant.fault is not None
 
     try:
-        session.advance(n - 1, events=events, mode=AdvanceMode.ROWS, rows=rows[1:],
+        session.advance(steps, events=events, mode=AdvanceMode.ROWS, rows=rows[1:],
                         monitor=monitor)
     except ArithmeticError:
-        # a command's tick after a fault inside a compiled run of quiet ticks measures a
+        # a command's step after a fault inside a compiled run of quiet steps measures a
         # plant whose time stood still (a speed over zero time): the model diverged
         if session.plant.fault is None:
             raise
@@ -147,28 +177,32 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
     if reversals is not None:
         reversals.append(turns[0])
     if refused:
-        i, error = refused[0]
-        raise CommandRefused(f'{recording.path}: tick {i}: the node refuses a recorded '
-                             f'command: {error}')
+        step, error = refused[0]
+        raise CommandRefused(f'{recording.path}: at {step * dt:.6g} s: the node refuses a '
+                             f'recorded command: {error}')
     if session.plant.fault is not None:
         raise Diverged(session.plant.fault)
     exact = rows[:, :6]
-    out = exact.copy()
-    steps = (settings.steps_per_publish * np.arange(n)).tolist()
-    angles = SensorChain(_prediction_sensors(settings, False), settings.dt)
-    if not angles.ideal:
-        for j, step in enumerate(steps):
-            out[j, :3], out[j, 3:] = angles.measure_values(step, exact[j, :3].tolist(),
-                                                           exact[j, 3:].tolist())
-    counting = _prediction_sensors(settings, True)
-    if speeds and any(joint.counts for joint in counting.joints):
-        chain = SensorChain(counting, settings.dt)
-        for j, step in enumerate(steps):
-            out[j, 3:] = chain.measure_values(step, exact[j, :3].tolist(),
-                                              exact[j, 3:].tolist())[1]
-    if not np.isfinite(out).all():
+    if not np.isfinite(exact).all():
         raise Diverged('the simulated joint states are not finite')
-    return np.array(out)
+    grid = np.arange(steps + 1, dtype=np.float64)
+    out = np.empty((len(at), 6))
+    sensors = settings.sensors.joints
+    for j in range(3):
+        delay = sensors[j].delay * per_tick
+        out[:, j] = np.interp(at - delay, grid, exact[:, j])
+        out[:, 3 + j] = np.interp(at - delay, grid, exact[:, 3 + j])
+    counting = _prediction_sensors(settings, True)
+    if speeds and not SensorChain(_prediction_sensors(settings, False), dt).ideal:
+        config = counting if any(joint.counts for joint in counting.joints) else \
+            _prediction_sensors(settings, False)
+        chain = SensorChain(config, dt)
+        ticks = np.arange(0, steps + 1, per_tick)
+        measured = np.array([chain.measure_values(int(k), exact[k, :3].tolist(),
+                                                  exact[k, 3:].tolist())[1] for k in ticks])
+        for j in range(3):
+            out[:, 3 + j] = np.interp(at, ticks.astype(np.float64), measured[:, j])
+    return out
 
 
 __all__ = [
@@ -179,6 +213,7 @@ __all__ = [
     'carries_no_command',
     'command_value',
     'declarations',
+    'mesh_hz',
     'model',
     'settings_names',
     'simulate',

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .adapter import CommandRefused, Diverged, base_values, simulate, tick_period
+from .adapter import CommandRefused, Diverged, base_values, mesh_hz, simulate, tick_period
 from .checks import (
     check_joints,
     check_options,
@@ -33,13 +33,16 @@ from .checks import (
     written_paths,
 )
 from .errors import FitFailed, IdentifyError, RecordingError, TooShortError
-from .fit import FitOutcome, minimize
+from .fit import FitOutcome, first_stage, minimize
+from .known import fixed
 from .output import rehearse, write_fitted
 from .parameters import fit_parameters, starts, values_of
 from .problem import DIVERGED, Comparison, Problem, compare
-from .recording import check_alike, read_recording
+from .recording import MESH_PARAMETERS, check_rate, read_recording
 from .report import write_report
+from .resid import Analysis, analyse, drifting, half_widths, judged
 from .samples import NODE_JOINTS, Recording
+from .startvalues import data_starts, moved
 from .stats import Estimate, Statistics, disagreements, start_disagreements, statistics
 from .workers import Evaluator
 
@@ -57,7 +60,7 @@ class IdentifyResult:
     --------
     >>> from screwgear_ros import IdentifyResult
     >>> sorted(f for f in IdentifyResult.__dataclass_fields__)[:3]
-    ['comparisons', 'cost', 'figure']
+    ['analysis', 'comparisons', 'cost']
     """
 
     values: dict[str, float]
@@ -75,6 +78,8 @@ class IdentifyResult:
     start_costs: list[float] = field(default_factory=list)
     start_values: list[dict[str, float]] = field(default_factory=list)
     stopped: str = ''
+    analysis: Analysis | None = None
+    notes: list[str] = field(default_factory=list)
 
     @property
     def estimates(self) -> tuple[Estimate, ...]:
@@ -108,9 +113,10 @@ class IdentifyResult:
 
 
 def _read(bags: Sequence[str | os.PathLike[str]], joints: Mapping[str, str] | None,
-          input_delay: int, period: float, namespace: str | None) -> tuple[Recording, ...]:
-    recordings = tuple(read_recording(b, joints, input_delay, namespace) for b in bags)
-    check_alike(recordings, period)
+          input_delay: float, period: float, clock: str,
+          namespace: str | None) -> tuple[Recording, ...]:
+    recordings = tuple(read_recording(b, joints, input_delay, clock, period, namespace)
+                       for b in bags)
     return recordings
 
 
@@ -150,10 +156,11 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
              validate: Sequence[str | os.PathLike[str]] = (), output: str | os.PathLike[str]
              | None = None, report: str | os.PathLike[str] | None = None,
              workers: int = 1, scheduler: str | None = None,
-             joints: Mapping[str, str] | None = None, input_delay: int = 0,
-             speeds: bool = False, starts_count: int = 3, seed: int = 0,
-             max_evaluations: int = 40, progress: bool = False,
-             namespace: str | None = None) -> IdentifyResult:
+             joints: Mapping[str, str] | None = None, input_delay: float = 0.0,
+             clock: str = 'stamp', settle: float = 0.0,
+             fix: Mapping[str, float] | None = None, speeds: bool = False,
+             starts_count: int = 3, seed: int = 0, max_evaluations: int = 40,
+             progress: bool = False, namespace: str | None = None) -> IdentifyResult:
     """Fit the parameters ``fit`` of the base file ``params`` to the recordings ``bags``.
 
     Parameters
@@ -178,8 +185,17 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
         A Dask scheduler address to simulate them on instead.
     joints : mapping, optional
         Node joint name → the bags' name (written to ``output`` as ``joint_names``).
-    input_delay : int
-        Ticks a command takes effect after the node would apply it (hardware).
+    input_delay : float
+        Ticks of the model (a fraction too) by which the drive applies a command after
+        its log time.
+    clock : str
+        ``'stamp'``: a sample is compared at its header stamp (default); ``'log'``: at
+        its log time.
+    settle : float
+        Seconds at each recording's start left out of the comparison, for the model's
+        state to settle (a recording that does not start at rest).
+    fix : mapping, optional
+        name → value: parameters held at these values instead of the base file's.
     speeds : bool
         Compare the speeds too.
     starts_count, seed : int
@@ -212,13 +228,13 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
     46.1
     """
     began = time.perf_counter()
-    workers, starts_count, seed, max_evaluations, input_delay = check_options(
-        workers, scheduler, starts_count, seed, max_evaluations, input_delay)
+    workers, starts_count, seed, max_evaluations, input_delay, settle = check_options(
+        workers, scheduler, starts_count, seed, max_evaluations, input_delay, settle)
     if isinstance(fit, str) or isinstance(bags, str | os.PathLike):
         raise IdentifyError('bags and fit are sequences (a list of paths, a list of names)')
     check_paths(bags, validate, params, written_paths(output, report))
     check_joints(joints)
-    base = base_values(params)
+    base = fixed(base_values(params), fix or {}, fit)
     fitted = fit_parameters(list(fit), base, bounds)
     trials = probe_bounds(base, fitted)
     settings = {'joint_names': [dict(joints or {}).get(j, j) for j in NODE_JOINTS]} \
@@ -226,14 +242,16 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
     if output is not None:
         rehearse(params, output, trials, settings)
     period = tick_period(base)
-    recordings = _read(bags, joints, input_delay, period, namespace)
-    checks = _read(validate, joints, input_delay, period, namespace)
-    check_recordings((*recordings, *checks), input_delay, speeds)
-    problem = Problem(base, fitted, recordings, speeds)
+    recordings = _read(bags, joints, input_delay, period, clock, namespace)
+    checks = _read(validate, joints, input_delay, period, clock, namespace)
+    check_recordings((*recordings, *checks), input_delay, period, speeds)
+    aliased = check_rate(recordings, fit, mesh_hz(base)) if any(
+        name in MESH_PARAMETERS for name in fit) else []
+    problem = Problem(base, fitted, recordings, speeds, settle)
     needed = SAMPLES_PER_PARAMETER * len(fitted)
-    have = sum(r.samples for r in recordings)
+    have = sum(int(np.sum(problem.compared(r))) for r in recordings)
     if have < needed:
-        raise TooShortError(f'{have} samples ({have * period:.3g} s) are too short to fit '
+        raise TooShortError(f'{have} samples (after losses and --settle) are too short to fit '
                             f'{len(fitted)} parameter(s): at least {needed} samples '
                             f'({needed * period:.3g} s at {1 / period:g} Hz) are needed')
     reversals = _reversals(base, recordings)
@@ -244,21 +262,38 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
             evaluator = stack.enter_context(Evaluator(problem, weights, workers, scheduler))
         except (OSError, TimeoutError, ValueError) as exc:
             raise IdentifyError(f'--scheduler {scheduler}: cannot connect: {exc}') from None
-        outcome = minimize(evaluator, fitted, starts(fitted, starts_count, seed),
-                           max_evaluations, progress)
+        found = data_starts(fitted, recordings)
+        outcome = minimize(evaluator, fitted,
+                           moved(fitted, starts(fitted, starts_count, seed), found),
+                           max_evaluations, progress, first_stage(fitted, list(found)))
         describe = evaluator.describe()
         simulations, sim_seconds = evaluator.simulations, evaluator.sim_seconds
     if np.all(outcome.residual == DIVERGED):
         raise FitFailed(_diverged_everywhere(problem, problem.values(outcome.x), simulations))
-    stats = judged(problem, outcome, sum(reversals))
+    stats = assessed(problem, outcome, sum(reversals))
     values = values_of(fitted, outcome.x)
     after = {**base, **values}
     comparisons = compare(problem, recordings, base, after, 'fit') + \
         compare(problem, checks, base, after, 'validate')
+    analysis = analyse(comparisons, dict(base), problem.settle,
+                       drifting(fitted, outcome.jacobian, outcome.residual,
+                                half_widths(fitted, stats.estimates)))
+    stats = judged(stats, analysis)
+    notes = [f'{r.path}: {line}' for r in (*recordings, *checks) for line in r.timing]
+    notes += aliased
+    notes += [f'{name}: started from {value:.6g}, {why}' for name, (value, why) in found.items()]
+    notes += [f'{name}: held at {value:.6g} (--fix)' for name, value in (fix or {}).items()]
+    if problem.settle:
+        notes.append(f'the first {problem.settle:g} s of each recording settle the state '
+                     '(left out of the comparison); the simulation starts at rest there')
+    else:
+        notes.append('each simulation starts at rest (the preload equilibrium) at its '
+                     'recording\'s first sample or command')
     result = IdentifyResult(values, stats, comparisons, outcome.finished, outcome.cost,
                             simulations, 0.0, sim_seconds, outcome.message,
                             start_costs=outcome.start_costs,
-                            start_values=[values_of(fitted, x) for x in outcome.start_points])
+                            start_values=[values_of(fitted, x) for x in outcome.start_points],
+                            analysis=analysis, notes=notes)
     written: list[Path] = []
     try:
         if output is not None:
@@ -276,7 +311,9 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
                 stem, stats, comparisons, finished=outcome.finished,
                 fitted_path=str(output), simulations=simulations, seconds=result.seconds,
                 sim_seconds=sim_seconds, workers=describe, speeds=speeds,
-                starts=list(zip(result.start_values, outcome.start_costs, strict=True)))
+                starts=list(zip(result.start_values, outcome.start_costs, strict=True)),
+                sections=[*analysis.lines(), '## Recordings and starting points', '',
+                          *(f'- {note}' for note in notes), ''])
     except KeyboardInterrupt:
         # each file is written whole or not at all: say which are there
         done = ', '.join(str(p) for p in written)
@@ -285,7 +322,7 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
     return result
 
 
-def judged(problem: Problem, outcome: FitOutcome, reversals: int) -> Statistics:
+def assessed(problem: Problem, outcome: FitOutcome, reversals: int) -> Statistics:
     """The statistics of a fit's outcome, with the recordings' and the starts'
     disagreements."""
     rho = problem.lag_correlation(outcome.residual)
@@ -302,4 +339,4 @@ def judged(problem: Problem, outcome: FitOutcome, reversals: int) -> Statistics:
     return dataclasses.replace(stats, warnings=tuple(warnings))
 
 
-__all__ = ['SAMPLES_PER_PARAMETER', 'IdentifyResult', 'identify', 'judged']
+__all__ = ['SAMPLES_PER_PARAMETER', 'IdentifyResult', 'assessed', 'identify']

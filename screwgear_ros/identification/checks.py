@@ -6,6 +6,7 @@ minutes only to end in an error or an unusable file.
 
 from __future__ import annotations
 
+import math
 import operator
 import re
 from collections.abc import Mapping, Sequence
@@ -44,9 +45,19 @@ def whole(name: str, value: Any, low: int, high: int | None = None) -> int:
     return number
 
 
+def finite(name: str, value: Any, unit: str) -> float:
+    """``value`` as a finite float >= 0, or an IdentifyError naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise IdentifyError(f'{name} {value!r}: not a number of {unit}')
+    if not 0 <= value < math.inf:
+        raise IdentifyError(f'{name} {value}: takes a number of {unit} >= 0')
+    return float(value)
+
+
 def check_options(workers: Any, scheduler: Any, starts: Any, seed: Any,
-                  max_evaluations: Any, input_delay: Any) -> tuple[int, int, int, int, int]:
-    """(workers, starts, seed, max_evaluations, input_delay), checked."""
+                  max_evaluations: Any, input_delay: Any, settle: Any
+                  ) -> tuple[int, int, int, int, float, float]:
+    """(workers, starts, seed, max_evaluations, input_delay, settle), checked."""
     most = WORKERS_PER_CORE * cores()
     workers = whole('--workers', workers, 1, most)
     if scheduler is not None:
@@ -59,7 +70,7 @@ def check_options(workers: Any, scheduler: Any, starts: Any, seed: Any,
             raise IdentifyError('--workers is for local processes; a --scheduler has its own')
     return (workers, whole('--starts', starts, 1, MAX_STARTS), whole('--seed', seed, 0),
             whole('--max-evaluations', max_evaluations, 1, MAX_EVALUATIONS),
-            whole('--input-delay', input_delay, 0))
+            finite('--input-delay', input_delay, 'ticks'), finite('--settle', settle, 'seconds'))
 
 
 def _inside(path: Path, folder: Path) -> bool:
@@ -98,16 +109,18 @@ def check_joints(joints: Mapping[str, str] | None) -> None:
                                  'of its own')
 
 
-def check_recordings(recordings: Sequence[Recording], input_delay: int, speeds: bool) -> None:
-    """Refuse recordings the options cannot use: a delay that moves every command past
-    the end, and --speeds where a joint has no recorded speed."""
+def check_recordings(recordings: Sequence[Recording], input_delay: float, tick: float,
+                     speeds: bool) -> None:
+    """Refuse recordings the options cannot use: a delay (``input_delay`` ticks of
+    ``tick`` s) as long as a recording or one that moves every command past its end, and
+    --speeds where a joint has no recorded speed."""
     for r in recordings:
-        if input_delay >= r.samples - 1:
-            raise RecordingError(f'--input-delay {input_delay}: longer than {r.path}, which '
-                                 f'holds {r.samples} samples ({r.duration:.4g} s): a delay '
-                                 'is a few ticks of the drive')
+        if input_delay * tick >= r.duration:
+            raise RecordingError(f'--input-delay {input_delay:g}: {input_delay * tick:.4g} s, '
+                                 f'as long as {r.path}, which holds {r.samples} samples '
+                                 f'({r.duration:.4g} s): a delay is a few ticks of the drive')
         if not r.inputs:
-            raise RecordingError(f'{r.path}: --input-delay {input_delay} moves every command '
+            raise RecordingError(f'{r.path}: --input-delay {input_delay:g} moves every command '
                                  'past the recording\'s end')
         if speeds:
             absent = [j for j, column in zip(NODE_JOINTS, r.velocity.T, strict=True)
@@ -170,5 +183,5 @@ def written_paths(output: Any, report: Any) -> list[tuple[str, Path]]:
 
 
 __all__ = ['MAX_EVALUATIONS', 'MAX_STARTS', 'SCHEDULER', 'WORKERS_PER_CORE', 'check_joints',
-           'check_options', 'check_paths', 'check_recordings', 'probe_bounds', 'report_stem',
-           'whole', 'written_paths']
+           'check_options', 'check_paths', 'check_recordings', 'finite', 'probe_bounds',
+           'report_stem', 'whole', 'written_paths']

@@ -7,8 +7,10 @@ import math
 from typing import Any
 
 from .checks import MAX_STARTS
+from .known import parse_fix
 from .parameters import parse_bounds
 from .recording import parse_joints
+from .resid import verdict_lines
 
 
 def arguments(argv: list[str] | None) -> argparse.Namespace:
@@ -35,8 +37,17 @@ def arguments(argv: list[str] | None) -> argparse.Namespace:
                         help='simulate them on the Dask cluster of this scheduler instead')
     parser.add_argument('--joints', metavar='NODE=BAG[,...]', help='joint names of the bags '
                         'where they differ from pinion_1, table, pinion_3')
-    parser.add_argument('--input-delay', type=int, default=0, metavar='TICKS',
-                        help='ticks a command takes effect after the node would apply it')
+    parser.add_argument('--input-delay', type=float, default=0.0, metavar='TICKS',
+                        help='ticks of the model (a fraction too) by which the drive '
+                        'applies a command after its log time (0)')
+    parser.add_argument('--time', choices=('stamp', 'log'), default='stamp',
+                        help='place each joint_states sample at its header stamp (default) '
+                        'or its log time')
+    parser.add_argument('--settle', type=float, default=0.0, metavar='SECONDS',
+                        help='leave each recording\'s first SECONDS out of the comparison, '
+                        'for a recording that does not start at rest (0)')
+    parser.add_argument('--fix', nargs='+', default=[], metavar='NAME=VALUE',
+                        help='hold a parameter at VALUE instead of the base file\'s')
     parser.add_argument('--speeds', action='store_true', help='compare the speeds too')
     parser.add_argument('--starts', type=int, default=3, metavar='N',
                         help='starting points: the base values and N-1 seeded draws (3; '
@@ -60,7 +71,8 @@ def options(args: argparse.Namespace) -> dict[str, Any]:
             'bounds': parse_bounds(args.bounds), 'validate': args.validate,
             'output': args.output, 'report': args.report, 'workers': args.workers,
             'scheduler': args.scheduler, 'joints': parse_joints(args.joints),
-            'input_delay': args.input_delay, 'speeds': args.speeds,
+            'input_delay': args.input_delay, 'speeds': args.speeds, 'clock': args.time,
+            'settle': args.settle, 'fix': parse_fix(args.fix),
             'starts_count': args.starts, 'seed': args.seed, 'namespace': args.namespace,
             'max_evaluations': args.max_evaluations, 'progress': not args.no_progress}
 
@@ -85,6 +97,7 @@ def summary(result: Any) -> list[str]:
     for c in result.comparisons:
         fits = ', '.join(f'{v:.1f}' for v in c.fit('after'))
         lines.append(f'fit % ({c.role}) {c.recording.path}: {fits}')
+    lines += verdict_lines(result)
     lines.append(f'{result.simulations} simulations, {result.seconds:.1f} s '
                  f'({result.sim_seconds:.1f} s simulating)')
     for label, path in (('fitted', result.output), ('report', result.report),

@@ -1,11 +1,13 @@
 """The output-error problem: the residual of a trial point, and the fit of a prediction.
 
 The residual stacks, for every recording and every joint, the simulated minus the
-measured angle change since the first sample, less its mean over the recording (each
+measured angle change since the first sample, at each sample's own time, less its mean
+over the recording (each
 encoder's zero is estimated, not taken from one noisy first sample: a real table's
 encoders read from wherever they were switched on), divided by the spread of
 that joint's measured angles over all fit recordings, so that the pinions and the table
-weigh alike; with ``speeds``, the speeds likewise. A trial point the model cannot run
+weigh alike; with ``speeds``, the speeds likewise. With ``settle`` the samples of each
+recording's first ``settle`` seconds count zero (the model's state settles there). A trial point the model cannot run
 or that diverges gives :data:`DIVERGED` everywhere: a large residual, not an error.
 """
 
@@ -34,6 +36,7 @@ class Problem:
     fitted: tuple[FitParameter, ...]
     recordings: tuple[Recording, ...]
     speeds: bool = False
+    settle: float = 0.0
 
     @property
     def columns(self) -> list[int]:
@@ -55,6 +58,13 @@ class Problem:
     def size(self) -> int:
         return sum(r.samples for r in self.recordings) * len(self.columns)
 
+    def compared(self, recording: Recording) -> np.ndarray:
+        """(n,) True where a sample enters the residual: from ``settle`` s after the
+        simulation's start on (the first part lets a recording that did not start at rest
+        settle the model's state)."""
+        since = (np.asarray(recording.times) - recording.origin) * 1e-9
+        return since >= self.settle
+
     def values(self, x: np.ndarray) -> dict[str, Any]:
         return {**self.base, **values_of(self.fitted, x)}
 
@@ -62,7 +72,8 @@ class Problem:
         """The prediction in :meth:`measured`'s columns, each angle's zero the one that
         fits the recording best (raises Diverged)."""
         out = simulate(values, recording, self.speeds)[:, self.columns]
-        out[:, :3] += np.nanmean(self.measured(recording)[:, :3] - out[:, :3], axis=0)
+        use = self.compared(recording)
+        out[:, :3] += np.nanmean(self.measured(recording)[use, :3] - out[use, :3], axis=0)
         return out
 
     def lag_correlation(self, residual: np.ndarray) -> float:
@@ -86,6 +97,7 @@ class Problem:
         try:
             for recording in self.recordings:
                 error = (self.predict(values, recording) - self.measured(recording)) * weights
+                error[~self.compared(recording)] = 0.0
                 parts.append(np.nan_to_num(error, nan=0.0).ravel())
         except Diverged:
             return np.full(self.size, DIVERGED)

@@ -9,12 +9,15 @@ ros2_control's ``joint_commands``). Topics are matched on their relative name; e
 other topic (``run_parameters``, ``mesh_state``, ...) is ignored, so both kinds of bag
 are read the same way.
 
-The samples of ``joint_states`` are the ticks: sample 0 is the start, sample i what tick
-i made. A command takes effect as the node applies it: at the first step of the tick
-after its log time, i.e. the tick that starts at the first sample logged at or after
-it (the node records an applied command at the step it took effect, after that step's
-outputs, so its own recordings map onto the same ticks). ``input_delay`` adds whole
-ticks for hardware whose drive applies a command later.
+Each ``joint_states`` sample is compared at its own time (its header stamp, or its log
+time on request: :mod:`~screwgear_ros.identification.retiming` places them, drops
+repeats, counts losses, gaps and jitter), so any rate, jitter or loss a recorder leaves
+is taken as it is. A command acts from its log time (plus ``input_delay``), held until
+the next: the simulation applies it at the first integration step at or after that time
+(the node records an applied command at the step it took effect, so its own recordings
+map onto the same steps). The simulation starts at rest at the first sample; a command
+logged up to one tick before it (the answer to a sample the recorder missed as it
+started) applies at the first step, an earlier one is refused.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ import numpy as np
 from ..interface import CONTRACT, Input
 from .adapter import carries_no_command, command_value, typestore
 from .errors import RecordingError
+from .retiming import place
 from .samples import COMMANDS, JOINT_STATES, NODE_JOINTS, Recording
 
 
@@ -76,7 +80,8 @@ def _chosen(path: Any, connections: Sequence[Any], namespace: str | None) -> lis
 
 
 def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | None = None,
-                   input_delay: int = 0, namespace: str | None = None) -> Recording:
+                   input_delay: float = 0.0, clock: str = 'stamp',
+                   tick: float | None = None, namespace: str | None = None) -> Recording:
     """Read one bag (see the module docstring).
 
     Parameters
@@ -85,8 +90,13 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
         A rosbag2 directory (MCAP or sqlite3 storage).
     joints : mapping, optional
         Node joint name → the bag's joint name, where they differ.
-    input_delay : int
-        Ticks a command takes effect after the node would apply it.
+    input_delay : float
+        Ticks of the model (``tick`` s each; may be a fraction) by which the drive applies
+        a command after its log time.
+    clock : str
+        ``'stamp'`` (default): a sample is at its header stamp; ``'log'``: at its log time.
+    tick : float, optional
+        The model's tick, s (default: the recording's median period).
     namespace : str, optional
         The table's namespace, for a bag holding several tables' topics.
 
@@ -103,7 +113,8 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
     """
     from rosbags.highlevel import AnyReader
     names = {j: (joints or {}).get(j, j) for j in NODE_JOINTS}
-    times: list[int] = []
+    logs: list[int] = []
+    stamps: list[int] = []
     rows: list[tuple[float, ...]] = []
     logged: list[tuple[int, Input, Any]] = []
     try:
@@ -113,65 +124,66 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
                 rel = _relative(connection.topic)
                 message = reader.deserialize(raw, connection.msgtype)
                 if rel == JOINT_STATES:
-                    times.append(int(stamp))
-                    rows.append(_joint_row(path, message, names, len(times) - 1))
+                    logs.append(int(stamp))
+                    stamps.append(_stamp(message))
+                    rows.append(_joint_row(path, message, names, len(logs) - 1))
                 else:
                     _command(path, Input(rel), message, names, int(stamp), logged)
     except RecordingError:
         raise
     except Exception as exc:  # noqa: BLE001 (rosbags has no common error base: any is "not a bag")
         raise RecordingError(f'{path}: cannot read as a rosbag2 bag: {exc}') from None
-    if len(times) < 2:
+    if len(logs) < 2:
         raise RecordingError(f'{path}: no joint_states (at least two samples are needed): '
                              'record the table\'s joint_states with its commands')
     if not logged:
         raise RecordingError(f'{path}: no commands ({", ".join(COMMANDS)}): the fit '
                              're-simulates the recorded commands, record them with the '
                              'joint states')
-    order = np.argsort(np.asarray(times, dtype=np.int64), kind='stable')
-    stamps = np.asarray(times, dtype=np.int64)[order]
-    values = np.asarray(rows, dtype=np.float64)[order]
+    placed = place(np.asarray(stamps), np.asarray(logs), clock)
+    values = np.asarray(rows, dtype=np.float64)[placed.order]
     if not np.isfinite(values[:, :3]).all():
-        i = int(np.flatnonzero(~np.isfinite(values[:, :3]).all(axis=1))[0])
+        i = int(placed.order[np.flatnonzero(~np.isfinite(values[:, :3]).all(axis=1))[0]])
         raise RecordingError(f'{path}: joint_states sample {i} holds a position that is '
                              'not finite (NaN or inf)')
-    speeds = values[:, 3:]
+    speeds = values[:, 3:6]
     if np.isinf(speeds).any():
         raise RecordingError(f'{path}: joint_states holds an infinite velocity')
-    gaps = np.diff(stamps)
-    period = int(np.median(gaps))
-    odd = np.flatnonzero((gaps > 1.5 * period) | (gaps < 0.5 * period))
-    if len(odd):
-        i = int(odd[0]) + 1
-        raise RecordingError(f'{path}: joint_states sample {i} comes {gaps[i - 1] * 1e-6:.4g} ms '
-                             f'after the one before, the others every {period * 1e-6:.4g} ms: '
-                             'the samples are the ticks, and a lost or repeated one cannot '
-                             'be placed')
-    tol = max(1, period // 1000)
-    early = [stamp for stamp, _, _ in logged if stamp < stamps[0] - period]
+    times = placed.times
+    period_ns = (placed.period if tick is None else tick) * 1e9
+    early = [stamp for stamp, _, _ in logged if stamp < times[0] - period_ns]
     if early:
         # the model starts at rest at the first sample: a command more than a tick before
         # it acted on motion the recording does not show (one within a tick is the answer
-        # to a sample the recorder missed as it started: tick 1 applies it)
+        # to a sample the recorder missed as it started: the first step applies it)
         raise RecordingError(f'{path}: {len(early)} command(s) logged before the first '
                              f'joint_states sample (the earliest '
-                             f'{(stamps[0] - min(early)) * 1e-6:.4g} ms before it): the fit '
+                             f'{(times[0] - min(early)) * 1e-6:.4g} ms before it): the fit '
                              'starts the model at rest at the first sample; record '
                              'joint_states from before the first command, or cut the bag '
                              'there')
-    inputs = []
-    for stamp, topic, value in logged:
-        first = int(np.searchsorted(stamps, stamp - tol, side='left'))
-        tick = first + 1 + int(input_delay)
-        if tick < len(stamps):
-            inputs.append((tick, topic, value))
-    inputs.sort(key=lambda item: item[0])   # stable: logged order within a tick
-    return Recording(str(path), stamps, values[:, :3], speeds, tuple(inputs))
+    delay = round(float(input_delay) * period_ns)
+    inputs = sorted(((max(stamp, int(times[0])) + delay, topic, value)
+                     for stamp, topic, value in logged),
+                    key=lambda item: item[0])   # stable: logged order at one time
+    inputs = [item for item in inputs if item[0] <= times[-1]]
+    notes = placed.notes()
+    if delay:
+        notes.append(f'commands act {delay * 1e-6:.4g} ms after their log times (input delay)')
+    return Recording(str(path), times, values[:, :3], speeds, tuple(inputs),
+                     values[:, 6:9], int(times[0]), tuple(notes))
+
+
+def _stamp(message: Any) -> int:
+    """The header stamp of a message, ns."""
+    head = message.header.stamp
+    return int(head.sec) * 1_000_000_000 + int(head.nanosec)
 
 
 def _joint_row(path: Any, message: Any, names: Mapping[str, str], index: int
                ) -> tuple[float, ...]:
-    """θ(3), ω(3) of one joint_states message in node order (ω NaN where absent)."""
+    """θ(3), ω(3), effort(3) of one joint_states message in node order (ω, effort NaN
+    where absent)."""
     where = {str(n): k for k, n in enumerate(message.name)}
     missing = [names[j] for j in NODE_JOINTS if names[j] not in where]
     if missing:
@@ -185,7 +197,9 @@ def _joint_row(path: Any, message: Any, names: Mapping[str, str], index: int
     position = [float(message.position[where[names[j]]]) for j in NODE_JOINTS]
     velocity = [float(message.velocity[where[names[j]]]) if len(message.velocity) > where[
         names[j]] else math.nan for j in NODE_JOINTS]
-    return (*position, *velocity)
+    effort = [float(message.effort[where[names[j]]]) if len(message.effort) > where[
+        names[j]] else math.nan for j in NODE_JOINTS]
+    return (*position, *velocity, *effort)
 
 
 def _command(path: Any, topic: Input, message: Any, names: Mapping[str, str], stamp: int,
@@ -206,14 +220,34 @@ def _command(path: Any, topic: Input, message: Any, names: Mapping[str, str], st
     logged.append((stamp, topic, value))
 
 
-def check_alike(recordings: Sequence[Recording], period: float) -> None:
-    """Refuse recordings whose sample period is not the model's tick (1/publish_rate)."""
+#: Parameters that act through the mesh's vibration: a rate below the mesh mode cannot
+#: see them.
+MESH_PARAMETERS = ('mesh_stiffness_mean', 'mesh_damping', 'inertia_pinion_1',
+                   'inertia_pinion_3')
+
+
+def check_rate(recordings: Sequence[Recording], fit: Sequence[str], mesh_hz: float
+               ) -> list[str]:
+    """Refuse a fit of :data:`MESH_PARAMETERS` to recordings sampled below the mesh mode
+    at ``mesh_hz`` (fewer than one sample per period of its vibration), naming them;
+    the notes for recordings whose Nyquist frequency is below it (the mode aliases: those
+    parameters then rest on the meshes' windup under load more than on the vibration)."""
+    blind = [name for name in fit if name in MESH_PARAMETERS]
+    notes = []
     for recording in recordings:
-        if not math.isclose(recording.period, period, rel_tol=0.02):
+        rate = 1.0 / recording.period
+        if not blind or not math.isfinite(mesh_hz) or rate >= 2 * mesh_hz:
+            continue
+        if rate < mesh_hz:
             raise RecordingError(
-                f'{recording.path}: joint_states come every {recording.period * 1e3:.4g} ms, '
-                f'but the model ticks every {period * 1e3:.4g} ms: set publish_rate in the '
-                'base parameter file to the recording\'s rate')
+                f'{recording.path}: joint_states at {rate:.4g} Hz cannot see the mesh mode at '
+                f'{mesh_hz:.4g} Hz (fewer than one sample per period), so the recording '
+                f'cannot determine {", ".join(blind)}: record at {2 * mesh_hz:.4g} Hz or more, '
+                'or fix them')
+        notes.append(f'{recording.path}: at {rate:.4g} Hz the mesh mode ({mesh_hz:.4g} Hz) is '
+                     f'above the Nyquist frequency and aliases: {", ".join(blind)} rest more on '
+                     'the meshes\' windup under load')
+    return notes
 
 
-__all__ = ['check_alike', 'parse_joints', 'read_recording']
+__all__ = ['MESH_PARAMETERS', 'check_rate', 'parse_joints', 'read_recording']

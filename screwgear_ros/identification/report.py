@@ -132,12 +132,14 @@ def figure(comparisons: Sequence[Comparison], path: str | Path) -> Path:
 
 
 def write_report(stem: str | os.PathLike[str], stats: Statistics, comparisons: Sequence[Comparison],
-                 **details: Any) -> tuple[Path, Path]:
-    """Write ``stem``.md and ``stem``.png; their paths."""
+                 sections: Sequence[str] = (), **details: Any) -> tuple[Path, Path]:
+    """Write ``stem``.md and ``stem``.png; their paths. ``sections``: markdown lines
+    appended (the residual analysis, the recordings' timing)."""
     stem = Path(stem)
     png = figure(comparisons, stem.with_suffix('.png'))
     md = stem.with_suffix('.md')
-    md.write_text(markdown(stats, comparisons, png=png.name, **details), encoding='utf-8')
+    md.write_text(markdown(stats, comparisons, png=png.name, **details)
+                  + '\n'.join(['', *sections]), encoding='utf-8')
     return md, png
 
 

@@ -23,15 +23,26 @@ JOINT_STATES = 'joint_states'
 
 @dataclass(frozen=True, eq=False)
 class Recording:
-    """One bag, read: ``position`` and ``velocity`` (n, 3) in the node's joint order
-    (NaN speeds where the bag has none), ``times`` the samples' log times (ns), and
-    ``inputs`` (tick that applies it, input, value) in the order they were logged."""
+    """One bag, read: ``position``, ``velocity`` and ``effort`` (n, 3) in the node's joint
+    order (NaN speeds or efforts where the bag has none), ``times`` each sample's own
+    time (ns, on the log clock: :mod:`~screwgear_ros.identification.retiming`),
+    ``inputs`` (time from which it acts, ns, input, value) in time order (logged order
+    at equal times), ``start`` the time the simulation starts at (ns), and ``timing``
+    what the placing of the samples found (lines for the report)."""
 
     path: str
     times: np.ndarray
     position: np.ndarray
     velocity: np.ndarray
     inputs: tuple[tuple[int, Input, Any], ...]
+    effort: np.ndarray | None = None
+    start: int | None = None
+    timing: tuple[str, ...] = ()
+
+    @property
+    def origin(self) -> int:
+        """The simulation's start, ns: ``start``, else the first sample's time."""
+        return int(self.times[0]) if self.start is None else int(self.start)
 
     @property
     def samples(self) -> int:

@@ -9,8 +9,8 @@ default when not given); a recording by an older version reads with ``before``
 per-field validation (:func:`validate`), the ROS parameter descriptors
 (``ros/parameters.py``, with ``FloatingPointRange``/``IntegerRange``), the packed layout
 of the compiled kernel (``kernel=True`` fields, :func:`kernel_fields`), the parameter file
-and the README table (:func:`yaml_lines`, :func:`markdown_rows`, written by
-``python -m screwgear_ros.params.docs --write`` and tested against config/ and README).
+and the table of docs/parameters.md (:func:`yaml_lines`, :func:`markdown_rows`, written
+by ``python -m screwgear_ros.params.docs --write`` and tested against both files).
 Rules that relate several parameters stay in the classes' ``__post_init__``.
 """
 

@@ -1,5 +1,5 @@
 """Documents generated from the parameter declarations: config/paper.yaml and the
-README's parameter table.
+parameter table of docs/parameters.md.
 
 ``python -m screwgear_ros.params.docs --write`` rewrites both in place in the source tree
 (after a parameter is added or changed); ``python -m screwgear_ros.params.docs yaml`` and
@@ -25,10 +25,12 @@ PAPER_YAML_HEADER = (
     f'#   {WRITE_COMMAND}',
     '# ros2 run screwgear_ros table_sim --ros-args --params-file config/paper.yaml',
 )
-#: The README's lines around its parameter table (the table is what lies between them).
-README_START = '<!-- parameters: generated from screwgear_ros/params/table.py'
-README_END = '<!-- end of parameters -->'
-#: The source tree holding config/ and README.md, as seen from this module.
+#: The document that holds the parameter table, relative to the source tree.
+TABLE_DOCUMENT = Path('docs') / 'parameters.md'
+#: Its lines around the parameter table (the table is what lies between them).
+TABLE_START = '<!-- parameters: generated from screwgear_ros/params/table.py'
+TABLE_END = '<!-- end of parameters -->'
+#: The source tree holding config/ and docs/, as seen from this module.
 SOURCE_TREE = Path(__file__).resolve().parents[2]
 
 
@@ -40,7 +42,7 @@ def paper_yaml() -> str:
 
 
 def parameter_table() -> str:
-    """The README's parameter table (Markdown)."""
+    """The parameter table of docs/parameters.md (Markdown)."""
     return '\n'.join(['| parameter | symbol | default | unit | valid | meaning |',
                       '|---|---|---|---|---|---|',
                       *markdown_rows(TableParams), *markdown_rows(SimSettings)]) + '\n'
@@ -50,30 +52,30 @@ class SourceTreeError(ScrewgearError, ValueError):
     """The documents to rewrite are not where a source tree has them."""
 
 
-def readme_with_table(readme: str) -> str:
-    """``readme`` with the text between its parameter-table markers replaced by
-    :func:`parameter_table` (the markers and everything else kept)."""
-    start = readme.find(README_START)
-    end = readme.find(README_END)
+def with_table(document: str) -> str:
+    """``document`` (docs/parameters.md's text) with the text between its parameter-table
+    markers replaced by :func:`parameter_table` (the markers and everything else kept)."""
+    start = document.find(TABLE_START)
+    end = document.find(TABLE_END)
     if start < 0 or end < start:
-        raise SourceTreeError(f'README.md has no parameter table between {README_START!r} '
-                              f'and {README_END!r}')
-    body = readme.index('\n', start) + 1
-    return readme[:body] + parameter_table() + readme[end:]
+        raise SourceTreeError(f'{TABLE_DOCUMENT} has no parameter table between '
+                              f'{TABLE_START!r} and {TABLE_END!r}')
+    body = document.index('\n', start) + 1
+    return document[:body] + parameter_table() + document[end:]
 
 
 def write(root: Path = SOURCE_TREE) -> list[Path]:
-    """Rewrite ``root``/config/paper.yaml and the parameter table of ``root``/README.md
-    from the declarations; the files whose text changed."""
-    yaml_path, readme_path = root / 'config' / 'paper.yaml', root / 'README.md'
-    for path in (yaml_path, readme_path):
+    """Rewrite ``root``/config/paper.yaml and the parameter table of
+    ``root``/docs/parameters.md from the declarations; the files whose text changed."""
+    yaml_path, table_path = root / 'config' / 'paper.yaml', root / TABLE_DOCUMENT
+    for path in (yaml_path, table_path):
         if not path.is_file():
             raise SourceTreeError(f'{path} is not a file: --write rewrites the documents of a '
                                   'source tree (give it with --root)')
-    readme = readme_path.read_text(encoding='utf-8')
+    document = table_path.read_text(encoding='utf-8')
     changed = []
     for path, old, new in ((yaml_path, yaml_path.read_text(encoding='utf-8'), paper_yaml()),
-                           (readme_path, readme, readme_with_table(readme))):
+                           (table_path, document, with_table(document))):
         if new != old:
             path.write_text(new, encoding='utf-8')
             changed.append(path)
@@ -85,9 +87,10 @@ def main(args: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog='python -m screwgear_ros.params.docs',
                                      description=__doc__.split('\n\n')[0])
     parser.add_argument('document', nargs='?', choices=('yaml', 'table'), default='table',
-                        help='the document to print (default: the README table)')
+                        help='the document to print (default: the parameter table)')
     parser.add_argument('--write', action='store_true',
-                        help='rewrite config/paper.yaml and the README table in place')
+                        help='rewrite config/paper.yaml and the table of docs/parameters.md '
+                        'in place')
     parser.add_argument('--root', type=Path, default=SOURCE_TREE,
                         help='the source tree to write in (default: %(default)s)')
     options = parser.parse_args(args)
@@ -102,13 +105,13 @@ def main(args: list[str] | None = None) -> int:
     for path in changed:
         print(f'rewrote {path}')
     if not changed:
-        print('config/paper.yaml and the README table are current')
+        print('config/paper.yaml and the table of docs/parameters.md are current')
     return 0
 
 
-__all__ = ['PAPER_YAML_HEADER', 'README_END', 'README_START', 'SOURCE_TREE', 'WRITE_COMMAND',
-           'SourceTreeError', 'main', 'paper_yaml', 'parameter_table', 'readme_with_table',
-           'write']
+__all__ = ['PAPER_YAML_HEADER', 'SOURCE_TREE', 'TABLE_DOCUMENT', 'TABLE_END', 'TABLE_START',
+           'WRITE_COMMAND', 'SourceTreeError', 'main', 'paper_yaml', 'parameter_table',
+           'with_table', 'write']
 
 
 if __name__ == '__main__':

@@ -337,6 +337,18 @@ class SimSettings:
     lockstep: bool = parameter(False, '', '', 'integrate the next tick only after the '
                                f"controller's answer ({ANSWERS}) to the last joint_states",
                                read_only=True, introduced='0.2.0')
+    duration: float = parameter(
+        0.0, '', 's', 'simulation time at which the node stops by itself, as after Ctrl-C '
+        '(the tick that reaches it is published and recorded, the recording closed, exit '
+        '0); 0 = run until stopped', low=1e-6, high=1e9, zero=True,
+        why='from one step to 30 years of simulation time',
+        introduced='0.2.0', before=0.0)    # older runs: until stopped
+    min_answer_rate: float = parameter(
+        0.9, '', '', 'free-running: warn when, while a controller answers, a smaller share '
+        'of ticks gets its answer (a cmd_effort or joint_commands after the last '
+        'joint_states) within one publish period (a later one acts a tick later); '
+        '0 = never warn', low=0.0, high=1.0, why='a share of the ticks',
+        introduced='0.2.0', before=0.0)    # older runs: no count, no warning
     joint_names: tuple[str, ...] = parameter(('pinion_1', 'table', 'pinion_3'), '', '',
                                              'joint_states names of pinion 1, table, pinion 3; '
                                              'fixed for a run: a recording and the tools that '

@@ -1,6 +1,6 @@
 """The drive line of ``shared/spec/model.md``: the torque each drive applies to its pinion
 per mode (preload, command, fluctuation), the drive's torque–speed line and its pieces,
-the current loops' lag and the motors' cogging. Compiled kernels on the packed model
+and the current loops' lag. Compiled kernels on the packed model
 (:mod:`.packed`).
 """
 
@@ -17,9 +17,7 @@ from .jit import kernel
 from .packed import (
     MODE,
     MODE_CONVENTIONAL,
-    NCOG,
     TAU,
-    TCOG,
     TP,
     TS,
     TV,
@@ -156,24 +154,13 @@ def lagged_torques(t: float, lag1: float, lag3: float, direction: float,
 
 
 @kernel
-def cogging(th1: float, th3: float, t1: float, t3: float,
-            p: np.ndarray) -> tuple[float, float]:
-    """(T1, T3) with each motor's cogging ripple T_cog·sin(n_cog·θ) added at its pinion
-    angle θ: the magnets' pull, there with or without current, so on every pinion a motor
-    drives (pinion 1 alone in `conventional` mode)."""
-    t1 = t1 + p[TCOG] * math.sin(p[NCOG] * th1)
-    if p[MODE] != MODE_CONVENTIONAL:
-        t3 = t3 + p[TCOG] * math.sin(p[NCOG] * th3)
-    return t1, t3
-
-
-@kernel
 def pinion_torques(piece: DrivePiece, t: float, y: tuple, torque: float, direction: float,
                    p: np.ndarray) -> tuple[float, float, DrivePiece]:
     """Torques (T1, T3), N·m, the drives apply to pinions 1 and 3 at state y with the
     drive's line on ``piece`` (FROM_STATE: the piece the speed picks), and that piece:
     τ_d = 0, :func:`applied_torques_on` of the command; τ_d > 0, the lagged torques y[6],
-    y[7] (:func:`lagged_torques`); then the cogging ripple (:func:`cogging`)."""
+    y[7] (:func:`lagged_torques`). The motors' cogging is a term of its own
+    (:func:`~screwgear_ros.physics.torques.torque_terms`)."""
     if p[TAU] == 0.0:
         t1, t3, piece = applied_torques_on(piece, t, y[3], y[5], torque, direction, p)
     else:
@@ -181,8 +168,6 @@ def pinion_torques(piece: DrivePiece, t: float, y: tuple, torque: float, directi
         t1, t3 = lagged_torques(t, lag1, lag3, direction, p)
         if piece == DrivePiece.FROM_STATE:
             piece = drive_piece(torque, active_speed(y[3], y[5], direction, p), p)
-    if p[TCOG] != 0.0:
-        t1, t3 = cogging(y[0], y[2], t1, t3, p)
     return t1, t3, piece
 
 
@@ -221,7 +206,6 @@ __all__ = [
     'active_speed',
     'applied_torques',
     'applied_torques_on',
-    'cogging',
     'drive_on',
     'drive_piece',
     'drive_targets',

@@ -12,8 +12,8 @@ counts it would keep change nothing, and keeping them cost most of an RK4 step: 
 call of one kernel from another, and each tuple of arrays, counted the arrays up and
 down with atomic instructions that numba's pruning cannot remove across the contact
 law's branches (numba issue #2350). The same step with and without the counts gives
-the same bits (test_jit); without them a step takes a fraction of the time (the
-README's performance notes give the figures). A kernel that allocates
+the same bits (test_jit); without them a step takes a fraction of the time
+(docs/performance.md gives the figures). A kernel that allocates
 (:data:`allocating_kernel`) keeps the runtime: numba refuses to compile an allocation without it, so a kernel that
 starts to allocate cannot keep the wrong decorator unnoticed.
 

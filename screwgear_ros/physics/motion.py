@@ -1,8 +1,8 @@
 """The equations of motion of the 3-DOF double screw gear (``shared/spec/model.md`` §3):
-the torque on each body from the mesh law (:mod:`.mesh`), the drive line (:mod:`.drive`)
-and bearing friction (:mod:`.friction`), the right-hand side the integrators and the
-reference take, what the node publishes about a state, and the stiffest linearization
-that bounds an explicit step.
+the torque on each body, the sum of the terms of :mod:`.torques` (the one place each
+term is written), then bearing friction (:mod:`.friction`); the right-hand side the
+integrators and the reference take, what the node publishes about a state, and the
+stiffest linearization that bounds an explicit step.
 """
 
 from __future__ import annotations
@@ -12,13 +12,11 @@ from typing import NamedTuple
 import numpy as np
 
 from ..params.table import Mode, TableParams, effective_stiffness, ste_slope
-from .drive import DrivePiece, lag_rates, pinion_torques
+from .drive import DrivePiece, drive_targets, lag_rates
 from .friction import FrictionPiece, friction_on, friction_piece
 from .jit import inline_kernel, kernel
-from .mesh import ContactBranch, contact_branch, mesh_load_on, mesh_motion
+from .mesh import ContactBranch, contact_branch, mesh_motion
 from .packed import (
-    CP,
-    CT,
     I1,
     I2,
     I3,
@@ -26,7 +24,6 @@ from .packed import (
     MODE_CONVENTIONAL,
     N_MECHANICAL,
     R1,
-    R2,
     R3,
     TC2,
     TCP,
@@ -40,7 +37,9 @@ from .packed import (
     C,
     Drive,
     PackedModel,
+    pack,
 )
+from .torques import net_torques, off_mesh_torques, torque_terms
 
 
 class Pieces(NamedTuple):
@@ -65,36 +64,19 @@ BY_LAW = Pieces(ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.F
 def body_torques(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
                  ) -> tuple[float, float, float, float, float, float, float, ContactBranch,
                             ContactBranch, DrivePiece]:
-    """The torque on each body from everything but its bearing friction at state y, the
-    meshes on the contact branches and the drive on the piece of its line ``held`` names
-    (FROM_STATE: the ones the contact law and the drive line pick at this state):
+    """The torque on each body from everything but its bearing friction at state y: the
+    sum of the terms of :func:`~screwgear_ros.physics.torques.torque_terms`, the meshes on
+    the contact branches and the drive on the piece of its line ``held`` names
+    (FROM_STATE: the ones the contact law and the drive line pick at this state).
 
-    τ1 = T1 − Q1 − c_p·θ̇1;  τ3 = T3 − Q3 − c_p·θ̇3;  τ2 = r2·(F1 + F3) − T_load − c_t·θ̇2,
-
-    Q = r·F (`paper`) or the energy-consistent pinion load (:func:`mesh_load_on`); T1, T3
-    those of :func:`pinion_torques` (through the drive's torque–speed line; lagged by the
-    current loops; with cogging). In `conventional` mode pinion 3 is disengaged
-    (F3 = Q3 = 0).
-
-    Returns (τ1, τ2, τ3, T1, T3 in N·m, F1, F3 in N, branch of mesh 1, branch of mesh 3,
-    drive piece).
+    Returns (τ1, τ2, τ3, T1, T3 in N·m: the drives' torques on the pinions with their
+    cogging, F1, F3 in N, branch of mesh 1, branch of mesh 3, drive piece).
     """
-    p = model.p
-    th1, th2, th3, w1, w2, w3 = y[0], y[1], y[2], y[3], y[4], y[5]
-    t1, t3, piece = pinion_torques(held.drive, t, y, drive.torque, drive.direction, p)
-    f1, q1, branch_1 = mesh_load_on(th1, w1, p[R1], p[Z1], th2, w2, t, model, held.branch_1)
-    if p[MODE] == MODE_CONVENTIONAL:
-        f3, q3, branch_3 = 0.0, 0.0, ContactBranch.DISENGAGED
-    else:
-        f3, q3, branch_3 = mesh_load_on(th3, w3, p[R3], p[Z3], th2, w2, t, model,
-                                        held.branch_3)
-    tau1 = t1 - q1
-    tau3 = t3 - q3
-    if p[CP] != 0.0:
-        tau1 -= p[CP] * w1
-        tau3 -= p[CP] * w3
-    table = p[R2] * (f1 + f3) - drive.load - p[CT] * w2
-    return tau1, table, tau3, t1, t3, f1, f3, branch_1, branch_3, piece
+    terms, f1, f3, branch_1, branch_3, piece = torque_terms(
+        t, y, model, drive, held.branch_1, held.branch_3, held.drive)
+    tau1, tau2, tau3 = net_torques(terms)
+    return (tau1, tau2, tau3, terms.drive[0] + terms.cogging[0],
+            terms.drive[2] + terms.cogging[2], f1, f3, branch_1, branch_3, piece)
 
 
 @kernel
@@ -128,10 +110,13 @@ def motion(t: float, y: tuple, model: PackedModel, drive: Drive, held: Pieces
 
 
 @inline_kernel
-def _accelerations(y: tuple, torques: tuple, p: np.ndarray, held: Pieces
-                   ) -> tuple[float, float, float, float, float, float, float, float, Pieces]:
-    """:func:`motion` from the torques of :func:`body_torques` at state y."""
-    tau1, tau2, tau3, t1, t3, f1, f3, branch_1, branch_3, piece = torques
+def bearings(y: tuple, tau1: float, tau2: float, tau3: float, p: np.ndarray, held: Pieces
+             ) -> tuple[float, float, float, float, float, float, FrictionPiece,
+                        FrictionPiece, FrictionPiece]:
+    """Each body's bearing friction under the torques τ of :func:`body_torques` at state
+    y, on the pieces of its law ``held`` names (FROM_STATE: from the speed and torque):
+    (θ̈1, θ̈2, θ̈3 in rad/s², the friction torques T_f1, T_f2, T_f3 in N·m, the pieces).
+    """
     friction_1, friction_2, friction_3 = held.friction_1, held.friction_2, held.friction_3
     if friction_1 == FrictionPiece.FROM_STATE:
         friction_1 = friction_piece(friction_1, y[3], tau1, p[TSP])
@@ -139,9 +124,19 @@ def _accelerations(y: tuple, torques: tuple, p: np.ndarray, held: Pieces
         friction_2 = friction_piece(friction_2, y[4], tau2, p[TS2])
     if friction_3 == FrictionPiece.FROM_STATE:
         friction_3 = friction_piece(friction_3, y[5], tau3, p[TSP])
-    a1 = friction_on(friction_1, y[3], tau1, p[I1], p[TCP], p[TSP], p[WSP])[0]
-    a2, table_friction = friction_on(friction_2, y[4], tau2, p[I2], p[TC2], p[TS2], p[WS2])
-    a3 = friction_on(friction_3, y[5], tau3, p[I3], p[TCP], p[TSP], p[WSP])[0]
+    a1, f1 = friction_on(friction_1, y[3], tau1, p[I1], p[TCP], p[TSP], p[WSP])
+    a2, f2 = friction_on(friction_2, y[4], tau2, p[I2], p[TC2], p[TS2], p[WS2])
+    a3, f3 = friction_on(friction_3, y[5], tau3, p[I3], p[TCP], p[TSP], p[WSP])
+    return a1, a2, a3, f1, f2, f3, friction_1, friction_2, friction_3
+
+
+@inline_kernel
+def _accelerations(y: tuple, torques: tuple, p: np.ndarray, held: Pieces
+                   ) -> tuple[float, float, float, float, float, float, float, float, Pieces]:
+    """:func:`motion` from the torques of :func:`body_torques` at state y."""
+    tau1, tau2, tau3, t1, t3, f1, f3, branch_1, branch_3, piece = torques
+    a1, a2, a3, _, table_friction, _, friction_1, friction_2, friction_3 = bearings(
+        y, tau1, tau2, tau3, p, held)
     table = tau2 if friction_2 == FrictionPiece.NONE else tau2 + table_friction
     return (a1, a2, a3, t1, table, t3, f1, f3,
             Pieces(branch_1, branch_3, piece, friction_1, friction_2, friction_3))
@@ -231,10 +226,10 @@ def stiffest_linearization(params: TableParams) -> np.ndarray:
     """System matrix A (6×6, dy/dt = A·y) of the equations of motion linearized at their
     stiffest: every mesh that can carry force in contact at K = k_eff + k_a, with the
     longest pinion lever r + z·Σ n·|ε_n| (`angle` phase, see
-    :func:`~screwgear_ros.params.table.ste_slope`), mesh and table damping included, and the
-    drive's torque–speed line on every pinion it can drive (its slope −T_s/ω_nl acts as
-    a damper on the driven pinion; :func:`drive_piece`) with the pinions' viscous bearing
-    loss c_p. Bearing friction's Stribeck slope is left out (docs/model_notes.md §14).
+    :func:`~screwgear_ros.params.table.ste_slope`) and the contact damping c; every other
+    term at its speed derivative (:func:`off_mesh_damping`: the drive on its torque–speed
+    line, whose slope −T_s/ω_nl acts as a damper on the pinion it drives, the viscous
+    losses, …). Bearing friction's Stribeck slope is left out (docs/model_notes.md §14).
     Generalized mesh directions: δ1 = r1·θ1 − r2·θ2, δ3 = r3·θ3 − r2·θ2 (mesh 3 only
     in `anti_backlash`). Its eigenvalues bound the step an explicit method can take."""
     k = effective_stiffness(params) + params.mesh_stiffness_amplitude
@@ -242,25 +237,55 @@ def stiffest_linearization(params: TableParams) -> np.ndarray:
     lever_3 = params.radius_pinion_3 + ste_slope(params, '3')
     inertia = np.array([params.inertia_pinion_1, params.inertia_table, params.inertia_pinion_3])
     g = np.array([[lever_1, -params.radius_table, 0.0], [0.0, -params.radius_table, lever_3]])
-    drive = (params.drive_stall_torque / params.drive_no_load_speed
-             if params.drive_no_load_speed > 0.0 else 0.0)
-    driven = np.array([drive + params.pinion_damping, 0.0, drive + params.pinion_damping])
     if params.mode is Mode.CONVENTIONAL:
-        g, driven[2] = g[:1], 0.0
+        g = g[:1]
     stiffness = k * g.T @ g
-    damping = params.mesh_damping * g.T @ g + np.diag(driven + [0.0, params.table_damping, 0.0])
+    damping = params.mesh_damping * g.T @ g + off_mesh_damping(params)
     m_inv = np.diag(1.0 / inertia)
     return np.block([[np.zeros((3, 3)), np.eye(3)], [-m_inv @ stiffness, -m_inv @ damping]])
+
+
+def off_mesh_damping(params: TableParams) -> np.ndarray:
+    """−∂τ/∂ω (3×3, N·m·s/rad) of the torques of every term but the meshes'
+    (:func:`~screwgear_ros.physics.torques.off_mesh_torques`) at rest, by central
+    differences of unit speed steps (the terms are affine in the speeds on one piece of
+    the drive line), with the drive on its torque–speed line where it has one and the
+    current loops at their targets; each pinion's column in the direction that drives
+    it (the larger damping of the two)."""
+    model = pack(params)
+    piece = DrivePiece.LINE if params.drive_no_load_speed > 0.0 else DrivePiece.COMMAND
+    out = np.zeros((3, 3))
+    for direction in (1.0, -1.0):
+        for j in range(3):
+            step = np.zeros(3)
+            step[j] = 1.0
+            column = (_off_mesh(model, -step, direction, piece)
+                      - _off_mesh(model, step, direction, piece)) / 2.0
+            if direction > 0.0 or column[j] > out[j, j]:
+                out[:, j] = column
+    return out
+
+
+def _off_mesh(model: PackedModel, speeds: np.ndarray, direction: float,
+              piece: DrivePiece) -> np.ndarray:
+    w1, w2, w3 = (float(v) for v in speeds)
+    lag1, lag3 = drive_targets(piece, w1, w3, 0.0, direction, model.p)
+    terms = torque_terms(0.0, (0.0, 0.0, 0.0, w1, w2, w3, lag1, lag3), model,
+                         Drive(0.0, direction, 0.0), ContactBranch.FROM_STATE,
+                         ContactBranch.FROM_STATE, piece)[0]
+    return np.array(off_mesh_torques(terms))
 
 
 __all__ = [
     'BY_LAW',
     'Pieces',
+    'bearings',
     'body_torques',
     'contact_branches',
     'effort_and_meshes',
     'friction_pieces',
     'motion',
+    'off_mesh_damping',
     'pieces',
     'rhs',
     'rhs_vector',

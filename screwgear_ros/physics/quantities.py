@@ -1,6 +1,6 @@
 """Quantities the paper derives from the parameters: equivalent mass, natural frequency,
 damping ratio, stiffness fluctuation, mean mesh force, mesh frequency, performance index;
-and the terminal speed of the drive line (what linearize takes as steady rotation).
+and the terminal speed of the drive line (:mod:`.steady`'s rigid steady motion).
 
 The two the validation of :class:`~screwgear_ros.params.table.TableParams` itself needs
 (:func:`~screwgear_ros.params.table.effective_stiffness`, :func:`~screwgear_ros.params.table.ste_slope`)
@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 
 from ..params.table import PAPER_DRIVE_TORQUE, PAPER_PINION_SPEED, TableParams
+from .packed import pack
+from .steady import steady_table_speed
 
 
 def equivalent_mass(p: TableParams) -> float:
@@ -51,29 +53,26 @@ def performance_index(zeta: float, ka_rel: float, k_m: float) -> float:
     return math.inf if ka_rel == 0.0 else zeta / ka_rel * math.sqrt(k_m)
 
 
-
-
 def terminal_speed(p: TableParams, torque: float, load: float = 0.0) -> float:
-    """Steady speed, rad/s, of the driving pinion under a constant command ``torque`` > 0
-    (N·m) against the table damping c_t and a constant table load (N·m): the speed at
-    which the delivered torque min(T, T_s·(1 − ω/ω_nl)) balances c_t·(r1/r2)²·ω +
-    T_load·r1/r2 (rigid kinematics, ω2 = ω·r1/r2; the preloads cancel). ``inf`` when
-    nothing holds the drive back (ideal source and c_t = 0).
+    """Steady speed, rad/s, of the driving pinion (pinion 1, direction +1) under a constant
+    command ``torque`` > 0 (N·m) against a constant table load (N·m): the rigid steady
+    motion of :func:`~screwgear_ros.physics.steady.steady_table_speed`, where the torque
+    the drive delivers (min(T, T_s·(1 − ω/ω_nl))) balances every other term (the table
+    damping c_t, the load, the pinions' c_p, sliding bearing friction, …) on the rigid
+    motion. ``inf`` when nothing holds the drive back (e.g. an ideal source and no loss).
 
     It is the exact mean speed of a periodic steady state in the `paper` formulation
     while the speed ripple stays on one piece of the line (docs/model_notes.md §10).
+
+    Examples
+    --------
+    >>> from screwgear_ros.params.table import TableParams
+    >>> p = TableParams(table_damping=1000.0, drive_no_load_speed=0.0)
+    >>> speed = terminal_speed(p, 100.0)       # c_t·(r1/r2)²·ω = T at the pinion
+    >>> abs(speed * 1000.0 * (p.radius_pinion_1 / p.radius_table) ** 2 / 100.0 - 1.0) < 1e-12
+    True
     """
-    ratio = p.radius_pinion_1 / p.radius_table
-    damping = p.table_damping * ratio ** 2             # N·m·s/rad at the pinion
-    resisting = load * ratio                           # N·m at the pinion
-    flat = (torque - resisting) / damping if damping > 0.0 else math.inf
-    if p.drive_no_load_speed <= 0.0:
-        return flat
-    corner = p.drive_no_load_speed * (1.0 - torque / p.drive_stall_torque)
-    if flat <= corner:
-        return flat
-    return (p.drive_stall_torque - resisting) / (damping + p.drive_stall_torque
-                                                 / p.drive_no_load_speed)
+    return steady_table_speed(pack(p), torque, load, 1) * p.radius_table / p.radius_pinion_1
 
 
 __all__ = [

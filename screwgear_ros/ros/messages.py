@@ -21,7 +21,6 @@ from ..interface import (
     COMMAND_TOPICS,
     INFO_TOPICS,
     OUTPUT_TOPICS,
-    RECORDED_TOPICS,
     Input,
 )
 from ..sim.commands import JointCommand
@@ -41,8 +40,6 @@ INFO_TYPES = {key: message_class(name) for key, name in INFO_TOPICS.items()}
 #: The node's outputs: key → (topic, relative unless absolute, message class).
 OUTPUT_TYPES = {key: (BY_KEY[key].name, message_class(name))
                 for key, name in OUTPUT_TOPICS.items()}
-#: What the recording holds besides outputs and inputs, under the node's private namespace.
-PRIVATE_TYPES = {key: message_class(name) for key, name in RECORDED_TOPICS.items()}
 
 
 def to_message(shape: Shape) -> Any:
@@ -103,7 +100,6 @@ __all__ = [
     'INPUT_TYPES',
     'MESH_NAMES',
     'OUTPUT_TYPES',
-    'PRIVATE_TYPES',
     'active_path',
     'diagnostics',
     'input_message',

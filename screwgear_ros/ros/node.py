@@ -52,7 +52,6 @@ from ..interface import (
     ANSWERS,
     BY_KEY,
     LATCHED_OUTPUTS,
-    RECORDED_TOPICS,
     TICK_TOPIC,
 )
 from ..numerics.kernels import compiled_now, loads_without_registries, without_blas_probe
@@ -141,7 +140,6 @@ class TableSim(Node):
         topics = {key: pub.topic_name for key, pub in publishers.items()}
         topics.update({topic: sub.topic_name for topic, sub in subs.items()})
         topics.update({topic: sub.topic_name for topic, sub in notes.items()})
-        topics.update({key: f'{self._fqn}/{key}' for key in RECORDED_TOPICS})
         self.io = RunIO(topics, settings.joint_names, publishers)
         self._derive(params, settings, keep=False)   # ParameterError: refuse to start
         if completed:
@@ -160,7 +158,8 @@ class TableSim(Node):
                 f'factor {s.real_time_factor:g}'
                 + (', lockstep: each tick waits for the controller\'s answer '
                    f'({ANSWERS}) to the last joint_states' if s.lockstep else '')
-                + (f', recording to {s.record}' if s.record else ''))
+                + (f', recording to {s.record}' if s.record else '')
+                + (f', stops at t = {s.duration:g} s (duration)' if s.duration else ''))
         # The first tick before the start's log lines: rclpy's first log call in a process
         # looks up the source file of every module loaded (inspect.getmodule), and the
         # first joint_states need not wait for that.

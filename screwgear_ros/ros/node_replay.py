@@ -139,7 +139,8 @@ def spawn_node(schedule: Schedule, record: Path, ros_args: list[str], workdir: P
     if exe is None:
         raise ReplayError('table_sim is not on PATH (source the workspace or the venv)')
     values = {**schedule.start, 'record': str(record), 'real_time_factor': float(factor),
-              'publish_clock': True, 'lockstep': lockstep}     # ROS values already
+              'publish_clock': True, 'lockstep': lockstep,     # ROS values already
+              'duration': 0.0}       # the replay ends the node when its events are done
     params_file = workdir / 'replay_params.yaml'
     params_file.write_text(yaml.safe_dump({'/**': {'ros__parameters': values}},
                                           sort_keys=False))

@@ -4,8 +4,9 @@ One compiled call per tick (:meth:`Session.tick`), a sleep to the tick's absolut
 deadline (:class:`screwgear_ros.sim.pacing.Pacer`), then :class:`~screwgear_ros.runs.run_io.RunIO`
 publishes and records the tick. With ``lockstep`` the thread starts tick k+1 only once
 the controller has answered tick k's ``joint_states`` (:class:`~screwgear_ros.sim.pacing.AnswerGate`),
-re-sending it while it waits. It logs what a person should know about a tick and
-publishes ``/diagnostics``.
+re-sending it while it waits; free-running, it counts the ticks whose answer came too
+late (:class:`~screwgear_ros.sim.status.AnswerCount`). It logs what a person should know
+about a tick, publishes ``/diagnostics``, and stops the node at ``duration``.
 
 The session, the RunIO, the pacer, the rate limiter and the health record belong to this
 thread (see :mod:`screwgear_ros.ros.node` for what the executor thread may touch).
@@ -27,6 +28,7 @@ from ..sim.ratelimit import RateLimiter
 from ..sim.session import Session, Tick
 from ..sim.status import (
     MAX_PHASE_PER_STEP,
+    AnswerCount,
     Health,
     diagnostic_values,
     mesh_phase_per_step,
@@ -69,6 +71,7 @@ class PacingThread:
         self._log, self._fqn, self._refused = logger, fqn, refused
         self._warnings = RateLimiter(1.0)          # rejected inputs, per topic
         self._reversals = RateLimiter(STATUS_PERIOD)   # one reversal line per status period
+        self._late = RateLimiter(STATUS_PERIOD)    # one late-answers warning per status period
         self.failed = False
         self._thread = threading.Thread(target=self._run, name='table_sim pacing', daemon=True)
 
@@ -94,15 +97,26 @@ class PacingThread:
         s = session.settings
         pacer = Pacer(s.steps_per_publish * s.dt, s.real_time_factor)
         meter = FactorMeter()
+        # Free-running, the session integrates tick k+1 right after it published tick k,
+        # then sleeps to k+1's deadline: an answer to tick k that comes before tick k+1 is
+        # published acts at tick k+2's first step, one that comes later a tick after that.
+        # So it counts as in time when it came within that publish period (the gate's
+        # window, polled just before the next publish; lockstep waits for it instead).
+        answers = None if s.lockstep else AnswerCount(s.min_answer_rate)
         self._health = Health(s.real_time_factor, float('nan'), pacer.stats,
-                              dict(session.rejected), dt=s.dt, lockstep=s.lockstep)
+                              dict(session.rejected), dt=s.dt, lockstep=s.lockstep,
+                              answers=answers)
         self._gate.expect()
         io.start(session)
         next_status = time.monotonic() + STATUS_PERIOD
+        published = False         # a tick's joint_states went out (io.start's do not count)
+        # Steps run, for duration: counted, since a faulted plant's time stands still
+        ran = 0
         while not self._stop.is_set():
             if s.lockstep and not self._await_answer(meter):
                 break
             tick = session.tick()
+            ran += session.settings.steps_per_publish     # the tick's own length
             self._report(tick)
             if session.settings is not s:
                 s = session.settings
@@ -110,18 +124,29 @@ class PacingThread:
                         pacer.real_time_factor != s.real_time_factor:
                     pacer.restart(s.steps_per_publish * s.dt, s.real_time_factor)
                     self._health.requested_factor = s.real_time_factor
+                if answers is not None:
+                    answers.threshold = s.min_answer_rate
             if not pacer.wait(self._stop, self._wake):
                 break
-            if s.lockstep:
-                self._gate.expect()
+            if answers is not None and published:
+                answers.tick(self._gate.wait(0.0))
+            published = True
+            self._gate.expect()
             io.tick(session, tick, lossless=s.real_time_factor == 0.0)   # no deadline
             if meter.elapsed() >= DIAGNOSTICS_PERIOD:
                 self._health.achieved_factor = meter.update(tick.outputs.time)
+                if answers is not None and answers.close():
+                    self._warn_late(answers)
                 self._publish_diagnostics()
                 if time.monotonic() >= next_status:
                     next_status += STATUS_PERIOD
-                    self._log.info(status_line(tick.outputs, self._health.achieved_factor)
-                                   + self._reversals_since())
+                    self._log.info(status_line(tick.outputs, self._health.achieved_factor,
+                                               answers) + self._reversals_since())
+            if 0.0 < s.duration <= (ran + 0.5) * s.dt:
+                self._log.info(f'duration reached at t = {ran * s.dt:.6f} s of simulation '
+                               f'(duration {s.duration:g} s): stopping')
+                self._stop.set()            # main() closes the recording and exits 0
+                break
 
     def _await_answer(self, meter: FactorMeter) -> bool:
         """Lockstep: wait for the controller's answer to the last outputs, re-sending
@@ -176,6 +201,18 @@ class PacingThread:
         if tick.new_fault:
             log.error(f'{tick.fault}; simulation halted, publishing the last finite state; '
                       'call ~/reset to restart from equilibrium')
+
+    def _warn_late(self, answers: AnswerCount) -> None:
+        """Free-running: say (once per status period) that the controller's answers come
+        too late for many ticks."""
+        if self._late.allow('answers')[0]:
+            self._log.warning(
+                f'free-running: the controller answered {100.0 * answers.rate:.1f} % of the '
+                f'last {answers.window} ticks within a publish period (below '
+                f'min_answer_rate {answers.threshold:g}; {answers.missed} missed since start): '
+                'a late answer acts a tick later, so the loop runs with a varying delay; '
+                'run in lockstep (-p lockstep:=true), or lower real_time_factor or '
+                'publish_rate')
 
     def _reversals_since(self) -> str:
         """The status line's count of reversals not logged one by one since the last

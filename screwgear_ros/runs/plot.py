@@ -31,6 +31,7 @@ from ..params.table import Mode
 from ..sim.session import Tick
 from .check import MESH_SIGNALS, CheckReport, signal_names
 from .figure_style import COLORS, plt
+from .plot_error import ErrorOptions, ErrorView, error_view
 from .plot_path import draw_path, draw_switch_lines
 from .plot_series import (
     ParameterMark,
@@ -90,6 +91,7 @@ class Mark(StrEnum):
     TOLERANCE = 'tolerance'
     SETPOINT = 'setpoint'
     TRACKING_ERROR = 'tracking error'
+    BAND = 'tolerance band'
 
 
 class FigureFileError(ScrewgearError):
@@ -121,11 +123,15 @@ def _legend(ax: Axes) -> None:
     ax.legend(loc='upper left', bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=9)
 
 
-def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Figure:
+def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None,
+               error: ErrorOptions | None = None) -> Figure:
     """The recorded run, panel by panel on one simulation-time axis (see :class:`Panel`;
     the setpoint on the table angle and the tracking-error panel only for a bag that
-    recorded a setpoint);
-    ``zoom`` (t0, t1 in s): only that stretch, each panel scaled to what it shows there.
+    recorded a setpoint, or with ``error.target``);
+    ``zoom`` (t0, t1 in s): only that stretch, each panel scaled to what it shows there;
+    ``error``: the tracking error in encoder counts, a tolerance band, a target
+    (:func:`~screwgear_ros.runs.plot_error.error_view`, whose
+    :class:`~screwgear_ros.runs.plot_error.ErrorViewError` it raises).
 
     Raises :class:`BagError` when the bag holds no data to draw (fewer than two output
     samples: empty axes would look like a run that did nothing), when ``zoom`` holds no
@@ -142,6 +148,8 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
             raise NoData(f'{run.path}: no data to plot in --zoom '
                            f'{zoom[0]:g}:{zoom[1]:g} s: the run has samples from '
                            f'{t[0]:g} s to {t[-1]:g} s')
+    error = error or ErrorOptions()
+    view = error_view(run, error) if len(run.setpoint) or error.any else None
     ticks = replay_in_process(run).ticks
     marks = run_marks(run, ticks)
     params = run.parameters.params
@@ -150,7 +158,7 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
     t = js.steps * run.dt
     t_end = max(run.end_step * run.dt, float(t[-1]))
 
-    panels = [p for p in Panel if p is not Panel.TRACKING or len(run.setpoint)]
+    panels = [p for p in Panel if p is not Panel.TRACKING or view is not None]
     height = 16 + 2 * (len(panels) - len(Panel) + 1)     # the tracking panel adds room
     fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(13, height), dpi=DPI,
                              height_ratios=[HEIGHTS.get(p, 1.0) for p in panels],
@@ -165,10 +173,14 @@ def run_figure(run: RecordedRun, zoom: tuple[float, float] | None = None) -> Fig
     exact = '' if measured is None else ' (exact)'
     a = ax[Panel.TABLE_ANGLE]
     a.plot(t, js.values[:, 1], color=COLORS[0], label='θ2 table' + exact)
-    if Panel.TRACKING in ax:
-        a.plot(*setpoint_series(run), drawstyle='steps-post', color=COLORS[1], linestyle='--',
-               linewidth=1.4, gid=Mark.SETPOINT, label='setpoint\n(recorded)')
-        _draw_tracking(ax[Panel.TRACKING], run)
+    if view is not None:
+        if error.target is None:
+            a.plot(*setpoint_series(run), drawstyle='steps-post', color=COLORS[1],
+                   linestyle='--', linewidth=1.4, gid=Mark.SETPOINT, label='setpoint\n(recorded)')
+        else:
+            a.axhline(error.target, color=COLORS[1], linestyle='--', linewidth=1.4,
+                      gid=Mark.SETPOINT, label=f'target\n{error.target:g} rad')
+        _draw_tracking(ax[Panel.TRACKING], view)
     a.set_ylabel('table angle [rad]')
 
     b = ax[Panel.TABLE_SPEED]
@@ -268,13 +280,23 @@ def _fit_y(a: Axes, t0: float, t1: float) -> None:
         a.set_ylim(low - pad, high + pad)
 
 
-def _draw_tracking(a: Axes, run: RecordedRun) -> None:
-    times, error = tracking_error(run)
-    rms = float(np.sqrt(np.mean(error ** 2))) if len(error) else 0.0
-    a.plot(times, error * 1e3, color=COLORS[0], gid=Mark.TRACKING_ERROR,
-           label=f'setpoint − θ2\n(RMS {rms * 1e3:.3g} mrad over the run)')
+def _draw_tracking(a: Axes, view: ErrorView) -> None:
+    exact = '' if view.measured_error is None else ' (exact)'
+    a.plot(view.times, view.error, color=COLORS[0], gid=Mark.TRACKING_ERROR,
+           label=f'{view.reference} − θ2{exact}\n(RMS {view.rms:.3g} {view.unit} over the run)')
+    if view.measured_times is not None and view.measured_error is not None:
+        a.plot(view.measured_times, view.measured_error, drawstyle='steps-post',
+               color=COLORS[3], linewidth=0.9, gid=Mark.MEASURED,
+               label=f'{view.reference} − θ2 measured')
+    if view.band is not None:
+        inside = ('outside at the end' if view.inside_from is None else
+                  f'inside from t = {view.inside_from:.4g} s on')
+        a.axhspan(-view.band, view.band, color=COLORS[2], alpha=0.15, gid=Mark.BAND,
+                  label=f'±{view.band:g} {view.unit}: {inside}')
+        if view.inside_from is not None:
+            a.axvline(view.inside_from, color=COLORS[2], linewidth=1.0, linestyle=':')
     a.axhline(0.0, color='0.5', linewidth=0.6)
-    a.set_ylabel('tracking error [mrad]')
+    a.set_ylabel(f'tracking error [{view.unit}]')
     _legend(a)
 
 

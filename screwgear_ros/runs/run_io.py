@@ -119,9 +119,9 @@ class RunIO:
     def render(self, session: Session, params: TableParams,
                settings: SimSettings) -> tuple[str, str]:
         """What a run with these parameters records and publishes about itself: the
-        run_parameters YAML ('' when not recording) and the URDF ('' without
+        run_parameters YAML ('' without that topic) and the URDF ('' without
         robot_description). Any thread: it reads only the session's constants."""
-        text = '' if self.recorder is None else run_parameters.dump(
+        text = '' if 'run_parameters' not in self.topics else run_parameters.dump(
             run_parameters.RunParameters(params, settings, session.initial_state,
                                          session.start_step))
         urdf = '' if 'robot_description' not in self.topics else robot_description(
@@ -174,15 +174,16 @@ class RunIO:
                 if list(session.settings.joint_names) != self.joint_names:
                     self.joint_names = list(session.settings.joint_names)
                     self._encoder.rename(self.joint_names)
-            elif self.recorder is None:
-                continue
-            elif isinstance(event, Command):
-                self.record(event.topic, t_ns, messages.input_message(event.topic,
-                                                                      event.value, t_ns))
-            elif isinstance(event, Setpoint):
-                self.record('setpoint', t_ns, messages.float64(event.value))
-            else:
-                self.record('reset', t_ns, messages.empty())
+            elif isinstance(event, (Command, Setpoint)):
+                if self.recorder is None:
+                    continue
+                if isinstance(event, Command):
+                    self.record(event.topic, t_ns, messages.input_message(event.topic,
+                                                                          event.value, t_ns))
+                else:
+                    self.record('setpoint', t_ns, messages.float64(event.value))
+            elif 'reset' in self.topics:
+                self.send('reset', t_ns, messages.empty())
         if tick.outputs.active_path != self._path:
             self._publish_path(tick.outputs.active_path, t_ns)
         self.publish_outputs(tick.outputs, lossless, tick.measured)
@@ -234,11 +235,12 @@ class RunIO:
 
     def _parameters(self, session: Session, t_ns: int, params: TableParams,
                     settings: SimSettings) -> None:
-        """Record the parameters taking effect at simulation time ``t_ns`` (each change of
-        a tick its own, in order); publish and record their URDF if it changed."""
+        """Publish and record the parameters taking effect at simulation time ``t_ns``
+        (each change of a tick its own, in order: a ``ros2 bag record`` of the topic gets
+        what this recorder writes); publish and record their URDF if it changed."""
         text, urdf = self._texts(session, params, settings)
-        if self.recorder is not None:
-            self.record('run_parameters', t_ns, messages.string(text))
+        if text:
+            self.send('run_parameters', t_ns, messages.string(text))
         if urdf and urdf != self.description:
             self.description = urdf
             self.send('robot_description', t_ns, messages.string(urdf))

@@ -2,28 +2,28 @@
 
 Along a run driven through a :class:`~screwgear_ros.sim.session.Session`, the balance
 
-    E_kin(t) + V(t) − E_kin(0) − V(0)
-        = W_drive + W_preload + W_load + W_phase − D_mesh − D_table + residual
+    E_kin(t) + V(t) − E_kin(0) − V(0) = Σ W_term + W_phase − D_mesh + residual
 
 is evaluated at every integration step (docs/model_notes.md §9–10 give the derivation):
 
 - E_kin = ½·(I1·ω1² + I2·ω2² + I3·ω3²); V = Σ ½·K(φ_i)·f(δ_i)² over the meshes in use
-  (mesh 3 only in `anti_backlash`), f the spring deflection (:func:`model.branch_penetration`);
-- W_drive = ∫ T_d·ω_a dt: the drive torque delivered on the active pinion (through the
-  torque–speed line, with the torque fluctuation; lagged by the current loops, both
-  drives' share while a reversal hands over; with the cogging ripple) times that pinion's
-  speed in the sense it drives, i.e. T1·ω1 + T3·ω3 less the preload's share;
-- W_preload = T_p·(Δθ1 − Δθ3) and W_load = −T_load·Δθ2 (constant torques: exact);
-- a parameter change that alters the stored energy (stiffness, inertia, backlash, STE)
-  does so at the step it takes effect: that step is counted as work (``retuning``);
-- D_mesh = ∫ (F − K·f)·δ̇ dt per mesh, the contact damping's dissipation (F the contact
-  force of ``mesh_state``, spring K·f plus damping, clipped so it never pulls; ≥ 0);
-  D_table = ∫ c_t·ω2² dt;
+  (mesh 3 only in `anti_backlash`), f the spring deflection (:func:`branch_penetration`);
+- W_term = ∫ Σ_j τ_j·ω_j dt for every term of the equations of motion but the mesh
+  (:class:`~screwgear_ros.physics.torques.Terms`: the drives with the preload, cogging,
+  the load, the viscous losses, …, and bearing friction,
+  :func:`~screwgear_ros.physics.motion.bearings`), each from the very torques the
+  right-hand side sums, so a new term is audited without an edit here
+  (:attr:`EnergyAudit.work` by name; a loss's work is negative);
+- the mesh's own work is the change of V, less D_mesh = ∫ (F − K·f)·δ̇ dt per mesh, the
+  contact damping's dissipation (F the contact force of ``mesh_state``, spring K·f plus
+  damping, clipped so it never pulls; ≥ 0), plus W_phase:
 - W_phase = ∫ (½·K'(φ)·f² − F·ε'(φ))·φ̇ dt per mesh: in `time` phase the work of the
   prescribed mesh excitation, part of the balance (``excitation``). In `angle` phase it
   is only reported (``phase_work``): it is the work the `paper` formulation's mesh does
   on its own, i.e. that formulation's residual; `energy_consistent` cancels it with
-  its lever and stiffness-slope terms.
+  its lever and stiffness-slope terms;
+- a parameter change that alters the stored energy (stiffness, inertia, backlash, STE)
+  does so at the step it takes effect: that step is counted as work (``retuning``).
 
 The residual is what is left: zero for exact solutions of the `energy_consistent`
 equations (and of both formulations in `time` phase), RK4's own error here; in `angle`
@@ -46,14 +46,16 @@ corner) costs the rule its order on that one interval, as it costs RK4 its order
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..params.table import SimSettings, TableParams
-from ..physics.drive import DrivePiece, pinion_torques
+from ..physics.drive import DrivePiece
+from ..physics.friction import FrictionPiece
 from ..physics.jit import kernel
 from ..physics.mesh import (
+    ContactBranch,
     branch_force,
     branch_penetration,
     contact_branch,
@@ -61,8 +63,8 @@ from ..physics.mesh import (
     mesh_phase,
     mesh_stiffness_slope,
 )
+from ..physics.motion import Pieces, bearings
 from ..physics.packed import (
-    CT,
     I1,
     I2,
     I3,
@@ -72,20 +74,29 @@ from ..physics.packed import (
     PHASE_TIME,
     R1,
     R3,
-    TP,
     Z1,
     Z3,
     B,
     C,
+    Drive,
     PackedModel,
     pack,
 )
+from ..physics.torques import MESH_TERM, TERM_NAMES, net_torques, torque_terms
 from .events import Command, Event
 from .plant import DriveInput
 from .session import Session, Tick
 
 #: Points of the quadrature stencil (degree 5).
 STENCIL = 6
+
+#: The works :attr:`EnergyAudit.work` holds: every torque term's but the mesh's (whose
+#: work is the change of its potential, its damping and its phase work), then bearing
+#: friction's.
+WORKS: tuple[str, ...] = tuple(
+    name for k, name in enumerate(TERM_NAMES) if k != MESH_TERM) + ('bearing_friction',)
+_FRICTION = len(TERM_NAMES)                      # power columns after the terms'
+_MESH_DAMPING, _PHASE, _COLUMNS = _FRICTION + 1, _FRICTION + 2, _FRICTION + 3
 
 
 @dataclass(frozen=True)
@@ -122,14 +133,13 @@ class EnergyAudit:
     time: np.ndarray
     kinetic: np.ndarray
     potential: np.ndarray
-    drive: np.ndarray            # work of the drive torque on the active pinion
-    preload: np.ndarray          # work of the preload torques ±T_p
-    load: np.ndarray             # work of the external table load
     mesh_damping: np.ndarray     # dissipated by the contact damping (≥ 0)
-    table_damping: np.ndarray    # dissipated by c_t (≥ 0)
     excitation: np.ndarray       # work of the time-driven mesh (`time` phase), else 0
     retuning: np.ndarray         # stored-energy steps where a parameter change took effect
     phase_work: np.ndarray       # ∫(½·K'·f² − F·ε')·φ̇ dt over the meshes, any phase
+    #: The work done on the gear by each torque term but the mesh's, by the names of
+    #: :data:`WORKS` (a loss's is negative).
+    work: Mapping[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def stored(self) -> np.ndarray:
@@ -139,8 +149,8 @@ class EnergyAudit:
     @property
     def supplied(self) -> np.ndarray:
         """Net energy put in since the start: works minus dissipation, J."""
-        return (self.drive + self.preload + self.load + self.excitation + self.retuning
-                - self.mesh_damping - self.table_damping)
+        return (sum(self.work.values(), np.zeros_like(self.time)) + self.excitation
+                + self.retuning - self.mesh_damping)
 
     @property
     def residual(self) -> np.ndarray:
@@ -150,8 +160,8 @@ class EnergyAudit:
     @property
     def scale(self) -> float:
         """The largest energy in the balance, J: stored energy or any one work term."""
-        terms = (self.stored, self.drive, self.preload, self.load, self.mesh_damping,
-                 self.table_damping, self.excitation, self.retuning)
+        terms = (self.stored, self.mesh_damping, self.excitation, self.retuning,
+                 *self.work.values())
         return float(max(np.max(np.abs(term)) for term in terms))
 
     @property
@@ -228,54 +238,56 @@ def audit(trace: Trace) -> EnergyAudit:
     h = trace.stride * trace.dt
     kinetic = np.empty(n)
     potential = np.empty(n)
-    works = {name: np.zeros(n) for name in ('drive', 'preload', 'load', 'mesh_damping',
-                                            'table_damping', 'excitation', 'retuning',
-                                            'phase_work')}
+    names = ('mesh_damping', 'excitation', 'retuning', 'phase_work', *WORKS)
+    works = {name: np.zeros(n) for name in names}
     if not trace.stretches:
         raise ValueError('an audit needs at least one integration step')
+    columns = [k for k in range(len(TERM_NAMES)) if k != MESH_TERM] + [_FRICTION]
     for k, stretch in enumerate(trace.stretches):
         a, b = stretch.start, stretch.end
         model = pack(stretch.params)
-        power = np.empty((b - a + 1, 6))
+        power = np.empty((b - a + 1, _COLUMNS))
         stored = np.empty((b - a + 1, 2))
-        _powers(t[a:b + 1], y[a:b + 1], model, stretch.drive.torque,
-                float(stretch.drive.direction), power, stored)
+        _powers(t[a:b + 1], y[a:b + 1], model, stretch.drive.kernel, power, stored)
         if k == 0:
             kinetic[a], potential[a] = stored[0]
         # new parameters (stiffness, inertia, …) change the stored energy at their step
         step = float(np.sum(stored[0])) - (kinetic[a] + potential[a])
         kinetic[a + 1:b + 1], potential[a + 1:b + 1] = stored[1:, 0], stored[1:, 1]
-        gained = {
-            'drive': cumulative(power[:, 0], h),
-            'mesh_damping': cumulative(power[:, 1], h),
-            'table_damping': cumulative(power[:, 2], h),
-            'phase_work': cumulative(power[:, 3], h),
-            # constant torques: their work is exact
-            'preload': (stretch.params.preload_torque if model.p[MODE] != MODE_CONVENTIONAL
-                        else 0.0) * ((y[a:b + 1, 0] - y[a, 0]) - (y[a:b + 1, 2] - y[a, 2])),
-            'load': -stretch.drive.load * (y[a:b + 1, 1] - y[a, 1]),
-        }
+        gained = {name: cumulative(power[:, column], h)
+                  for name, column in zip(WORKS, columns, strict=True)}
+        gained['mesh_damping'] = cumulative(power[:, _MESH_DAMPING], h)
+        gained['phase_work'] = cumulative(power[:, _PHASE], h)
         gained['excitation'] = (gained['phase_work'] if model.p[PHASE] == PHASE_TIME
                                 else np.zeros(b - a + 1))
         gained['retuning'] = np.full(b - a + 1, step)
         for name, values in gained.items():
             works[name][a + 1:b + 1] = works[name][a] + values[1:]
-    return EnergyAudit(t, kinetic, potential, **works)
+    return EnergyAudit(t, kinetic, potential, works.pop('mesh_damping'),
+                       works.pop('excitation'), works.pop('retuning'),
+                       works.pop('phase_work'), works)
 
 
 @kernel
-def _powers(t: np.ndarray, y: np.ndarray, model: PackedModel, torque: float, direction: float,
+def _powers(t: np.ndarray, y: np.ndarray, model: PackedModel, drive: Drive,
             power: np.ndarray, stored: np.ndarray) -> None:
-    """Per sample: power[:, 0..3] = drive, mesh damping, table damping, phase power (W);
-    stored[:, 0..1] = kinetic energy, mesh potential (J)."""
+    """Per sample: power[:, k] = the power of torque term k (W, in the order of
+    :class:`~screwgear_ros.physics.torques.Terms`), then of bearing friction, of the mesh
+    damping and the phase power; stored[:, 0..1] = kinetic energy, mesh potential (J)."""
     p = model.p
+    held = Pieces(ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE,
+                  FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE,
+                  FrictionPiece.FROM_STATE)
     for k in range(t.shape[0]):
         th1, th2, th3, w1, w2, w3 = y[k, 0], y[k, 1], y[k, 2], y[k, 3], y[k, 4], y[k, 5]
-        t1, t3, _ = pinion_torques(DrivePiece.FROM_STATE, t[k], (
-            th1, th2, th3, w1, w2, w3, y[k, 6], y[k, 7]), torque, direction, p)
-        preload = 0.0 if p[MODE] == MODE_CONVENTIONAL else p[TP] * (w1 - w3)
-        power[k, 0] = t1 * w1 + t3 * w3 - preload
-        power[k, 2] = p[CT] * w2 * w2
+        state = (th1, th2, th3, w1, w2, w3, y[k, 6], y[k, 7])
+        terms = torque_terms(t[k], state, model, drive, held.branch_1, held.branch_3,
+                             held.drive)[0]
+        for i in range(len(terms)):
+            power[k, i] = terms[i][0] * w1 + terms[i][1] * w2 + terms[i][2] * w3
+        tau1, tau2, tau3 = net_torques(terms)
+        friction = bearings(state, tau1, tau2, tau3, p, held)
+        power[k, _FRICTION] = friction[3] * w1 + friction[4] * w2 + friction[5] * w3
         stored[k, 0] = 0.5 * (p[I1] * w1 * w1 + p[I2] * w2 * w2 + p[I3] * w3 * w3)
         damping = 0.0
         phase_power = 0.0
@@ -294,8 +306,8 @@ def _powers(t: np.ndarray, y: np.ndarray, model: PackedModel, torque: float, dir
             potential += 0.5 * spring * f
             damping += (force - spring) * delta_dot
             phase_power += (0.5 * mesh_stiffness_slope(phi, p) * f * f - force * deps) * phi_dot
-        power[k, 1] = damping
-        power[k, 3] = phase_power
+        power[k, _MESH_DAMPING] = damping
+        power[k, _PHASE] = phase_power
         stored[k, 1] = potential
 
 
@@ -338,6 +350,7 @@ def cumulative(values: np.ndarray, h: float) -> np.ndarray:
 
 __all__ = [
     'STENCIL',
+    'WORKS',
     'EnergyAudit',
     'Stretch',
     'Trace',

@@ -87,11 +87,71 @@ def contact_states(params: TableParams, outputs: Outputs) -> tuple[Contact, Cont
     return Contact.of(branch_1), Contact.of(branch_3)
 
 
-def status_line(outputs: Outputs, achieved_factor: float) -> str:
-    """One line: simulation time, achieved factor, table angle and speed, path, δ."""
-    return (f't = {outputs.time:9.3f} s | x{achieved_factor:5.2f} real time | '
+def status_line(outputs: Outputs, achieved_factor: float,
+                answers: AnswerCount | None = None) -> str:
+    """One line: simulation time, achieved factor, table angle and speed, path, δ, and
+    (free-running, while a controller answers) the share of ticks it answered in time."""
+    line = (f't = {outputs.time:9.3f} s | x{achieved_factor:5.2f} real time | '
             f'table {outputs.position[1]:+.6f} rad {outputs.velocity[1]:+.5f} rad/s | '
             f'path {outputs.active_path} | TE {outputs.transmission_error * 1e6:+9.3f} um')
+    if answers is not None and not math.isnan(answers.rate):
+        line += (f' | answers {100.0 * answers.rate:.1f} % in time, '
+                 f'{answers.missed} missed since start')
+    return line
+
+
+@dataclass
+class AnswerCount:
+    """Free-running: how many ticks got the controller's answer within a publish period.
+
+    The node counts each tick (:meth:`tick`: whether an answer to its ``joint_states``
+    came before it published the next tick; a later one acts a tick later) and closes a window about once a second
+    (:meth:`close`). A window in which no answer came at all has no controller in it (none
+    started yet, or it stopped: ``command_timeout`` speaks for that) and is not counted;
+    the totals and the rate are over the windows that had one.
+
+    Examples
+    --------
+    >>> count = AnswerCount(threshold=0.9)
+    >>> for k in range(100):
+    ...     count.tick(k % 7 != 0)          # every seventh tick unanswered
+    >>> count.close()
+    True
+    >>> count.answered, count.missed, round(count.rate, 2)
+    (85, 15, 0.85)
+    >>> for k in range(50):
+    ...     count.tick(False)               # the controller is gone
+    >>> count.close(), count.missed
+    (False, 15)
+    """
+
+    threshold: float
+    answered: int = 0                 # ticks answered in time, over the counted windows
+    missed: int = 0                   # ticks not answered in time, over the counted windows
+    rate: float = math.nan            # answered share of the last counted window
+    window: int = 0                   # ticks in the last counted window
+    _window: list[int] = field(default_factory=lambda: [0, 0])   # answered, missed
+
+    def tick(self, answered: bool) -> None:
+        """One tick: whether its answer came before the next tick started."""
+        self._window[0 if answered else 1] += 1
+
+    def close(self) -> bool:
+        """End the window; whether it counted and its rate fell below the threshold."""
+        answered, missed = self._window
+        self._window = [0, 0]
+        if answered == 0:
+            return False
+        self.answered += answered
+        self.missed += missed
+        self.window = answered + missed
+        self.rate = answered / self.window
+        return self.rate < self.threshold
+
+    @property
+    def low(self) -> bool:
+        """Whether the last counted window's rate is below the threshold."""
+        return self.rate < self.threshold    # False while NaN (no controller yet)
 
 
 @dataclass
@@ -110,6 +170,7 @@ class Health:
     command_timed_out: bool = False   # command_timeout zeroed the input until the next command
     commanded: bool = False           # a command was accepted since the start
     waiting: float = 0.0     # lockstep: s of wall time without the controller's answer
+    answers: AnswerCount | None = None     # free-running: the controller's answers in time
 
 
 def diagnostic_values(params: TableParams, outputs: Outputs,
@@ -136,6 +197,13 @@ def diagnostic_values(params: TableParams, outputs: Outputs,
             level = WARN
             problems.append(f'mesh phase advances {phase_step:.3f} rad per step '
                             f'(> {MAX_PHASE_PER_STEP:.3f}): dt too large for this speed')
+        answers = health.answers
+        if answers is not None and answers.low:
+            level = WARN
+            problems.append(f'the controller answered {100.0 * answers.rate:.1f} % of the '
+                            f'ticks in time (< {100.0 * answers.threshold:g} % '
+                            f'min_answer_rate; {answers.missed} missed since start): a late '
+                            'answer acts a tick later')
         if health.recorder is not None and health.recorder[1] > 0:
             level = WARN
             problems.append(f'recorder dropped {health.recorder[1]} messages')
@@ -175,6 +243,11 @@ def diagnostic_values(params: TableParams, outputs: Outputs,
         ('waiting_for_first_command', 'false' if health.commanded else 'true'),
         ('lockstep_waiting_s', f'{health.waiting:.1f}'),
     ]
+    if health.answers is not None:       # free-running
+        rate = health.answers.rate
+        values += [('answers_in_time', str(health.answers.answered)),
+                   ('answers_missed', str(health.answers.missed)),
+                   ('answer_rate', '' if math.isnan(rate) else f'{rate:.4f}')]
     if health.recorder is not None:
         values += [('recorder_written', str(health.recorder[0])),
                    ('recorder_dropped', str(health.recorder[1]))]
@@ -186,6 +259,7 @@ __all__ = [
     'MAX_PHASE_PER_STEP',
     'OK',
     'WARN',
+    'AnswerCount',
     'Contact',
     'Health',
     'contact_states',

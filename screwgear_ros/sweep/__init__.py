@@ -1,6 +1,6 @@
 """Sweeps: many in-process runs of one scenario over a grid and/or a Monte Carlo draw of
 the node's parameters, on this process, a Dask LocalCluster or a Dask cluster
-(``sweep`` executable, README "Sweeps").
+(``sweep`` executable, docs/sweeps.md).
 
 :mod:`.spec` reads sweep files into a :mod:`.model` (the sweep, its axes and runs),
 :mod:`.inputs` reads the files a sweep file names,

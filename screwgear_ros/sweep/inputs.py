@@ -18,7 +18,8 @@ from ..params.yaml_reader import YamlReader
 
 #: Node settings that mean nothing for an in-process run (the node's pacing, clock, DDS
 #: lockstep and recorder): sweeping them would change no result.
-NODE_ONLY = ('record', 'real_time_factor', 'publish_clock', 'lockstep')
+NODE_ONLY = ('record', 'real_time_factor', 'publish_clock', 'lockstep', 'duration',
+             'min_answer_rate')
 
 #: What a file's YAML can hold that a sweep cannot carry to its workers as plain values.
 _UNREADABLE = (ParameterFileError, ScenarioError, OSError, UnicodeDecodeError,

@@ -211,7 +211,7 @@ def _parameter_name(reader: YamlReader, key: yaml.Node, name: str) -> None:
                            'lockstep, recording): it has no meaning for an in-process run')
     if name not in SWEEPABLE:
         raise reader.error(key, f'{name!r} is not a parameter of table_sim (the parameter '
-                           'table of the README names them)')
+                           'table of docs/parameters.md names them)')
 
 
 def _scaled(reader: YamlReader, node: yaml.Node, what: str) -> tuple[bool, yaml.Node]:

@@ -26,7 +26,7 @@ from std_srvs.srv import Trigger
 from screwgear_ros.ros.parameters import HARMONICS
 
 NODE = '/table_sim'
-T_P = 350.0           # default preload torque, N·m (README, params.py)
+T_P = 350.0           # default preload torque, N·m (docs/parameters.md, params/table.py)
 R1 = 0.078            # pinion radius, m
 PERIOD_NS = 1_000_000  # default publish period (1 kHz)
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,

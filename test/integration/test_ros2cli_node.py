@@ -3,8 +3,8 @@
 The ros2 CLI runs from the tests' own overlay (test/support/ros2cli.py); where its wheels
 are not found, every test here is skipped with the reason. The node is started with
 ``ros2 run`` (one node for the module, a parameter file giving it a mark); what the
-verbs print is checked against the README's tables and the package's metadata, not
-against the node's own code.
+verbs print is checked against the tables of docs/topics.md and docs/parameters.md and
+the package's metadata, not against the node's own code.
 """
 
 from __future__ import annotations
@@ -34,16 +34,18 @@ pytestmark = [pytest.mark.ros, *NEEDS_OVERLAY]
 
 PACKAGE = 'screwgear_ros'
 NODE = '/table_sim'
-README = (ROOT / 'README.md').read_text(encoding='utf-8')
+DOCS = ROOT / 'docs'
 PAPER = yaml.safe_load((ROOT / 'config' / 'paper.yaml').read_text())['/**']['ros__parameters']
 #: The module node's parameter file: a mark that ``ros2 run --params-file`` applied it.
 MARKED_DAMPING = 650.5
 LOG_ERRORS = ('Traceback', '[ERROR]', '[FATAL]')
 
 
-def readme_table(marker: str) -> list[list[str]]:
-    """The rows of the README table after ``<!-- {marker}: ...`` (cells, backticks off)."""
-    block = README.split(f'<!-- {marker}:', 1)[1].split('<!-- end', 1)[0]
+def doc_table(marker: str) -> list[list[str]]:
+    """The rows of the table after ``<!-- {marker}: ...`` in docs/{marker}.md (cells,
+    backticks off)."""
+    text = (DOCS / f'{marker}.md').read_text(encoding='utf-8')
+    block = text.split(f'<!-- {marker}:', 1)[1].split('<!-- end', 1)[0]
     rows = [line for line in block.splitlines() if line.startswith('| `')]
     cells = [[c.strip().strip('`') for c in re.split(r'(?<!\\)\|', row)[1:-1]] for row in rows]
     # the last cell (meaning) may hold a bare | (|ω| in a formula): it is one cell
@@ -52,9 +54,9 @@ def readme_table(marker: str) -> list[list[str]]:
 
 
 def topic_rows() -> list[tuple[str, str, str]]:
-    """(resolved name, ros2 type, direction) of every README topic row."""
+    """(resolved name, ros2 type, direction) of every docs/topics.md row."""
     out = []
-    for name, kind, direction, *_ in readme_table('topics'):
+    for name, kind, direction, *_ in doc_table('topics'):
         resolved = (NODE + name[1:] if name.startswith('~') else
                     name if name.startswith('/') else '/' + name)
         package, _, message = kind.partition('/')
@@ -211,7 +213,7 @@ def test_service_call_reset_is_answered_and_the_log_says_the_step(node):
 # ---------------------------------------------------------------- parameters
 
 def _described() -> dict[str, dict[str, str]]:
-    names = [row[0] for row in readme_table('parameters')]
+    names = [row[0] for row in doc_table('parameters')]
     text = overlay().ask('param', 'describe', NODE, *names).stdout
     out: dict[str, dict[str, str]] = {}
     for block in text.split('Parameter name: ')[1:]:
@@ -225,7 +227,7 @@ def _described() -> dict[str, dict[str, str]]:
 
 
 def test_param_describe_shows_every_range_and_read_only_of_the_readme(node):
-    rows = readme_table('parameters')
+    rows = doc_table('parameters')
     described = _described()
     assert set(described) == {row[0] for row in rows}
     number = r'(-?[\d.]+(?:e[-+]?\d+)?)'
@@ -360,7 +362,7 @@ def _read_as_text(value) -> bool:
 
 
 def test_param_load_of_a_dump_sets_what_can_change_and_refuses_read_only(node, tmp_path):
-    """The README: physical parameters change at run time, a refused value is named with
+    """docs/parameters.md: physical parameters change at run time, a refused value is named with
     the reason and the simulation keeps running; read-only ones are fixed for a run.
     (A double such as effort_deadband's 1e-06 reaches the node as text through rclpy's
     loader and is refused as the wrong type: see :func:`_read_as_text`.)"""
@@ -378,7 +380,7 @@ def test_param_load_of_a_dump_sets_what_can_change_and_refuses_read_only(node, t
         if said:
             replies[said.group(1)] = (said.group(2) == 'successful', said.group(3))
     assert set(replies) == set(values)
-    read_only = {row[0] for row in readme_table('parameters')
+    read_only = {row[0] for row in doc_table('parameters')
                  if row[5].endswith('(read-only)')} | {'start_type_description_service'}
     for param, (taken, reason) in replies.items():
         if param in read_only:

@@ -1,15 +1,18 @@
-"""The README's generated blocks: the lines between ``<!-- NAME: generated ...`` and
-``<!-- end of NAME -->``, which tests compare with their generators."""
+"""The documents' generated blocks: the lines between ``<!-- NAME: generated ...`` and
+``<!-- end of NAME -->``, which tests compare with their generators. The reference tables
+moved from the README to docs/ (one file each)."""
 
 from __future__ import annotations
 
 from paths import ROOT
 
-README = ROOT / 'README.md'
+#: The document that holds each generated block.
+DOCUMENTS = {'parameters': ROOT / 'docs' / 'parameters.md',
+             'topics': ROOT / 'docs' / 'topics.md'}
 
 
 def generated_block(name: str) -> str:
-    """The README's block ``name`` ('parameters', 'topics'), markers excluded."""
-    readme = README.read_text(encoding='utf-8')
-    start = readme.index(f'<!-- {name}: generated')
-    return readme[readme.index('\n', start) + 1:readme.index(f'<!-- end of {name} -->')]
+    """The block ``name`` ('parameters', 'topics') of its document, markers excluded."""
+    text = DOCUMENTS[name].read_text(encoding='utf-8')
+    start = text.index(f'<!-- {name}: generated')
+    return text[text.index('\n', start) + 1:text.index(f'<!-- end of {name} -->')]

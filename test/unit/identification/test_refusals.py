@@ -257,6 +257,29 @@ def test_reversals_are_those_the_node_applied(tiny, tmp_path):
     assert counts == [0, 1], counts
 
 
+def test_a_command_within_a_tick_before_the_first_sample_acts_from_it(tiny, tmp_path):
+    """The rule of #43 on #46's time model: a command logged up to one tick before the
+    first sample (the recorder missed that sample) acts from the first sample's time,
+    where the simulation starts; one logged earlier is refused."""
+    from screwgear_ros.identification.errors import RecordingError
+    # a second later: the node's own bag starts at log time 0, a bag holds no earlier one
+    later = [(t, k, s + 1_000_000_000, x) for t, k, s, x in tiny['messages']]
+    plain = read_recording(write_bag(tmp_path / 'later', later))
+    period = plain.period * 1e9
+    effort = next(x for t, _, _, x in tiny['messages'] if t.endswith('cmd_effort'))
+    for ahead, kept in ((0.5, True), (0.99, True), (1.5, False), (40.0, False)):
+        stamp = int(plain.times[0]) - round(ahead * period)
+        bag = write_bag(tmp_path / f'ahead{ahead}', [
+            ('/cmd_effort', 'std_msgs/msg/Float64MultiArray', stamp, effort), *later])
+        if kept:
+            read = read_recording(bag)
+            assert read.origin == read.times[0] == plain.times[0], ahead
+            assert read.inputs[0][0] == read.times[0], ahead
+        else:
+            with pytest.raises(RecordingError, match='before the first joint_states'):
+                read_recording(bag)
+
+
 def test_an_exponent_without_a_point_is_a_double_as_rcl_reads_it(tmp_path):
     plain, pointed = tmp_path / 'plain.yaml', tmp_path / 'pointed.yaml'
     plain.write_text('/**:\n  ros__parameters:\n    effort_deadband: 2e-06\n', encoding='utf-8')
@@ -276,7 +299,8 @@ def test_the_api_s_keyword_arguments_out_of_their_rules_are_refused(tiny):
         ('seed', lambda: rng.choice([-5, 2.5, 'x', None]), '--seed'),
         ('starts_count', lambda: rng.choice([0, 10 ** 12, 1e3, [3]]), '--starts'),
         ('max_evaluations', lambda: rng.choice([0, -3, 10 ** 9, 'many']), '--max-evaluations'),
-        ('input_delay', lambda: rng.choice([-1, 0.5, 'one']), '--input-delay'),
+        ('input_delay', lambda: rng.choice([-1, float('nan'), float('inf'), 'one']),
+         '--input-delay'),   # a fraction of a tick is a delay (issue #46)
         ('scheduler', lambda: rng.choice(['garbage', 42, 'tcp://:', 'tcp://a:0']), '--scheduler'),
         ('bounds', lambda: {'inertia_table': rng.choice(['x', (1,), (5, 1), (0, float('nan')),
                                                          None])}, 'bounds'),

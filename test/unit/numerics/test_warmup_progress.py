@@ -7,7 +7,7 @@ import time
 
 import numba
 
-from screwgear_ros.numerics.kernels import FIRST_COMPILE, progress
+from screwgear_ros.numerics.kernels import FIRST_COMPILE, progress, progress_line
 
 
 def test_progress_counts_the_kernels_compiled_within():
@@ -40,3 +40,29 @@ def test_nothing_compiled_nothing_said():
     with progress(period=0.01, say=lines.append, every=[half]):
         time.sleep(0.1)
     assert lines == []
+
+
+def test_a_count_past_the_estimate_never_reads_as_past_its_total():
+    """The issue's "52 done of about 51": more kernels than the estimate compile (one
+    added since, a CPU that needs another signature); the lines then say so."""
+    @numba.njit
+    def quarter(x):
+        return 0.25 * x
+
+    @numba.njit
+    def fifth(x):
+        return 0.2 * x
+
+    lines: list[str] = []
+    with progress(period=0.05, say=lines.append, every=[quarter, fifth], expected=1):
+        quarter(1.0)
+        time.sleep(0.5)
+        fifth(1.0)
+        time.sleep(0.5)
+    assert len(lines) == 2, lines
+    assert 'of about 1 (nearly there)' in lines[0], lines
+    assert '2 done (more than the 1 expected' in lines[1], lines
+    for done in range(1, 200):
+        line = progress_line(done, FIRST_COMPILE, 1.0)
+        total = line.split(' of about ')[1].split(',')[0].split(' ')[0] if 'of about' in line else None
+        assert total is None or done <= int(total), line

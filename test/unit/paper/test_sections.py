@@ -217,11 +217,11 @@ def test_summary_in_physical_units_from_closed_forms(
 
 
 def test_readme_table_load_is_the_reports_number() -> None:
-    readme = ROOT / 'README.md'
-    if not readme.is_file():
-        pytest.skip('README.md is not beside the tests')
-    quoted = [float(v) for v in re.findall(r'c_t = (\d{4,5})\)', readme.read_text('utf-8'))]
-    assert quoted, 'README no longer quotes the operating point\'s c_t'
+    document = ROOT / 'docs' / 'parameters.md'
+    if not document.is_file():
+        pytest.skip('docs/parameters.md is not beside the tests')
+    quoted = [float(v) for v in re.findall(r'c_t = (\d{4,5})\)', document.read_text('utf-8'))]
+    assert quoted, 'docs/parameters.md no longer quotes the operating point\'s c_t'
     base = TableParams(drive_no_load_speed=0.0)
     c_t = reversals.table_damping_for(base, 400.0, reversals.paper_table_speed(base))
     assert quoted == [round(c_t)] * len(quoted)

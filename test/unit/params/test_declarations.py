@@ -1,5 +1,5 @@
 """One declaration per parameter: the ROS descriptors, the kernel layout, the parameter
-file and the README table all come from the dataclass fields of params.py, and a
+file and the docs/parameters.md table all come from the dataclass fields of params.py, and a
 mismatch anywhere fails here."""
 
 from __future__ import annotations
@@ -104,7 +104,7 @@ def test_the_parameter_file_is_generated_from_the_declarations():
 
 def test_the_readme_table_is_generated_from_the_declarations():
     assert generated_block('parameters') == parameter_docs.parameter_table(), \
-        f'README parameter table is stale: {parameter_docs.WRITE_COMMAND}'
+        f'docs/parameters.md table is stale: {parameter_docs.WRITE_COMMAND}'
 
 
 @pytest.mark.parametrize('value, text', [(1e-06, '1.0e-06'), (7.5e-05, '7.5e-05'),

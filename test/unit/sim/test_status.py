@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from screwgear_ros.params.table import TableParams
@@ -15,6 +16,7 @@ from screwgear_ros.sim.status import (
     MAX_PHASE_PER_STEP,
     OK,
     WARN,
+    AnswerCount,
     Health,
     contact_states,
     diagnostic_values,
@@ -151,3 +153,40 @@ def test_status_line_shows_time_factor_angle_speed_path_and_te():
     for part in ('t =     0.100 s', 'x 1.00', f'{out.position[1]:+.6f} rad', 'path 3',
                  f'{out.transmission_error * 1e6:+9.3f} um'):
         assert part in line
+
+
+@pytest.mark.parametrize('seed', range(20))
+def test_missed_answers_are_counted_over_the_windows_a_controller_answered(seed):
+    """A seeded family of answer patterns (some windows with no controller at all):
+    the totals are the pattern's own counts over the windows with an answer, the rate the
+    last such window's share, and the level WARN exactly when it is below the threshold."""
+    rng = np.random.default_rng(seed)
+    threshold = float(rng.uniform(0.0, 1.0))
+    count = AnswerCount(threshold)
+    answered = missed = 0
+    last = math.nan
+    for _ in range(int(rng.integers(1, 8))):
+        share = 0.0 if rng.random() < 0.3 else float(rng.uniform(0.0, 1.0))
+        pattern = rng.random(int(rng.integers(1, 300))) < share
+        for in_time in pattern:
+            count.tick(bool(in_time))
+        low = count.close()
+        if pattern.any():
+            answered += int(pattern.sum())
+            missed += int((~pattern).sum())
+            last = pattern.mean()
+        assert low == (pattern.any() and last < threshold), f'seed {seed}'
+    assert (count.answered, count.missed) == (answered, missed), f'seed {seed}'
+    assert count.rate == last or (math.isnan(last) and math.isnan(count.rate)), f'seed {seed}'
+    level, message, values = diagnostic_values(P, outputs(), health(answers=count))
+    v = dict(values)
+    assert v['answers_missed'] == str(missed) and v['answers_in_time'] == str(answered)
+    assert (level == WARN) == (last < threshold), f'seed {seed}: {message}'
+    assert ('min_answer_rate' in message) == (last < threshold), f'seed {seed}'
+    line = status_line(outputs(), 1.0, count)
+    assert (f'{missed} missed since start' in line) == (not math.isnan(last)), f'seed {seed}'
+
+
+def test_lockstep_reports_no_answer_counts():
+    v = dict(diagnostic_values(P, outputs(), health(lockstep=True))[2])
+    assert 'answer_rate' not in v and 'answers_missed' not in v
