@@ -33,13 +33,18 @@ from ..physics.sensors import SensorChain, SensorConfig
 from ..sim.commands import InputRejected, carries_no_command, command_value
 from ..sim.events import Command
 from ..sim.session import ROW, AdvanceMode, Session, Tick
-from .errors import FitParameterError, RecordingError
+from .errors import FitParameterError
 from .samples import Recording
 
 
 class Diverged(ScrewgearError, ArithmeticError):
     """The model cannot be run or diverged at a trial point (a large residual, never
     seen outside the fit)."""
+
+
+class CommandRefused(Diverged):
+    """The node refuses a recorded command with a trial point's parameters (a large
+    residual; at the base values, a recording the fit cannot use)."""
 
 
 def base_values(path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -111,12 +116,14 @@ def mesh_hz(values: Mapping[str, Any]) -> float:
     return max(found) if found else float('nan')
 
 
-def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = False
-             ) -> np.ndarray:
+def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = False,
+             reversals: list[int] | None = None) -> np.ndarray:
     """(n, 6) θ and ω of the three joints as joint_states would publish them, at each of
     the recording's samples' own times, for the model of ``values``, from the preload
     equilibrium at the recording's start (``speeds``: ω as counting encoders measure it,
-    else the exact ω, delayed and filtered as the angles).
+    else the exact ω, delayed and filtered as the angles); ``reversals``, if given, gets
+    the number of reversals of the drive direction the node applied (an effort inside
+    ``effort_deadband`` is none).
 
     The session ticks once per integration step, so each recorded command is applied
     from the first step at or after its time (a zero-order hold on the step grid). The
@@ -129,7 +136,7 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
     ------
     Diverged
         The node refuses ``values``, or the model diverged.
-    RecordingError
+    CommandRefused
         A recorded command the node refuses (with these parameters).
     """
     params, settings = model(values)
@@ -151,18 +158,30 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
                                                                   - 1e-6))))
               for t, topic, value in recording.inputs]
     refused: list[tuple[int, InputRejected]] = []
+    turns = [0]
 
     def monitor(tick: Tick | None) -> bool:
         if tick is not None and tick.rejected:
             refused.append((tick.start, tick.rejected[0]))
             return True
+        if tick is not None and tick.reversal:
+            turns[0] += 1
         return session.plant.fault is not None
 
-    session.advance(steps, events=events, mode=AdvanceMode.ROWS, rows=rows[1:],
-                    monitor=monitor)
+    try:
+        session.advance(steps, events=events, mode=AdvanceMode.ROWS, rows=rows[1:],
+                        monitor=monitor)
+    except ArithmeticError:
+        # a command's step after a fault inside a compiled run of quiet steps measures a
+        # plant whose time stood still (a speed over zero time): the model diverged
+        if session.plant.fault is None:
+            raise
+        raise Diverged(session.plant.fault) from None
+    if reversals is not None:
+        reversals.append(turns[0])
     if refused:
         step, error = refused[0]
-        raise RecordingError(f'{recording.path}: at {step * dt:.6g} s: the node refuses a '
+        raise CommandRefused(f'{recording.path}: at {step * dt:.6g} s: the node refuses a '
                              f'recorded command: {error}')
     if session.plant.fault is not None:
         raise Diverged(session.plant.fault)
@@ -191,6 +210,7 @@ def simulate(values: Mapping[str, Any], recording: Recording, speeds: bool = Fal
 
 __all__ = [
     'SENSOR_JOINTS',
+    'CommandRefused',
     'Diverged',
     'base_values',
     'carries_no_command',

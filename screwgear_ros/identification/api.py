@@ -12,27 +12,38 @@ correlations and the parameters the data cannot determine
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from .adapter import Diverged, base_values, mesh_hz, simulate, tick_period
-from .errors import TooShortError
-from .fit import first_stage, minimize
+from .adapter import CommandRefused, Diverged, base_values, mesh_hz, simulate, tick_period
+from .checks import (
+    check_joints,
+    check_options,
+    check_paths,
+    check_recordings,
+    probe_bounds,
+    report_stem,
+    written_paths,
+)
+from .errors import FitFailed, IdentifyError, RecordingError, TooShortError
+from .fit import FitOutcome, first_stage, minimize
 from .known import fixed
-from .output import write_fitted
+from .output import rehearse, write_fitted
 from .parameters import fit_parameters, starts, values_of
-from .problem import Comparison, Problem, compare
+from .problem import DIVERGED, Comparison, Problem, compare
 from .recording import MESH_PARAMETERS, check_rate, read_recording
 from .report import write_report
 from .resid import Analysis, analyse, drifting, half_widths, judged
-from .samples import Recording
+from .samples import NODE_JOINTS, Recording
 from .startvalues import data_starts, moved
-from .stats import Estimate, Statistics, statistics
+from .stats import Estimate, Statistics, disagreements, start_disagreements, statistics
 from .workers import Evaluator
 
 #: Samples (per compared joint, over all fit recordings) needed per fitted parameter.
@@ -65,6 +76,8 @@ class IdentifyResult:
     report: Path | None = None
     figure: Path | None = None
     start_costs: list[float] = field(default_factory=list)
+    start_values: list[dict[str, float]] = field(default_factory=list)
+    stopped: str = ''
     analysis: Analysis | None = None
     notes: list[str] = field(default_factory=list)
 
@@ -100,8 +113,42 @@ class IdentifyResult:
 
 
 def _read(bags: Sequence[str | os.PathLike[str]], joints: Mapping[str, str] | None,
-          input_delay: float, period: float, clock: str) -> tuple[Recording, ...]:
-    return tuple(read_recording(b, joints, input_delay, clock, period) for b in bags)
+          input_delay: float, period: float, clock: str,
+          namespace: str | None) -> tuple[Recording, ...]:
+    recordings = tuple(read_recording(b, joints, input_delay, clock, period, namespace)
+                       for b in bags)
+    return recordings
+
+
+def _reversals(base: Mapping[str, Any], recordings: Sequence[Recording]) -> list[int]:
+    """The reversals the node applies in each recording at the base values (a recorded
+    command the node refuses there is refused now; base values at which the model
+    diverges are a large residual to fit from)."""
+    counts: list[int] = []
+    for recording in recordings:
+        try:
+            simulate(base, recording, reversals=counts)
+        except CommandRefused as exc:
+            raise RecordingError(str(exc)) from None
+        except Diverged:
+            pass
+    return counts
+
+
+def _diverged_everywhere(problem: Problem, values: Mapping[str, Any], simulations: int) -> str:
+    """Why the model cannot run at ``values``, for a fit that found no point it runs at."""
+    for recording in problem.recordings:
+        try:
+            simulate(values, recording, problem.speeds)
+        except Diverged as exc:
+            where = f'in {recording.path}, {exc}'
+            break
+    else:
+        where = 'no finite residual'
+    fitted = ', '.join(f'{p.name} = {values[p.name]:.6g}' for p in problem.fitted)
+    return (f'the model diverged at every point the fit tried ({simulations} simulations): '
+            f'at the best of them ({fitted}), {where}; narrow --bounds to values where the '
+            'model runs, or start from a base file it runs with')
 
 
 def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[str],
@@ -111,8 +158,9 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
              workers: int = 1, scheduler: str | None = None,
              joints: Mapping[str, str] | None = None, input_delay: float = 0.0,
              clock: str = 'stamp', settle: float = 0.0,
-             fix: Mapping[str, float] | None = None, speeds: bool = False, starts_count: int = 3, seed: int = 0,
-             max_evaluations: int = 40, progress: bool = False) -> IdentifyResult:
+             fix: Mapping[str, float] | None = None, speeds: bool = False,
+             starts_count: int = 3, seed: int = 0, max_evaluations: int = 40,
+             progress: bool = False, namespace: str | None = None) -> IdentifyResult:
     """Fit the parameters ``fit`` of the base file ``params`` to the recordings ``bags``.
 
     Parameters
@@ -136,7 +184,7 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
     scheduler : str, optional
         A Dask scheduler address to simulate them on instead.
     joints : mapping, optional
-        Node joint name → the bags' name.
+        Node joint name → the bags' name (written to ``output`` as ``joint_names``).
     input_delay : float
         Ticks of the model (a fraction too) by which the drive applies a command after
         its log time.
@@ -156,16 +204,20 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
         Residual evaluations per starting point.
     progress : bool
         Show a progress bar (tqdm) with the cost and iteration.
+    namespace : str, optional
+        The table's namespace in bags that hold several tables' topics.
 
     Returns
     -------
     IdentifyResult
-        ``finished`` False when Ctrl-C stopped it (the best point so far, written).
+        ``finished`` False when Ctrl-C stopped the fit (the best point so far, written);
+        ``stopped`` says what was written when Ctrl-C came while writing.
 
     Raises
     ------
     IdentifyError
-        Bad input (:mod:`~screwgear_ros.identification.errors`), before any fit starts.
+        Bad input (:mod:`~screwgear_ros.identification.errors`), before any fit starts,
+        or a model that diverged at every point tried.
 
     Examples
     --------
@@ -176,37 +228,49 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
     46.1
     """
     began = time.perf_counter()
+    workers, starts_count, seed, max_evaluations, input_delay, settle = check_options(
+        workers, scheduler, starts_count, seed, max_evaluations, input_delay, settle)
+    if isinstance(fit, str) or isinstance(bags, str | os.PathLike):
+        raise IdentifyError('bags and fit are sequences (a list of paths, a list of names)')
+    check_paths(bags, validate, params, written_paths(output, report))
+    check_joints(joints)
     base = fixed(base_values(params), fix or {}, fit)
     fitted = fit_parameters(list(fit), base, bounds)
+    trials = probe_bounds(base, fitted)
+    settings = {'joint_names': [dict(joints or {}).get(j, j) for j in NODE_JOINTS]} \
+        if joints else {}
+    if output is not None:
+        rehearse(params, output, trials, settings)
     period = tick_period(base)
-    recordings = _read(bags, joints, input_delay, period, clock)
-    checks = _read(validate, joints, input_delay, period, clock)
+    recordings = _read(bags, joints, input_delay, period, clock, namespace)
+    checks = _read(validate, joints, input_delay, period, clock, namespace)
+    check_recordings((*recordings, *checks), input_delay, period, speeds)
     aliased = check_rate(recordings, fit, mesh_hz(base)) if any(
         name in MESH_PARAMETERS for name in fit) else []
-    problem = Problem(base, fitted, recordings, speeds, max(0.0, float(settle)))
+    problem = Problem(base, fitted, recordings, speeds, settle)
     needed = SAMPLES_PER_PARAMETER * len(fitted)
     have = sum(int(np.sum(problem.compared(r))) for r in recordings)
     if have < needed:
         raise TooShortError(f'{have} samples (after losses and --settle) are too short to fit '
                             f'{len(fitted)} parameter(s): at least {needed} samples '
                             f'({needed * period:.3g} s at {1 / period:g} Hz) are needed')
-    for recording in (*recordings, *checks):
-        # a recorded command the node refuses is refused now; base values at which the
-        # model diverges are a large residual to fit from
-        with contextlib.suppress(Diverged):
-            simulate(base, recording)
+    reversals = _reversals(base, recordings)
+    _reversals(base, checks)
     weights = problem.weights
-    with Evaluator(problem, weights, workers, scheduler) as evaluator:
+    with contextlib.ExitStack() as stack:
+        try:
+            evaluator = stack.enter_context(Evaluator(problem, weights, workers, scheduler))
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise IdentifyError(f'--scheduler {scheduler}: cannot connect: {exc}') from None
         found = data_starts(fitted, recordings)
         outcome = minimize(evaluator, fitted,
                            moved(fitted, starts(fitted, starts_count, seed), found),
-                           max_evaluations, progress,
-                           first_stage(fitted, list(found)))
+                           max_evaluations, progress, first_stage(fitted, list(found)))
         describe = evaluator.describe()
         simulations, sim_seconds = evaluator.simulations, evaluator.sim_seconds
-    stats = statistics(fitted, outcome.x, outcome.residual, outcome.jacobian,
-                       problem.lag_correlation(outcome.residual),
-                       sum(r.reversals for r in recordings))
+    if np.all(outcome.residual == DIVERGED):
+        raise FitFailed(_diverged_everywhere(problem, problem.values(outcome.x), simulations))
+    stats = assessed(problem, outcome, sum(reversals))
     values = values_of(fitted, outcome.x)
     after = {**base, **values}
     comparisons = compare(problem, recordings, base, after, 'fit') + \
@@ -227,25 +291,52 @@ def identify(bags: Sequence[str | os.PathLike[str]], params: str | os.PathLike[s
                      'recording\'s first sample or command')
     result = IdentifyResult(values, stats, comparisons, outcome.finished, outcome.cost,
                             simulations, 0.0, sim_seconds, outcome.message,
-                            start_costs=outcome.start_costs, analysis=analysis, notes=notes)
-    if output is not None:
-        header = [(f'Fitted by identify to {", ".join(str(b) for b in bags)}: '
-                  f'{", ".join(values)}.')]
-        if not outcome.finished:
-            header.insert(0, 'UNFINISHED: the fit was interrupted; these are the best '
-                          'values found so far.')
-        result.output = write_fitted(params, output, stats.estimates, header)
-    stem = report if report is not None else (
-        None if output is None else Path(output).with_name(Path(output).stem + '_report'))
-    result.seconds = time.perf_counter() - began
-    if stem is not None:
-        result.report, result.figure = write_report(
-            stem, stats, comparisons, finished=outcome.finished,
-            fitted_path=str(output), simulations=simulations, seconds=result.seconds,
-            sim_seconds=sim_seconds, workers=describe, speeds=speeds,
-            sections=[*analysis.lines(), '## Recordings and starting points', '',
-                      *(f'- {note}' for note in notes), ''])
+                            start_costs=outcome.start_costs,
+                            start_values=[values_of(fitted, x) for x in outcome.start_points],
+                            analysis=analysis, notes=notes)
+    written: list[Path] = []
+    try:
+        if output is not None:
+            header = [(f'Fitted by identify to {", ".join(str(b) for b in bags)}: '
+                      f'{", ".join(values)}.')]
+            if not outcome.finished:
+                header.insert(0, 'UNFINISHED: the fit was interrupted; these are the best '
+                              'values found so far.')
+            result.output = write_fitted(params, output, stats.estimates, header, settings)
+            written.append(result.output)
+        stem = report_stem(output, report)
+        result.seconds = time.perf_counter() - began
+        if stem is not None:
+            result.report, result.figure = write_report(
+                stem, stats, comparisons, finished=outcome.finished,
+                fitted_path=str(output), simulations=simulations, seconds=result.seconds,
+                sim_seconds=sim_seconds, workers=describe, speeds=speeds,
+                starts=list(zip(result.start_values, outcome.start_costs, strict=True)),
+                sections=[*analysis.lines(), '## Recordings and starting points', '',
+                          *(f'- {note}' for note in notes), ''])
+    except KeyboardInterrupt:
+        # each file is written whole or not at all: say which are there
+        done = ', '.join(str(p) for p in written)
+        result.stopped = 'interrupted (SIGINT) while writing: ' + (
+            f'{done} written complete' if written else 'no file written')
     return result
 
 
-__all__ = ['SAMPLES_PER_PARAMETER', 'IdentifyResult', 'identify']
+def assessed(problem: Problem, outcome: FitOutcome, reversals: int) -> Statistics:
+    """The statistics of a fit's outcome, with the recordings' and the starts'
+    disagreements."""
+    rho = problem.lag_correlation(outcome.residual)
+    stats = statistics(problem.fitted, outcome.x, outcome.residual, outcome.jacobian, rho,
+                       reversals)
+    warnings: list[str] = []
+    if outcome.jacobian is not None:
+        sizes = [r.samples * len(problem.columns) for r in problem.recordings]
+        warnings += disagreements(problem.fitted, outcome.x, outcome.residual,
+                                  outcome.jacobian, sizes,
+                                  [r.path for r in problem.recordings], len(problem.columns))
+    warnings += start_disagreements(problem.fitted, stats.estimates, outcome.start_points,
+                                    outcome.start_costs)
+    return dataclasses.replace(stats, warnings=tuple(warnings))
+
+
+__all__ = ['SAMPLES_PER_PARAMETER', 'IdentifyResult', 'assessed', 'identify']

@@ -6,6 +6,7 @@ import argparse
 import math
 from typing import Any
 
+from .checks import MAX_STARTS
 from .known import parse_fix
 from .parameters import parse_bounds
 from .recording import parse_joints
@@ -28,6 +29,8 @@ def arguments(argv: list[str] | None) -> argparse.Namespace:
                         help='bounds of a fitted parameter (default: base/10 … base·10)')
     parser.add_argument('--validate', nargs='+', default=[], metavar='BAG',
                         help='recordings compared before and after, not fitted')
+    parser.add_argument('--namespace', metavar='NS', help='the table\'s namespace, for bags '
+                        'that hold several tables\' topics (/axis_a)')
     parser.add_argument('--workers', type=int, default=1, metavar='N',
                         help='processes simulating the Jacobian\'s trial points (default 1)')
     parser.add_argument('--scheduler', metavar='ADDRESS',
@@ -47,25 +50,17 @@ def arguments(argv: list[str] | None) -> argparse.Namespace:
                         help='hold a parameter at VALUE instead of the base file\'s')
     parser.add_argument('--speeds', action='store_true', help='compare the speeds too')
     parser.add_argument('--starts', type=int, default=3, metavar='N',
-                        help='starting points: the base values and N-1 seeded draws (3)')
-    parser.add_argument('--seed', type=int, default=0, help='seed of the starting points')
+                        help='starting points: the base values and N-1 seeded draws (3; '
+                        f'at most {MAX_STARTS})')
+    parser.add_argument('--seed', type=int, default=0, help='seed of the starting points '
+                        '(a whole number >= 0)')
     parser.add_argument('--max-evaluations', type=int, default=40, metavar='N',
                         help='residual evaluations per starting point (40)')
     parser.add_argument('--report', metavar='STEM', help='report files STEM.md, STEM.png '
                         '(default: beside FITTED.yaml, <FITTED>_report)')
     parser.add_argument('-o', '--output', required=True, metavar='FITTED.yaml')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
-    args = parser.parse_args(argv)
-    for name in ('workers', 'starts', 'max_evaluations'):
-        if getattr(args, name) < 1:
-            parser.error(f'--{name.replace("_", "-")} takes a number >= 1')
-    if not 0 <= args.input_delay < math.inf:
-        parser.error('--input-delay takes a number of ticks >= 0')
-    if not 0 <= args.settle < math.inf:
-        parser.error('--settle takes a number of seconds >= 0')
-    if args.scheduler and args.workers != 1:
-        parser.error('--workers is for local processes; a --scheduler has its own')
-    return args
+    return parser.parse_args(argv)
 
 
 def options(args: argparse.Namespace) -> dict[str, Any]:
@@ -78,19 +73,27 @@ def options(args: argparse.Namespace) -> dict[str, Any]:
             'scheduler': args.scheduler, 'joints': parse_joints(args.joints),
             'input_delay': args.input_delay, 'speeds': args.speeds, 'clock': args.time,
             'settle': args.settle, 'fix': parse_fix(args.fix),
-            'starts_count': args.starts, 'seed': args.seed,
+            'starts_count': args.starts, 'seed': args.seed, 'namespace': args.namespace,
             'max_evaluations': args.max_evaluations, 'progress': not args.no_progress}
 
 
 def summary(result: Any) -> list[str]:
     """The lines identify prints of a result."""
-    lines = []
+    lines = [f'WARNING: {w}' for w in result.statistics.warnings]
+    starts = list(zip(result.start_values, result.start_costs, strict=True))
+    for k, (values, cost) in enumerate(starts if len(starts) > 1 else (), 1):
+        lines.append(f'start {k}: cost {cost:.6g}: '
+                     + ', '.join(f'{n} = {v:.6g}' for n, v in values.items()))
+    local = ', local' if result.statistics.local else ''
     for e in result.estimates:
-        interval = (f'  [{e.low:.6g} … {e.high:.6g}] (±2σ)'
+        interval = (f'  [{e.low:.6g} … {e.high:.6g}] (±2σ{local})'
                     if math.isfinite(e.low) and math.isfinite(e.high) else '')
-        flag = f'  UNDETERMINED: {e.undetermined}; record {e.excitation}' \
-            if e.undetermined else ''
+        flag = f'  UNDETERMINED: {e.undetermined}; {e.advice}' if e.undetermined else ''
+        if not e.judged:
+            flag = '  (not judged: the fit was interrupted)'
         lines.append(f'{e.name} = {e.value:.6g} {e.unit}{interval} (base {e.base:.6g}){flag}')
+    for direction in result.statistics.directions:
+        lines.append(f'the recordings cannot see the direction {direction}')
     for c in result.comparisons:
         fits = ', '.join(f'{v:.1f}' for v in c.fit('after'))
         lines.append(f'fit % ({c.role}) {c.recording.path}: {fits}')

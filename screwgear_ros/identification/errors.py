@@ -38,4 +38,9 @@ class TooShortError(IdentifyError):
     """Recordings with too few samples for the number of parameters asked for."""
 
 
-__all__ = ['FitParameterError', 'IdentifyError', 'RecordingError', 'TooShortError']
+class FitFailed(IdentifyError):
+    """A fit that found no point where the model runs: nothing is written."""
+
+
+__all__ = ['FitFailed', 'FitParameterError', 'IdentifyError', 'RecordingError',
+           'TooShortError']

@@ -21,6 +21,9 @@ from .workers import Evaluator
 
 #: Forward-difference step in scaled coordinates (ln value, or a fraction of the bounds).
 STEP = 1.0e-4
+#: Iterations the progress bar plans a start to take until one has ended (the fits of
+#: docs/identification.md took 6 to 8); then it plans by the starts that ended.
+PLANNED_ITERATIONS = 8
 #: Parameters that act at the mesh's frequencies: searched in the second stage only.
 FAST = ('mesh_stiffness_mean', 'mesh_damping', 'inertia_pinion_1', 'inertia_pinion_3',
         'drive_time_constant')
@@ -45,6 +48,7 @@ class FitOutcome:
     finished: bool
     message: str
     start_costs: list[float] = field(default_factory=list)
+    start_points: list[np.ndarray] = field(default_factory=list)
 
 
 class _Search:
@@ -130,13 +134,21 @@ def minimize(evaluator: Evaluator, fitted: Sequence[FitParameter],
     staged = None if first is None else np.asarray(first, dtype=bool)
     if staged is not None and (staged.all() or not staged.any()):
         staged = None
-    with tqdm(total=len(starts) * max_evaluations * (p + 1), unit='sim', desc='identify',
+    # a start costs up to two searches: the first stage's over its coordinates, then all
+    per_start = min(max_evaluations, PLANNED_ITERATIONS) * (p + 1)
+    if staged is not None:
+        per_start += min(max_evaluations, PLANNED_ITERATIONS) * (int(staged.sum()) + 1)
+    with tqdm(total=len(starts) * per_start, unit='sim', desc='identify (≈ total)',
               disable=not progress, leave=False) as bar:
         search = _Search(evaluator, fitted, bar)
         best: Any = None
         costs: list[float] = []
+        points: list[np.ndarray] = []
         message, finished = '', True
-        for x0 in starts:
+        for done, x0 in enumerate(starts):
+            if done:     # plan the starts left by those that ended
+                bar.total = bar.n + round(bar.n / done * (len(starts) - done))
+                bar.refresh()
             try:
                 if staged is not None:
                     x0 = _least_squares(search, np.asarray(x0), staged, max_evaluations).x
@@ -146,15 +158,16 @@ def minimize(evaluator: Evaluator, fitted: Sequence[FitParameter],
                 finished, message = False, 'interrupted (SIGINT): the best point so far'
                 break
             costs.append(float(result.cost))
+            points.append(np.array(result.x))
             if best is None or result.cost < best.cost:
                 best = result
     if best is not None and finished:
         return FitOutcome(best.x, float(best.cost), best.fun, np.asarray(best.jac),
-                          search.iterations, True, str(best.message), costs)
+                          search.iterations, True, str(best.message), costs, points)
     if search.best_x is None or search.best_r is None:
         raise KeyboardInterrupt
     return FitOutcome(search.best_x, search.best_cost, search.best_r, None,
-                      search.iterations, finished, message, costs)
+                      search.iterations, finished, message, costs, points)
 
 
 __all__ = ['FAST', 'STEP', 'FitOutcome', 'first_stage', 'minimize']

@@ -69,8 +69,23 @@ def parse_bounds(items: Sequence[str]) -> dict[str, tuple[float, float]]:
             raise FitParameterError(f'--bounds {item!r}: not NAME=LO:HI') from None
         if not (all(math.isfinite(v) for v in pair) and pair[0] < pair[1]):
             raise FitParameterError(f'--bounds {item!r}: LO < HI, both finite')
+        if name.strip() in bounds:
+            raise FitParameterError(f'--bounds names {name.strip()} twice: give each '
+                                    'parameter one NAME=LO:HI')
         bounds[name.strip()] = pair
     return bounds
+
+
+def _pair(name: object, pair: object) -> tuple[float, float]:
+    """A (low, high) bound of the API's ``bounds``, checked as ``--bounds`` is."""
+    try:
+        lo, hi = (float(v) for v in pair)  # type: ignore[attr-defined]
+    except (TypeError, ValueError):
+        raise FitParameterError(f'bounds[{name!r}] = {pair!r}: not a (LO, HI) pair of '
+                                'numbers') from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise FitParameterError(f'bounds[{name!r}] = {pair!r}: LO < HI, both finite')
+    return lo, hi
 
 
 def _declared_range(name: str, declaration: Any) -> tuple[float, float, bool]:
@@ -92,13 +107,15 @@ def fit_parameters(names: Sequence[str], base: Mapping[str, Any],
         the declared range.
     """
     known = declarations()
-    bounds = dict(bounds or {})
+    bounds = {str(name): _pair(name, pair) for name, pair in dict(bounds or {}).items()}
     stray = sorted(set(bounds) - set(names))
     if stray:
         raise FitParameterError(f'--bounds {stray[0]}: not among the parameters to fit '
                                 f'({", ".join(names)})')
     if not names:
         raise FitParameterError('--fit names no parameter')
+    if not all(isinstance(n, str) for n in names):
+        raise FitParameterError(f'--fit: parameter names are text, not {names!r}')
     if len(set(names)) != len(names):
         raise FitParameterError(f'--fit names a parameter twice: {", ".join(names)}')
     fitted = []
@@ -127,8 +144,11 @@ def fit_parameters(names: Sequence[str], base: Mapping[str, Any],
             lo = max(value / SPAN, low * (1 + 1e-9) if strict else low)
             hi = min(value * SPAN, high)
         else:
-            raise FitParameterError(f'{name} is {value:g} in the base file: give its '
-                                    f'range with --bounds {name}=LO:HI')
+            # a tenth to ten times a base of 0 (or of a parameter that may be negative)
+            # is no range: the user names one
+            raise FitParameterError(f'{name} is {value:g} in the base file, so the default '
+                                    'bounds (a tenth to ten times the base value) are no '
+                                    f'range: give one with --bounds {name}=LO:HI')
         scale = Scale.LOG if lo > 0.0 else Scale.LINEAR
         fitted.append(FitParameter(name, value, lo, hi, scale, declaration.unit))
     return tuple(fitted)

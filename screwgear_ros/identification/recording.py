@@ -15,8 +15,9 @@ repeats, counts losses, gaps and jitter), so any rate, jitter or loss a recorder
 is taken as it is. A command acts from its log time (plus ``input_delay``), held until
 the next: the simulation applies it at the first integration step at or after that time
 (the node records an applied command at the step it took effect, so its own recordings
-map onto the same steps). The simulation starts at rest at the first sample or command,
-whichever comes first.
+map onto the same steps). The simulation starts at rest at the first sample; a command
+logged up to one tick before it (the answer to a sample the recorder missed as it
+started) applies at the first step, an earlier one is refused.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from ..interface import Input
+from ..interface import CONTRACT, Input
 from .adapter import carries_no_command, command_value, typestore
 from .errors import RecordingError
 from .retiming import place
@@ -52,9 +53,35 @@ def parse_joints(text: str | None) -> dict[str, str]:
     return mapping
 
 
+def _namespace(topic: str) -> str:
+    return topic.rstrip('/').rsplit('/', 1)[0] or '/'
+
+
+def _chosen(path: Any, connections: Sequence[Any], namespace: str | None) -> list[Any]:
+    """The connections of one table: those under ``namespace``, or, without one, all of
+    them when the bag holds one table's topics (refused when it holds several)."""
+    wanted = {JOINT_STATES, *COMMANDS}
+    found = [c for c in connections if _relative(c.topic) in wanted]
+    spaces = sorted({_namespace(c.topic) for c in found})
+    if namespace is not None:
+        space = '/' + namespace.strip('/') if namespace.strip('/') else '/'
+        found = [c for c in found if _namespace(c.topic) == space]
+        if not found:
+            raise RecordingError(f'{path}: --namespace {namespace}: no joint_states or '
+                                 f'commands there (the bag has {", ".join(spaces) or "none"})')
+    elif len(spaces) > 1:
+        raise RecordingError(f'{path}: holds the topics of {len(spaces)} tables '
+                             f'({", ".join(spaces)}): choose one with --namespace')
+    for c in found:
+        expected = CONTRACT[_relative(c.topic)]
+        if c.msgtype != expected:
+            raise RecordingError(f'{path}: {c.topic} carries {c.msgtype}, not {expected}')
+    return found
+
+
 def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | None = None,
                    input_delay: float = 0.0, clock: str = 'stamp',
-                   tick: float | None = None) -> Recording:
+                   tick: float | None = None, namespace: str | None = None) -> Recording:
     """Read one bag (see the module docstring).
 
     Parameters
@@ -70,6 +97,8 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
         ``'stamp'`` (default): a sample is at its header stamp; ``'log'``: at its log time.
     tick : float, optional
         The model's tick, s (default: the recording's median period).
+    namespace : str, optional
+        The table's namespace, for a bag holding several tables' topics.
 
     Returns
     -------
@@ -78,7 +107,9 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
     Raises
     ------
     RecordingError
-        Not a bag, no joint_states, no commands, a joint missing, non-finite values.
+        Not a bag, no joint_states, no commands, a joint missing, non-finite values,
+        topics of several tables (without ``namespace``), a message of another type,
+        commands logged before the first joint_states sample.
     """
     from rosbags.highlevel import AnyReader
     names = {j: (joints or {}).get(j, j) for j in NODE_JOINTS}
@@ -88,8 +119,7 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
     logged: list[tuple[int, Input, Any]] = []
     try:
         with AnyReader([Path(path)], default_typestore=typestore()) as reader:
-            wanted = {JOINT_STATES, *COMMANDS}
-            connections = [c for c in reader.connections if _relative(c.topic) in wanted]
+            connections = _chosen(path, reader.connections, namespace)
             for connection, stamp, raw in reader.messages(connections=connections):
                 rel = _relative(connection.topic)
                 message = reader.deserialize(raw, connection.msgtype)
@@ -120,16 +150,28 @@ def read_recording(path: str | os.PathLike[str], joints: Mapping[str, str] | Non
     if np.isinf(speeds).any():
         raise RecordingError(f'{path}: joint_states holds an infinite velocity')
     times = placed.times
-    delay = round(float(input_delay) * (placed.period if tick is None else tick) * 1e9)
-    inputs = sorted(((stamp + delay, topic, value) for stamp, topic, value in logged),
+    period_ns = (placed.period if tick is None else tick) * 1e9
+    early = [stamp for stamp, _, _ in logged if stamp < times[0] - period_ns]
+    if early:
+        # the model starts at rest at the first sample: a command more than a tick before
+        # it acted on motion the recording does not show (one within a tick is the answer
+        # to a sample the recorder missed as it started: the first step applies it)
+        raise RecordingError(f'{path}: {len(early)} command(s) logged before the first '
+                             f'joint_states sample (the earliest '
+                             f'{(times[0] - min(early)) * 1e-6:.4g} ms before it): the fit '
+                             'starts the model at rest at the first sample; record '
+                             'joint_states from before the first command, or cut the bag '
+                             'there')
+    delay = round(float(input_delay) * period_ns)
+    inputs = sorted(((max(stamp, int(times[0])) + delay, topic, value)
+                     for stamp, topic, value in logged),
                     key=lambda item: item[0])   # stable: logged order at one time
-    start = min(int(times[0]), inputs[0][0])
     inputs = [item for item in inputs if item[0] <= times[-1]]
     notes = placed.notes()
     if delay:
         notes.append(f'commands act {delay * 1e-6:.4g} ms after their log times (input delay)')
     return Recording(str(path), times, values[:, :3], speeds, tuple(inputs),
-                     values[:, 6:9], start, tuple(notes))
+                     values[:, 6:9], int(times[0]), tuple(notes))
 
 
 def _stamp(message: Any) -> int:
@@ -146,8 +188,12 @@ def _joint_row(path: Any, message: Any, names: Mapping[str, str], index: int
     missing = [names[j] for j in NODE_JOINTS if names[j] not in where]
     if missing:
         raise RecordingError(f'{path}: joint_states sample {index} names joints '
-                             f'{sorted(where)}, not {", ".join(missing)} '
+                             f'{list(where)}, not {", ".join(missing)} '
                              '(map them with --joints NODE=BAG)')
+    if len(message.position) != len(message.name):
+        raise RecordingError(f'{path}: joint_states sample {index} names '
+                             f'{len(message.name)} joints but holds {len(message.position)} '
+                             'positions (one per name is needed)')
     position = [float(message.position[where[names[j]]]) for j in NODE_JOINTS]
     velocity = [float(message.velocity[where[names[j]]]) if len(message.velocity) > where[
         names[j]] else math.nan for j in NODE_JOINTS]

@@ -15,7 +15,7 @@ import numpy as np
 
 from .problem import Comparison
 from .samples import NODE_JOINTS
-from .stats import Statistics
+from .stats import DETERMINED, Statistics
 
 COLUMN_NAMES = [f'θ {j}' for j in NODE_JOINTS] + [f'ω {j}' for j in NODE_JOINTS]
 
@@ -24,36 +24,60 @@ def _fits(c: Comparison, which: str) -> str:
     return ', '.join(f'{v:.2f}' if math.isfinite(v) else 'diverged' for v in c.fit(which))
 
 
+def _number(value: float, digits: int = 8) -> str:
+    return f'{value:.{digits}g}' if math.isfinite(value) else ('—' if math.isnan(value) else
+                                                               f'{value:g}')
+
+
 def markdown(stats: Statistics, comparisons: Sequence[Comparison], *, finished: bool,
              fitted_path: str, png: str, simulations: int, seconds: float,
-             sim_seconds: float, workers: str, speeds: bool) -> str:
+             sim_seconds: float, workers: str, speeds: bool,
+             starts: Sequence[tuple[dict[str, float], float]] = ()) -> str:
     """The report's markdown text."""
     lines = ['# Identification report', '']
     if not finished:
         lines += [('**Unfinished**: the fit was interrupted; the values are the best point '
-                  'evaluated so far, without intervals.'), '']
+                  'evaluated so far, without intervals, and nothing is judged determined.'),
+                  '']
+    if stats.warnings:
+        lines += ['## Warnings', '', *(f'- {w}' for w in stats.warnings), '']
+    local = ' (local: they hold around this minimum only)' if stats.local else ''
     lines += [(f'Fitted file: `{fitted_path}`. {simulations} simulations on {workers} in '
-              f'{seconds:.1f} s ({sim_seconds:.1f} s of simulation).'), '',
+              f'{seconds:.1f} s ({sim_seconds:.1f} s of simulation). A value is determined '
+              f'when its ±2σ interval{local} is within ±{100 * DETERMINED:g} % of it.'), '',
               '| parameter | base | fitted | ±2σ | −2σ | +2σ | unit | determined |',
               '|---|---|---|---|---|---|---|---|']
     for e in stats.estimates:
-        half = 100 * (e.high - e.low) / 2 / abs(e.value) if e.value else math.nan
-        verdict = 'no: ' + e.undetermined if e.undetermined else 'yes'
-        lines.append(f'| `{e.name}` | {e.base:.6g} | {e.value:.8g} | {half:.2g} % | '
-                     f'{e.low:.8g} | {e.high:.8g} | {e.unit} | {verdict} |')
+        reference = abs(e.value) if e.value else math.nan
+        half = 100 * (e.high - e.low) / 2 / reference
+        lines.append(f'| `{e.name}` | {e.base:.6g} | {e.value:.8g} | {_number(half, 2)} % | '
+                     f'{_number(e.low)} | {_number(e.high)} | {e.unit} | {e.verdict} |')
     lines += ['', f'Residual standard deviation (weighted): {stats.sigma:.4g}; singular '
               'values of the column-scaled Jacobian: '
               + ', '.join(f'{s:.3g}' for s in stats.singular_values), '']
+    if stats.directions:
+        lines += [('Directions of the parameters the recordings cannot see (the intervals '
+                   'above are those of the others):'), '',
+                  *(f'- {d}' for d in stats.directions), '']
     if stats.undetermined:
-        lines += ['## Not determined by these recordings', '']
+        lines += ['## Not determined', '']
         for e in stats.undetermined:
-            lines.append(f'- `{e.name}`: {e.undetermined}. Record {e.excitation}.')
+            lines.append(f'- `{e.name}`: {e.undetermined}. To determine it, {e.advice}.')
+        lines.append('')
+    if len(starts) > 1:
+        names = [e.name for e in stats.estimates]
+        lines += ['## Starts', '', '| start | cost | ' + ' | '.join(f'`{n}`' for n in names)
+                  + ' |', '|---|---|' + '---|' * len(names)]
+        for k, (values, cost) in enumerate(starts, 1):
+            lines.append(f'| {k} | {cost:.6g} | '
+                         + ' | '.join(f'{values[n]:.6g}' for n in names) + ' |')
         lines.append('')
     names = [e.name for e in stats.estimates]
     lines += ['## Correlation', '', '| | ' + ' | '.join(f'`{n}`' for n in names) + ' |',
               '|---|' + '---|' * len(names)]
     for n, row in zip(names, stats.correlation, strict=True):
-        lines.append(f'| `{n}` | ' + ' | '.join(f'{v:+.3f}' for v in row) + ' |')
+        lines.append(f'| `{n}` | ' + ' | '.join(f'{v:+.3f}' if math.isfinite(v) else '—'
+                                                for v in row) + ' |')
     columns = COLUMN_NAMES[:6 if speeds else 3]
     lines += ['', '## Fit % = 100·(1 − NRMSE), per joint (' + ', '.join(columns) + ')', '',
               '| recording | role | before | after |', '|---|---|---|---|']

@@ -8,6 +8,7 @@ trial point, so where it is computed changes no bit of it.
 from __future__ import annotations
 
 import multiprocessing
+import signal
 from collections.abc import Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor
 from typing import Any, Self
@@ -21,6 +22,9 @@ _problem: tuple[Problem, np.ndarray] | None = None
 
 def _install(problem: Problem, weights: np.ndarray) -> None:
     global _problem
+    # a terminal's Ctrl-C reaches the whole process group: the parent stops the fit and
+    # shuts the pool down, so a worker ignores it rather than print a traceback
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     _problem = (problem, weights)
 
 

@@ -5,6 +5,7 @@ is built from."""
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,23 @@ NODE_KEYS = ('/**', 'table_sim', '/table_sim', '/**/table_sim')
 
 class ParameterFileError(ScrewgearError, ValueError):
     """A parameter file that cannot be read as table_sim's parameters; says why."""
+
+
+#: A plain scalar that rcl's parameter file parser reads as a double (strtod) but YAML
+#: 1.1 (PyYAML) leaves a string: an exponent without a point in the mantissa (1e-06).
+_RCL_DOUBLE = re.compile(r'^[-+]?(?:\d+\.?\d*|\.\d+)[eE][-+]?\d+$')
+
+
+def _rcl_value(reader: YamlReader, node: yaml.Node) -> Any:
+    """A value as rcl reads it from a parameter file, so one file means the same to
+    table_sim and to every tool that reads it here."""
+    if isinstance(node, yaml.ScalarNode) and node.style is None and \
+            node.tag == 'tag:yaml.org,2002:str' and _RCL_DOUBLE.match(node.value):
+        return float(node.value)
+    if isinstance(node, yaml.SequenceNode) and all(isinstance(n, yaml.ScalarNode)
+                                                   for n in node.value):
+        return [_rcl_value(reader, n) for n in node.value]
+    return reader.value(node)
 
 
 def file_values(path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -53,7 +71,7 @@ def file_values(path: str | os.PathLike[str]) -> dict[str, Any]:
                 and any(isinstance(key, yaml.ScalarNode) and key.value == 'ros__parameters'
                         for key, _ in value.value)}
     if not sections:
-        return {name: reader.value(value) for name, (_, value) in top.items()}
+        return {name: _rcl_value(reader, value) for name, (_, value) in top.items()}
     values: dict[str, Any] = {}
     for name, section in sections.items():
         if name not in NODE_KEYS:
@@ -63,7 +81,7 @@ def file_values(path: str | os.PathLike[str]) -> dict[str, Any]:
             continue
         if not isinstance(entries, yaml.MappingNode):
             raise reader.error(entries, f'{name}: ros__parameters must be a mapping')
-        values.update({key: reader.value(value) for key, (_, value)
+        values.update({key: _rcl_value(reader, value) for key, (_, value)
                        in reader.mapping(entries, f'{name}: ros__parameters').items()})
     if not any(name in NODE_KEYS for name in sections):
         raise ParameterFileError(f'{path}: no parameters for table_sim (keys '

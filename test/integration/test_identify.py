@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 from bag_runs import installed
-from identify_truth import PRESET, TRUTH, copy_topics, write_base
+from identify_truth import PRESET, TRUTH, copy_topics, truth_simulation, write_base
 from ros_procs import record_lockstep_demo
 
 from screwgear_ros import Simulation
@@ -116,3 +116,35 @@ def test_ros2_run_finds_identify():
                           check=False, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.startswith('usage: identify') and '--fit' in proc.stdout
+
+
+@pytest.mark.ros
+def test_ctrl_c_to_the_terminal_s_group_stops_worker_processes_without_tracebacks(tmp_path):
+    """SIGINT to the whole process group, as a terminal's Ctrl-C sends it: the parent
+    writes the best point so far (exit 130) and no worker prints a traceback."""
+    bag = tmp_path / 'tiny'
+    truth_simulation().run(lambda o: 5.0 if o.time < 0.4 else -5.0, 0.8, record=bag)
+    base = write_base(tmp_path / 'base.yaml', ['inertia_table', 'mesh_damping'])
+    written = tmp_path / 'group.yaml'
+    process = subprocess.Popen(
+        [sys.executable, '-c', ('import sys; from screwgear_ros.cli.identify import main; '
+         'sys.exit(main())'), str(bag), '--params', str(base), '--fit',
+         'inertia_table,mesh_damping', '--workers', '2', '--starts', '100', '-o',
+         str(written)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        start_new_session=True)
+    seen, deadline = b'', time.monotonic() + 120
+    try:
+        while b'iteration=1' not in seen and time.monotonic() < deadline:
+            ready, _, _ = select.select([process.stderr], [], [], 1.0)
+            if ready:
+                seen += os.read(process.stderr.fileno(), 4096)
+            assert process.poll() is None, seen.decode()
+        assert b'iteration=1' in seen, 'no iteration within 120 s'
+        os.killpg(process.pid, signal.SIGINT)
+        _, err = process.communicate(timeout=120)
+    finally:
+        process.kill()
+    text = (seen + err).decode()
+    assert process.returncode == 130, text
+    assert 'Traceback' not in text and 'KeyboardInterrupt' not in text, text
+    assert written.read_text(encoding='utf-8').startswith('# UNFINISHED')

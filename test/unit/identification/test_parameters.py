@@ -24,7 +24,7 @@ from screwgear_ros.params.table import TableParams
     ('mode', 'read-only'),
     ('dt', 'setting of the simulation'),
     ('teeth_table', 'not a real number'),
-    ('table_damping', 'give its range with --bounds'),      # 0 in the base: no default range
+    ('table_damping', 'no range: give one with --bounds'),    # 0 in the base: no default range
 ])
 def test_names_that_cannot_be_fitted_are_refused(name, problem):
     with pytest.raises(FitParameterError, match=problem) as caught:
