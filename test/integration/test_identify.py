@@ -51,7 +51,10 @@ def test_identify_fits_a_node_recording_and_the_fit_drives_the_design_tools(node
     assert abs(value / INERTIA - 1) < 0.01, value
     assert 'inertia_table = ' in result.stdout and 'fit % (fit)' in result.stdout
     assert (tmp_path / 'fitted_report.md').is_file() and (tmp_path / 'fitted_report.png').is_file()
-    model = installed('linearize', '--params', fitted, '-o', tmp_path / 'table.npz')
+    # at rest the fitted table's bearings are stuck: linearize refuses that unless the
+    # friction is left out, said so (design.friction_state)
+    model = installed('linearize', '--params', fitted, '--friction', 'ignore', '-o',
+                      tmp_path / 'table.npz')
     assert model.returncode == 0, model.stderr
     bode = installed('frequency_response', '--params', fitted, '--points', '3', '--from', '5',
                      '--to', '20', '-o', tmp_path / 'bode')
