@@ -345,8 +345,9 @@ class SimSettings:
         introduced='0.2.0', before=0.0)    # older runs: until stopped
     min_answer_rate: float = parameter(
         0.9, '', '', 'free-running: warn when, while a controller answers, a smaller share '
-        'of ticks gets its answer (a cmd_effort or joint_commands after the last '
-        'joint_states) within one publish period (a later one acts a tick later); '
+        'of ticks gets its answer (a cmd_effort after the last joint_states; ros2_control\'s '
+        'joint_commands follow its own clock) within one publish period (a later one acts a '
+        'tick later); '
         '0 = never warn', low=0.0, high=1.0, why='a share of the ticks',
         introduced='0.2.0', before=0.0)    # older runs: no count, no warning
     joint_names: tuple[str, ...] = parameter(('pinion_1', 'table', 'pinion_3'), '', '',

@@ -53,6 +53,7 @@ from ..interface import (
     BY_KEY,
     LATCHED_OUTPUTS,
     TICK_TOPIC,
+    Input,
 )
 from ..numerics.kernels import compiled_now, loads_without_registries, without_blas_probe
 from ..params.table import ParameterError, SimSettings, TableParams
@@ -234,7 +235,12 @@ class TableSim(Node):
     def _answers(self, topic: str) -> bool:
         """Whether a message on ``topic`` answers the last tick in lockstep. A tool that
         answers with ~/tick owns the ticks: while anything publishes there, commands are
-        only applied, so a replay can send several in one tick."""
+        only applied, so a replay can send several in one tick. Free-running, the answers
+        are only counted (min_answer_rate), and ros2_control's joint_commands are none:
+        its controller manager writes them on its own update clock, not per joint_states,
+        so their timing says nothing about a late controller."""
+        if topic == Input.JOINT_COMMANDS and not self.session.settings.lockstep:
+            return False
         return topic in ANSWER_TOPICS and not self._tick_sub.get_publisher_count()
 
     def _on_tick(self, msg: Empty) -> None:
