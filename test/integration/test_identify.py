@@ -38,6 +38,19 @@ def _no_traceback(result: subprocess.CompletedProcess) -> None:
     assert 'Traceback' not in result.stdout + result.stderr, result.stderr
 
 
+def _first_iteration(process: subprocess.Popen, seconds: float) -> bytes:
+    """What ``process`` wrote to stderr until its progress bar showed a first iteration
+    (fails if it ends first, or none comes within ``seconds``)."""
+    seen, deadline = b'', time.monotonic() + seconds
+    while b'iteration=1' not in seen and time.monotonic() < deadline:
+        ready, _, _ = select.select([process.stderr], [], [], 1.0)
+        if ready:
+            seen += os.read(process.stderr.fileno(), 4096)
+        assert process.poll() is None, seen.decode()
+    assert b'iteration=1' in seen, f'no iteration within {seconds:g} s'
+    return seen
+
+
 @pytest.mark.ros
 def test_identify_fits_a_node_recording_and_the_fit_drives_the_design_tools(node_bag,
                                                                           tmp_path):
@@ -90,14 +103,8 @@ def test_ctrl_c_writes_the_best_point_so_far_marked_unfinished(node_bag, tmp_pat
         ['identify', str(node_bag), '--params', str(base), '--fit',
          'inertia_table,mesh_stiffness_mean', '--max-evaluations', '200', '-o', str(fitted)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    seen, deadline = b'', time.monotonic() + 300
     try:
-        while b'iteration=1' not in seen and time.monotonic() < deadline:
-            ready, _, _ = select.select([process.stderr], [], [], 1.0)
-            if ready:
-                seen += os.read(process.stderr.fileno(), 4096)
-            assert process.poll() is None, seen.decode()
-        assert b'iteration=1' in seen, 'no iteration within 300 s'
+        seen = _first_iteration(process, 300)
         process.send_signal(signal.SIGINT)
         _, err = process.communicate(timeout=120)
     finally:
@@ -135,14 +142,8 @@ def test_ctrl_c_to_the_terminal_s_group_stops_worker_processes_without_traceback
          'inertia_table,mesh_damping', '--workers', '2', '--starts', '100', '-o',
          str(written)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
         start_new_session=True)
-    seen, deadline = b'', time.monotonic() + 120
     try:
-        while b'iteration=1' not in seen and time.monotonic() < deadline:
-            ready, _, _ = select.select([process.stderr], [], [], 1.0)
-            if ready:
-                seen += os.read(process.stderr.fileno(), 4096)
-            assert process.poll() is None, seen.decode()
-        assert b'iteration=1' in seen, 'no iteration within 120 s'
+        seen = _first_iteration(process, 120)
         os.killpg(process.pid, signal.SIGINT)
         _, err = process.communicate(timeout=120)
     finally:
