@@ -296,7 +296,10 @@ def run_metrics(run: Any, setpoint: Callable[[float], float] | None = None,
             jumps = own(float(t[-1])) if own is not None else []
         start = (0.0, float(angle[0]), float(target[0]))
         from ..params.sensors import JOINTS
-        counts = int(getattr(run.settings, f'encoder_counts_{JOINTS[joint]}', 0))
+        # only a band in counts reads the encoder: a run without settings (a bag's
+        # columns) has its fraction or rad band
+        counts = (int(getattr(run.settings, f'encoder_counts_{JOINTS[joint]}', 0))
+                  if band.unit is BandUnit.COUNTS else 0)
         steps = _steps(t, angle, [start, *jumps], band, counts)
     values = tuple((m.name, m(run, setpoint)) for m in user)
     return Metrics(float(np.max(np.abs(run.transmission_error))) if len(run) else 0.0,

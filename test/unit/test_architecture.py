@@ -13,6 +13,7 @@ import re
 from pathlib import Path
 
 import pytest
+from paths import ROOT as REPOSITORY  # the checkout; ROOT below is the package under test
 
 import screwgear_ros
 
@@ -301,7 +302,7 @@ def test_no_module_keeps_a_deprecated_name():
 def _documented_order() -> list[str]:
     """The folders of docs/architecture.md's table "The folders, bottom to top", in its
     order: each may import only the folders on rows above its own."""
-    doc = (ROOT.parent / 'docs' / 'architecture.md').read_text(encoding='utf-8')
+    doc = (REPOSITORY / 'docs' / 'architecture.md').read_text(encoding='utf-8')
     section = doc.split('## The folders, bottom to top', 1)[1].split('\n## ', 1)[0]
     return [f'{PACKAGE}.{m.group(1)}' for m in re.finditer(r'^\| `(\w+)/` \|', section, re.MULTILINE)]
 
