@@ -10,7 +10,8 @@ import numba
 from screwgear_ros.numerics.kernels import FIRST_COMPILE, progress, progress_line
 
 
-def test_progress_counts_the_kernels_compiled_within():
+def _lines_of_two_compiles(**options: int) -> list[str]:
+    """The progress lines while two fresh kernels compile half a second apart."""
     @numba.njit
     def double(x):
         return 2.0 * x
@@ -20,11 +21,16 @@ def test_progress_counts_the_kernels_compiled_within():
         return 3.0 * x
 
     lines: list[str] = []
-    with progress(period=0.05, say=lines.append, every=[double, triple]):
+    with progress(period=0.05, say=lines.append, every=[double, triple], **options):
         double(1.0)
         time.sleep(0.5)
         triple(1.0)
         time.sleep(0.5)
+    return lines
+
+
+def test_progress_counts_the_kernels_compiled_within():
+    lines = _lines_of_two_compiles()
     counts = [line.split('compiling kernels: ')[1].split(' done')[0] for line in lines]
     assert counts == ['1', '2'], lines
     assert all(f'of about {FIRST_COMPILE}' in line for line in lines)
@@ -45,20 +51,7 @@ def test_nothing_compiled_nothing_said():
 def test_a_count_past_the_estimate_never_reads_as_past_its_total():
     """The issue's "52 done of about 51": more kernels than the estimate compile (one
     added since, a CPU that needs another signature); the lines then say so."""
-    @numba.njit
-    def quarter(x):
-        return 0.25 * x
-
-    @numba.njit
-    def fifth(x):
-        return 0.2 * x
-
-    lines: list[str] = []
-    with progress(period=0.05, say=lines.append, every=[quarter, fifth], expected=1):
-        quarter(1.0)
-        time.sleep(0.5)
-        fifth(1.0)
-        time.sleep(0.5)
+    lines = _lines_of_two_compiles(expected=1)
     assert len(lines) == 2, lines
     assert 'of about 1 (nearly there)' in lines[0], lines
     assert '2 done (more than the 1 expected' in lines[1], lines
