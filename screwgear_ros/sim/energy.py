@@ -51,11 +51,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..params.table import SimSettings, TableParams
-from ..physics.drive import DrivePiece
-from ..physics.friction import FrictionPiece
 from ..physics.jit import kernel
 from ..physics.mesh import (
-    ContactBranch,
     branch_force,
     branch_penetration,
     contact_branch,
@@ -63,7 +60,7 @@ from ..physics.mesh import (
     mesh_phase,
     mesh_stiffness_slope,
 )
-from ..physics.motion import Pieces, bearings
+from ..physics.motion import BY_LAW, bearings
 from ..physics.packed import (
     I1,
     I2,
@@ -275,9 +272,7 @@ def _powers(t: np.ndarray, y: np.ndarray, model: PackedModel, drive: Drive,
     :class:`~screwgear_ros.physics.torques.Terms`), then of bearing friction, of the mesh
     damping and the phase power; stored[:, 0..1] = kinetic energy, mesh potential (J)."""
     p = model.p
-    held = Pieces(ContactBranch.FROM_STATE, ContactBranch.FROM_STATE, DrivePiece.FROM_STATE,
-                  FrictionPiece.FROM_STATE, FrictionPiece.FROM_STATE,
-                  FrictionPiece.FROM_STATE)
+    held = BY_LAW
     for k in range(t.shape[0]):
         th1, th2, th3, w1, w2, w3 = y[k, 0], y[k, 1], y[k, 2], y[k, 3], y[k, 4], y[k, 5]
         state = (th1, th2, th3, w1, w2, w3, y[k, 6], y[k, 7])
